@@ -1,0 +1,44 @@
+"""ament_python package definition of fastslam_ros (also pip-installable)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "fastslam_ros"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
+    ],
+    python_requires=">=3.10",
+    install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6", "scipy>=1.10"],
+    extras_require={
+        # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
+        "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
+        "test": ["pytest>=7"],
+    },
+    zip_safe=True,
+    maintainer="fastslam_ros developers",
+    maintainer_email="fastslam-ros@example.com",
+    description="FastSLAM 1.0 / 2.0 landmark SLAM for ROS 2 Jazzy, with a numpy core.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "fastslam_node = fastslam_ros.node:main",
+            "fastslam-sim = fastslam_ros.tools.sim:main",
+            "fastslam-replay = fastslam_ros.tools.replay:main",
+            "fastslam-play = fastslam_ros.tools.play:main",
+            "fastslam-eval = fastslam_ros.tools.evaluate:main",
+            "fastslam-demo = fastslam_ros.tools.demo:main",
+            "fastslam-convert = fastslam_ros.tools.convert:main",
+            "fastslam-benchmark = fastslam_ros.tools.benchmark:main",
+            "fastslam-bench = fastslam_ros.tools.bench:main",
+        ],
+    },
+)
