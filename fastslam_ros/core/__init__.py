@@ -1,0 +1,6 @@
+"""ROS-free FastSLAM core (numpy only): filter, models, association, resampling, map storage."""
+from .config import FastSLAMConfig
+from .fastslam import FastSLAM, LandmarkMap, UpdateReport
+from .geometry import wrap_angle
+
+__all__ = ["FastSLAM", "FastSLAMConfig", "LandmarkMap", "UpdateReport", "wrap_angle"]

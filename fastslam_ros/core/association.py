@@ -1,0 +1,121 @@
+"""Per-particle data association: known ids, maximum likelihood, Monte Carlo, two gates.
+
+Every rule sees the same inputs for all particles at once: the log-likelihood and squared
+Mahalanobis distance of the observation against each candidate landmark ((M, K) arrays, -inf /
++inf where a slot holds no landmark), and returns the chosen slot per particle (``NEW`` or
+``IGNORE`` when none) with the log factor that multiplies the particle's weight.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import wrap_angle
+
+NEW = -1
+"""The observation starts a new landmark."""
+IGNORE = -2
+"""two_gate only: the observation is ambiguous and is not used."""
+
+LOG_TWO_PI = float(np.log(2.0 * np.pi))
+
+
+def gaussian_log_likelihood(innovation_range, innovation_bearing, cov_xx, cov_xy, cov_yy):
+    """log N(nu; 0, S) and nu^T S^-1 nu for 2-D innovations with packed covariance S."""
+    det = cov_xx * cov_yy - cov_xy * cov_xy
+    mahalanobis = (cov_yy * innovation_range ** 2 - 2.0 * cov_xy * innovation_range
+                   * innovation_bearing + cov_xx * innovation_bearing ** 2) / det
+    return -0.5 * mahalanobis - LOG_TWO_PI - 0.5 * np.log(det), mahalanobis
+
+
+def associate_known(candidate_label: np.ndarray, candidate_log_lik: np.ndarray, label: int,
+                    log_p0: float):
+    """The landmark carrying the observation's id, or a new one when the particle has none."""
+    match = candidate_label == label
+    found = match.any(axis=1)
+    choice = np.where(found, np.argmax(match, axis=1), NEW)
+    chosen = np.take_along_axis(candidate_log_lik, np.maximum(choice, 0)[:, None], 1)[:, 0]
+    return choice, np.where(found, chosen, log_p0)
+
+
+def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):
+    """argmax of the likelihoods; a new landmark (weight p0) when all are below p0."""
+    if candidate_log_lik.shape[1] == 0:
+        count = candidate_log_lik.shape[0]
+        return np.full(count, NEW), np.full(count, log_p0)
+    best = np.argmax(candidate_log_lik, axis=1)
+    best_log_lik = np.take_along_axis(candidate_log_lik, best[:, None], 1)[:, 0]
+    is_new = best_log_lik < log_p0
+    return np.where(is_new, NEW, best), np.where(is_new, log_p0, best_log_lik)
+
+
+def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
+                          rng: np.random.Generator):
+    """Sample the association in proportion to the likelihoods (p0 for a new landmark).
+
+    Options are laid out most likely first (then "new"), so the draw does not depend on how
+    the map happens to be stored. Sampling the association makes the importance weight the sum
+    of the likelihoods (the marginal over associations), not the likelihood of the sampled one.
+    """
+    count, width = candidate_log_lik.shape
+    order = np.argsort(-candidate_log_lik, axis=1, kind="stable")
+    ordered = np.take_along_axis(candidate_log_lik, order, axis=1)
+    log_options = np.concatenate([ordered, np.full((count, 1), log_p0)], axis=1)
+    peak = log_options.max(axis=1, keepdims=True)
+    cumulative = np.cumsum(np.exp(log_options - peak), axis=1)
+    draw = rng.random(count) * cumulative[:, -1]
+    picked = np.minimum((cumulative <= draw[:, None]).sum(axis=1), width)
+    log_marginal = peak[:, 0] + np.log(cumulative[:, -1])
+    chosen = np.take_along_axis(order, np.minimum(picked, max(width - 1, 0))[:, None], 1)[:, 0] \
+        if width else picked
+    return np.where(picked == width, NEW, chosen), log_marginal
+
+
+def associate_two_gates(candidate_log_lik: np.ndarray, candidate_mahalanobis: np.ndarray,
+                        log_p0: float, association_gate: float, new_landmark_gate: float):
+    """Nearest (Mahalanobis) landmark inside the inner gate; new beyond the outer gate."""
+    count = candidate_log_lik.shape[0]
+    if candidate_mahalanobis.shape[1] == 0:
+        return np.full(count, NEW), np.full(count, log_p0)
+    nearest = np.argmin(candidate_mahalanobis, axis=1)
+    distance = np.take_along_axis(candidate_mahalanobis, nearest[:, None], 1)[:, 0]
+    log_lik = np.take_along_axis(candidate_log_lik, nearest[:, None], 1)[:, 0]
+    choice = np.where(distance < association_gate, nearest,
+                      np.where(distance > new_landmark_gate, NEW, IGNORE))
+    factor = np.where(choice >= 0, log_lik, np.where(choice == NEW, log_p0, 0.0))
+    return choice, factor
+
+
+def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarray,
+          pose_cov: np.ndarray | None = None):
+    """log N(z; z_hat, S) and the squared Mahalanobis distance for broadcast pairs.
+
+    ``t`` holds the observation terms of the pairs, ``landmark_cov`` their packed covariances.
+    S = Q = G_m Sigma G_m^T + R (FastSLAM 1.0) or, with the pose covariance P ((n, 3, 3), its
+    particle axis first), S = L = G_s P G_s^T + Q (FastSLAM 2.0). The position columns of G_s
+    are -G_m, so with P = [[P_xy, c], [c^T, p_tt]] and w the heading column of G_s,
+    L = G_m (Sigma + P_xy) G_m^T - G_m c w^T - w c^T G_m^T + p_tt w w^T + R.
+    """
+    nu_r = z_range - t.range
+    nu_b = wrap_angle(z_bearing - t.bearing)
+    g00, g01 = t.dx / t.range, t.dy / t.range
+    g10, g11 = -t.dy / t.q, t.dx / t.q
+    sxx, sxy, syy = landmark_cov[..., 0], landmark_cov[..., 1], landmark_cov[..., 2]
+    if pose_cov is not None:
+        extra = (1,) * (t.dx.ndim - 1)
+        def component(i, j):
+            return np.ascontiguousarray(pose_cov[:, i, j]).reshape((-1,) + extra)
+        sxx, sxy, syy = sxx + component(0, 0), sxy + component(0, 1), syy + component(1, 1)
+    a0, a1 = g00 * sxx + g01 * sxy, g00 * sxy + g01 * syy
+    b0, b1 = g10 * sxx + g11 * sxy, g10 * sxy + g11 * syy
+    cxx = a0 * g00 + a1 * g01 + noise_diag[0]
+    cxy = a0 * g10 + a1 * g11
+    cyy = b0 * g10 + b1 * g11 + noise_diag[1]
+    if pose_cov is not None:
+        w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
+        w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
+        c0, c1, p_tt = component(0, 2), component(1, 2), component(2, 2)
+        e0, e1 = g00 * c0 + g01 * c1, g10 * c0 + g11 * c1         # G_m c
+        cxx = cxx + (p_tt * w0 - 2.0 * e0) * w0
+        cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0
+        cyy = cyy + (p_tt * w1 - 2.0 * e1) * w1
+    return gaussian_log_likelihood(nu_r, nu_b, cxx, cxy, cyy)

@@ -1,0 +1,415 @@
+"""FastSLAM 1.0 and 2.0 over stacked particle arrays (Montemerlo and Thrun).
+
+One ``update`` processes one sensor reading (any number of observations) for all M particles at
+once; the only Python loop is over the observations of the reading. Per step:
+
+1. Motion. Odometry given to ``predict`` is accumulated and applied at the next update. FastSLAM
+   1.0 samples the odometry motion model; FastSLAM 2.0 keeps its Gaussian form N(s_hat, P).
+2. Association, per particle and observation, against the particle's landmarks near the robot
+   (``LandmarkStore.gather``): likelihood N(z; z_hat, Q), Q = G_m Sigma G_m^T + R (1.0) or
+   N(z; z_hat, L), L = G_s P G_s^T + Q (2.0), p0 for a new landmark.
+3. FastSLAM 2.0 only: each associated observation refines the pose proposal
+   (``proposal.refine_proposal``); then the pose is sampled from it.
+4. Map: EKF update (Joseph form) of each observed landmark, inverse-model initialisation of new
+   ones, log-odds of existence raised for observed landmarks and lowered for landmarks inside
+   the perceptual range that were not observed; landmarks below the bound are removed.
+5. Weights multiply the chosen likelihoods (log space); resampling when N_eff is low.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import association as assoc
+from .config import FastSLAMConfig
+from .geometry import compose, relative_pose, wrap_angle
+from .landmark_ekf import (initialize_landmarks, landmark_covariance_in_measurement_space, unpack,
+                           update_landmarks)
+from .landmark_store import LandmarkStore, WorkingSet
+from .motion import (OdometryControl, apply_control, control_variances, motion_covariance,
+                     sample_motion)
+from .observation import SensorOffset, inverse_observe, observation_terms, pose_jacobian
+from .path_history import PathHistory
+from .proposal import refine_proposal, sample_pose
+from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
+
+MAX_CANDIDATES = 8
+"""Landmarks scored per observation and particle: the nearest ones to the observed point."""
+
+
+@dataclass
+class LandmarkMap:
+    """One particle's map: means (N,2), covariances (N,2,2), existence probabilities (N,),
+    external ids (N,) (-1 unknown) and stable landmark keys (N,)."""
+
+    means: np.ndarray
+    covariances: np.ndarray
+    existence: np.ndarray
+    ids: np.ndarray
+    keys: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.means)
+
+
+@dataclass
+class UpdateReport:
+    """What one ``update`` did, seen from the particle with the highest weight."""
+
+    num_observations: int
+    associated_ids: np.ndarray
+    """(K,) label of the landmark each observation was associated to; -1: new or unlabelled."""
+    is_new: np.ndarray
+    """(K,) the observation created a landmark."""
+    resampled: bool
+    n_eff: float
+    weights_underflow: bool
+
+
+class FastSLAM:
+    """The particle filter; public arrays ``poses`` (M, 3) and ``log_weights`` (M,)."""
+
+    def __init__(self, config: FastSLAMConfig, rng: np.random.Generator | None = None,
+                 initial_pose=(0.0, 0.0, 0.0)) -> None:
+        self.config = config.validate()
+        if rng is None:
+            rng = np.random.default_rng(None if config.seed < 0 else config.seed)
+        self.rng = rng
+        self.offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
+        self.noise_diag = np.array([config.sigma_range ** 2, config.sigma_bearing ** 2])
+        self.alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+        self._log_p0 = float(np.log(config.new_landmark_likelihood))
+        self.reset(initial_pose)
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self, initial_pose=(0.0, 0.0, 0.0)) -> None:
+        """Forget everything: all particles at ``initial_pose``, empty maps, uniform weights."""
+        count = self.config.num_particles
+        self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
+        self.log_weights = np.full(count, -np.log(count))
+        self.landmarks = LandmarkStore(count, self.config.cell_size)
+        self.history = PathHistory(count)
+        self._pending = np.zeros(3)
+        self._has_pending = False
+        self._best = 0
+        self.num_updates = 0
+        self.num_underflows = 0
+
+    @property
+    def num_particles(self) -> int:
+        return self.config.num_particles
+
+    # ------------------------------------------------------------------ motion
+    def predict(self, odom_from, odom_to) -> None:
+        """Accumulate the odometry increment between two odometry poses (odom frame).
+
+        The motion is applied at the next ``update`` (FastSLAM 2.0 needs it unsampled), or at
+        once when it grows beyond ``max_pending_translation`` / ``max_pending_rotation``.
+        """
+        self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
+        self._has_pending = True
+        if (np.hypot(self._pending[0], self._pending[1]) > self.config.max_pending_translation
+                or abs(self._pending[2]) > self.config.max_pending_rotation):
+            self._sample_pending_motion()
+
+    def _take_pending_control(self):
+        """The accumulated control and its variances, or None; clears the accumulator."""
+        if not self._has_pending:
+            return None
+        control = OdometryControl.from_delta(self._pending)
+        variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
+                                      self.config.min_rotation_sigma)
+        self._pending = np.zeros(3)
+        self._has_pending = False
+        return control, variances
+
+    def _sample_pending_motion(self) -> None:
+        taken = self._take_pending_control()
+        if taken is not None:
+            control, variances = taken
+            normals = self.rng.standard_normal((self.num_particles, 3))
+            self.poses = sample_motion(self.poses, control, variances, normals)
+
+    # ------------------------------------------------------------------ update
+    def update(self, ranges, bearings, ids=None, stamp: float = 0.0) -> UpdateReport:
+        """Process one sensor reading: range/bearing (K,) in the sensor frame, optional ids.
+
+        Observations with a non-finite or non-positive range or a non-finite bearing are
+        skipped (the ROS node reports them). ``ids`` are required (>= 0) in ``known`` mode; in
+        the other modes they are labels only (see ``UpdateReport.associated_ids``).
+        """
+        ranges = np.asarray(ranges, dtype=float).reshape(-1)
+        bearings = np.asarray(bearings, dtype=float).reshape(-1)
+        labels = (np.full(len(ranges), -1, np.int64) if ids is None
+                  else np.asarray(ids, dtype=np.int64).reshape(-1))
+        if not len(ranges) == len(bearings) == len(labels):
+            raise ValueError("ranges, bearings and ids must have the same length")
+        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges > 0.0)
+        known = self.config.association == "known"
+        if known:
+            usable &= labels >= 0
+        ranges, bearings, labels = ranges[usable], wrap_angle(bearings[usable]), labels[usable]
+
+        fastslam2 = self.config.algorithm == "fastslam2"
+        taken = self._take_pending_control()
+        proposal_mean, proposal_cov = self.poses, None
+        if taken is not None:
+            control, variances = taken
+            if fastslam2:
+                proposal_mean = apply_control(self.poses, control.rot1, control.trans, control.rot2)
+                proposal_cov = motion_covariance(self.poses, control, variances)
+            else:
+                normals = self.rng.standard_normal((self.num_particles, 3))
+                self.poses = proposal_mean = sample_motion(self.poses, control, variances, normals)
+
+        ws = self._gather(proposal_mean, ranges, labels if known else None)
+        choices, log_factors = self._associate(ws, proposal_mean, proposal_cov, ranges, bearings,
+                                               labels)
+        observed = np.zeros(ws.valid.shape, dtype=bool)
+        if fastslam2:
+            for j in range(len(ranges)):
+                log_factors[j], proposal_mean, proposal_cov = self._refine(
+                    ws, proposal_mean, proposal_cov, choices[j], log_factors[j], ranges[j],
+                    bearings[j])
+            if proposal_cov is not None:
+                normals = self.rng.standard_normal((self.num_particles, 3))
+                sampled = sample_pose(proposal_mean, proposal_cov, normals)
+                sampled[:, 2] = wrap_angle(sampled[:, 2])
+                self.poses = sampled
+        self.log_weights = self.log_weights + log_factors.sum(axis=0)
+        self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
+
+        self._missed_evidence(ws, observed)
+        self.landmarks.scatter(ws, track_labels=known)
+        self.history.record(stamp, self.poses)
+        self.num_updates += 1
+        return self._finish_update(ws, choices)
+
+    def _gather(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
+        """Working set: every particle's landmarks in cells the sensor can reach."""
+        reach = (max(self.config.max_range, float(ranges.max(initial=0.0)))
+                 + self.config.cell_size + np.hypot(self.config.sensor_x, self.config.sensor_y))
+        store = self.landmarks
+        region = store.columns_in_box(poses[:, :2].min(axis=0) - reach,
+                                      poses[:, :2].max(axis=0) + reach)
+        columns = np.broadcast_to(region, (self.num_particles, len(region)))
+        if labels is not None and len(labels):
+            # Known ids: also the cells holding each observed id, wherever it lies.
+            extra = store.label_columns(np.unique(labels))
+            in_region = np.zeros(max(store.num_cells, 1), dtype=bool)
+            in_region[region] = True
+            extra = np.where((extra >= 0) & ~in_region[np.maximum(extra, 0)], extra, -1)
+            extra = np.sort(extra, axis=1)
+            extra[:, 1:][extra[:, 1:] == extra[:, :-1]] = -1
+            columns = np.concatenate([columns, extra], axis=1)
+        return store.gather(columns, num_new_slots=len(ranges))
+
+    def _candidates(self, ws: WorkingSet, mean: np.ndarray, ranges: np.ndarray,
+                    bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """(M, K, C) working-set columns that observation k may be associated with (-1: none).
+
+        Known ids: the landmark carrying the id. Otherwise spatial gating: the
+        ``MAX_CANDIDATES`` landmarks nearest (Euclidean) to where the particle places the
+        observation, so the cost per observation does not grow with the landmarks in view.
+        """
+        existing = ws.first_new_slot
+        count = len(ranges)
+        if existing == 0 or count == 0:
+            return np.full((self.num_particles, count, 0), -1, np.int64)
+        if self.config.association == "known":
+            match = ws.valid[:, None, :existing] & (ws.label[:, None, :existing]
+                                                     == labels[None, :, None])
+            return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
+        points = inverse_observe(mean[:, None, :], ranges[None, :], bearings[None, :],
+                                 self.offset)                             # (M, K, 2)
+        dx = points[:, :, 0, None] - ws.mean[:, None, :existing, 0]       # (M, K, N)
+        dy = points[:, :, 1, None] - ws.mean[:, None, :existing, 1]
+        distance = np.where(ws.valid[:, None, :existing], dx * dx + dy * dy, np.inf)
+        if existing > MAX_CANDIDATES:
+            nearest = np.argpartition(distance, MAX_CANDIDATES - 1, axis=2)[..., :MAX_CANDIDATES]
+        else:
+            nearest = np.broadcast_to(np.arange(existing), distance.shape)
+        live = np.isfinite(np.take_along_axis(distance, nearest, axis=2))
+        return np.where(live, nearest, -1)
+
+    def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
+                   bearings: np.ndarray, labels: np.ndarray):
+        """Choose every particle's landmark for every observation of the reading at once.
+
+        Scored at the pose before this reading's observations are used: the sampled pose
+        (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Returns
+        choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE``, and the log
+        weight factors (K, M).
+        """
+        config = self.config
+        count = len(ranges)
+        candidates = self._candidates(ws, mean, ranges, bearings, labels)   # (M, K, C)
+        particle = np.arange(self.num_particles)[:, None, None]
+        column = np.maximum(candidates, 0)
+        valid = candidates >= 0
+        landmark = ws.mean[particle, column]
+        t = observation_terms(mean[:, 0, None, None], mean[:, 1, None, None],
+                              mean[:, 2, None, None], landmark[..., 0], landmark[..., 1],
+                              self.offset)
+        log_lik, mahalanobis = assoc.score(
+            t, ws.cov[particle, column], ranges[None, :, None], bearings[None, :, None],
+            self.noise_diag, cov)
+        # Rows of the association rules: observation-major, (K * M, C).
+        shape = (count * self.num_particles, candidates.shape[2])
+        log_lik = np.where(valid, log_lik, -np.inf).transpose(1, 0, 2).reshape(shape)
+        mahalanobis = np.where(valid, mahalanobis, np.inf).transpose(1, 0, 2).reshape(shape)
+        mode = config.association
+        if mode == "known" or mode == "ml":
+            # Known ids: the only candidate is the landmark carrying the id, if any.
+            pick, log_factor = assoc.associate_maximum_likelihood(
+                log_lik, -np.inf if mode == "known" else self._log_p0)
+        elif mode == "monte_carlo":
+            pick, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
+        else:
+            pick, log_factor = assoc.associate_two_gates(
+                log_lik, mahalanobis, self._log_p0, config.association_gate,
+                config.new_landmark_gate)
+        candidates = candidates.transpose(1, 0, 2).reshape(shape)
+        rows = np.flatnonzero(pick >= 0)
+        choice = pick.copy()
+        choice[rows] = candidates[rows, pick[rows]]
+        if mode == "known":
+            log_factor = np.where(choice >= 0, log_factor, self._log_p0)
+        return (choice.reshape(count, self.num_particles),
+                log_factor.reshape(count, self.num_particles))
+
+    def _refine(self, ws: WorkingSet, mean: np.ndarray, cov, choice: np.ndarray,
+                log_factor: np.ndarray, z_range: float, z_bearing: float):
+        """FastSLAM 2.0: refine the proposal with one associated observation.
+
+        Returns the observation's log weight factors N(z; z_hat, L) at the refined-so-far
+        proposal (p0 / 1 for new / ignored, unchanged), and the new proposal mean and cov.
+        """
+        rows = np.flatnonzero(choice >= 0)
+        if cov is None or len(rows) == 0:
+            return log_factor, mean, cov
+        slot = choice[rows]
+        t = observation_terms(mean[rows, 0], mean[rows, 1], mean[rows, 2],
+                              ws.mean[rows, slot, 0], ws.mean[rows, slot, 1], self.offset)
+        landmark_term = unpack(landmark_covariance_in_measurement_space(
+            t, ws.cov[rows, slot], self.noise_diag))
+        innovation = np.stack([z_range - t.range, wrap_angle(z_bearing - t.bearing)], -1)
+        mean, cov, log_factor = mean.copy(), cov.copy(), log_factor.copy()
+        mean[rows], cov[rows], _, log_factor[rows] = refine_proposal(
+            mean[rows], cov[rows], pose_jacobian(t), innovation, landmark_term)
+        return log_factor, mean, cov
+
+    def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
+                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> None:
+        """EKF updates of the associated landmarks and new landmarks for all observations.
+
+        All (observation, particle) pairs are processed in one batch; a landmark that two
+        observations of the reading hit is updated by them in turn (one batch per repeat).
+        ``choices`` (K, M) is updated in place: new landmarks get the column they were put in.
+        """
+        config = self.config
+        obs, particle = np.nonzero(choices >= 0)
+        if len(obs):
+            slot = choices[obs, particle]
+            pair = particle * ws.valid.shape[1] + slot
+            order = np.lexsort((obs, pair))
+            obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
+            first = np.r_[True, pair[1:] != pair[:-1]]
+            repeat = np.arange(len(pair)) - np.maximum.accumulate(
+                np.where(first, np.arange(len(pair)), 0))
+            for rank in range(int(repeat.max()) + 1):
+                batch = repeat == rank
+                p, s, j = particle[batch], slot[batch], obs[batch]
+                ws.mean[p, s], ws.cov[p, s] = update_landmarks(
+                    self.poses[p], ws.mean[p, s], ws.cov[p, s], ranges[j], bearings[j],
+                    self.offset, self.noise_diag)
+            np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
+            ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot],
+                                                    config.logodds_max)
+            ws.dirty[particle, slot] = True
+            observed[particle, slot] = True
+        obs, particle = np.nonzero(choices == assoc.NEW)
+        if len(obs):
+            slot = ws.first_new_slot + obs
+            ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
+                self.poses[particle], ranges[obs], bearings[obs], self.offset, self.noise_diag)
+            ws.logodds[particle, slot] = config.logodds_observed
+            ws.label[particle, slot] = labels[obs]
+            ws.valid[particle, slot] = True
+            ws.is_new[particle, slot] = True
+            observed[particle, slot] = True
+            choices[obs, particle] = slot
+
+    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
+        """Lower the log-odds of landmarks in the perceptual range that were not observed."""
+        config = self.config
+        if config.logodds_missed == 0.0:
+            return
+        t = observation_terms(self.poses[:, 0:1], self.poses[:, 1:2], self.poses[:, 2:3],
+                              ws.mean[..., 0], ws.mean[..., 1], self.offset)
+        inside = (ws.valid & ~observed & (t.range >= config.min_range)
+                  & (t.range <= config.max_range)
+                  & (np.abs(t.bearing) <= 0.5 * config.field_of_view))
+        ws.logodds[inside] += config.logodds_missed
+        ws.dirty |= inside
+        ws.valid[inside & (ws.logodds < config.logodds_remove)] = False
+
+    def _finish_update(self, ws: WorkingSet, choices: np.ndarray) -> UpdateReport:
+        """Normalise weights, report from the best particle, resample if N_eff is low."""
+        self.log_weights, underflow = normalize_log_weights(self.log_weights)
+        self.num_underflows += int(underflow)
+        best = int(np.argmax(self.log_weights))
+        best_choice = choices[:, best] if len(choices) else np.zeros(0, np.int64)
+        associated = best_choice >= 0
+        labels = np.where(associated, ws.label[best, np.maximum(best_choice, 0)], -1)
+        is_new = best_choice == ws.first_new_slot + np.arange(len(best_choice))
+        report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
+                              effective_sample_size(np.exp(self.log_weights)), underflow)
+        self._best = best
+        if report.n_eff < self.config.resample_threshold * self.num_particles:
+            indices = RESAMPLERS[self.config.resampling](np.exp(self.log_weights), self.rng)
+            self.poses = self.poses[indices]
+            self.landmarks.resample(indices)
+            self.history.resample(indices)
+            self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
+            self._best = int(np.argmax(indices == best))
+            report.resampled = True
+        return report
+
+    # ------------------------------------------------------------------ estimates
+    def best_index(self) -> int:
+        """The particle with the highest weight (after resampling: a copy of it)."""
+        return self._best
+
+    def particle_poses(self) -> np.ndarray:
+        """(M, 3) poses with the odometry received since the last update applied (its mean)."""
+        return compose(self.poses, self._pending) if self._has_pending else self.poses.copy()
+
+    def best_pose(self) -> np.ndarray:
+        """(3,) pose of the best particle, pending odometry applied."""
+        return self.particle_poses()[self._best]
+
+    def weights(self) -> np.ndarray:
+        return np.exp(self.log_weights)
+
+    def n_eff(self) -> float:
+        return effective_sample_size(self.weights())
+
+    def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean pose (circular mean of theta) and the particle spread around it."""
+        poses, weights = self.particle_poses(), self.weights()
+        theta = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
+        mean = np.array([weights @ poses[:, 0], weights @ poses[:, 1], theta])
+        deviation = poses - mean
+        deviation[:, 2] = wrap_angle(deviation[:, 2])
+        return mean, (deviation * weights[:, None]).T @ deviation
+
+    def best_map(self) -> LandmarkMap:
+        """The best particle's landmarks with covariances and existence probabilities."""
+        mean, cov, logodds, label, key = self.landmarks.particle_map(self._best)
+        return LandmarkMap(mean, unpack(cov), 1.0 / (1.0 + np.exp(-logodds)), label, key)
+
+    def best_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (T,), poses (T, 3)) of the best particle, one pose per update."""
+        return self.history.path(self._best)

@@ -1,0 +1,323 @@
+"""Every particle's landmark map in shared, copy-on-write blocks indexed by spatial cell.
+
+A *block* holds up to ``capacity`` landmarks of one spatial cell (side ``cell_size``). The pool
+arrays (``mean``, ``cov``, ``logodds``, ...) are indexed by block row and slot; ``table[m, c]``
+is the row that particle m uses for cell column c (-1: no landmark of m there). Resampling copies
+only the small ``table``; particles then share rows until one of them changes a landmark, at
+which point that particle gets its own copy of the block (copy-on-write). Memory therefore grows
+with the number of distinct blocks, not with M x N.
+
+The filter works on a dense *working set*: ``gather`` copies the landmarks of some cells of every
+particle into (M, K) arrays, the filter updates them, and ``scatter`` writes the changed entries
+back (copying shared blocks first). Covariances are stored packed as (xx, xy, yy), so they are
+symmetric by construction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class WorkingSet:
+    """Landmarks of every particle near the robot as dense (M, K) arrays.
+
+    The last ``num_new_slots`` columns are empty slots where the filter places new landmarks.
+    """
+
+    row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
+    slot: np.ndarray      # (M, K) slot within the row
+    column: np.ndarray    # (M, K) cell column of the entry, -1 for a new slot
+    mean: np.ndarray      # (M, K, 2)
+    cov: np.ndarray       # (M, K, 3) packed (xx, xy, yy)
+    logodds: np.ndarray   # (M, K)
+    label: np.ndarray     # (M, K) external id of the observation that created it, -1 if none
+    key: np.ndarray       # (M, K) store-wide unique landmark key, -1 for an empty slot
+    valid: np.ndarray     # (M, K) entry holds a live landmark
+    dirty: np.ndarray     # (M, K) existing entry changed (updated, evidence, removed)
+    is_new: np.ndarray    # (M, K) created during this update
+    num_new_slots: int
+
+    @property
+    def first_new_slot(self) -> int:
+        return self.valid.shape[1] - self.num_new_slots
+
+
+class LandmarkStore:
+    """Per-particle landmark maps with structural sharing (see module docstring)."""
+
+    def __init__(self, num_particles: int, cell_size: float, capacity: int = 4,
+                 initial_rows: int = 64) -> None:
+        self.num_particles = num_particles
+        self.cell_size = float(cell_size)
+        self.capacity = capacity
+        self.mean = np.zeros((initial_rows, capacity, 2))
+        self.cov = np.zeros((initial_rows, capacity, 3))
+        self.logodds = np.zeros((initial_rows, capacity))
+        self.label = np.full((initial_rows, capacity), -1, dtype=np.int64)
+        self.key = np.full((initial_rows, capacity), -1, dtype=np.int64)
+        self.occupied = np.zeros((initial_rows, capacity), dtype=bool)
+        self.refcount = np.zeros(initial_rows, dtype=np.int64)
+        self.table = np.full((num_particles, 16), -1, dtype=np.int64)
+        self.cell_ix = np.zeros(16, dtype=np.int64)
+        self.cell_iy = np.zeros(16, dtype=np.int64)
+        self.num_cells = 0
+        self._cell_columns: dict[tuple[int, int], int] = {}
+        self.next_key = 0
+        # Known association: column of the landmark with a given label, per particle.
+        self._label_index: dict[int, int] = {}
+        self.label_column = np.full((num_particles, 8), -1, dtype=np.int64)
+
+    # ------------------------------------------------------------------ sizes and memory
+    @property
+    def num_rows(self) -> int:
+        return self.refcount.shape[0]
+
+    def rows_in_use(self) -> int:
+        """Distinct blocks referenced by at least one particle."""
+        return int(np.count_nonzero(self.refcount))
+
+    def nbytes(self) -> int:
+        """Bytes held by the pool, the tables and the cell index."""
+        arrays = (self.mean, self.cov, self.logodds, self.label, self.key, self.occupied,
+                  self.refcount, self.table, self.cell_ix, self.cell_iy, self.label_column)
+        return int(sum(a.nbytes for a in arrays))
+
+    def landmark_counts(self) -> np.ndarray:
+        """Number of landmarks of every particle (M,)."""
+        rows = self.table[:, :self.num_cells]
+        counts = np.where(rows >= 0, self.occupied.sum(axis=1)[np.maximum(rows, 0)], 0)
+        return counts.sum(axis=1)
+
+    # ------------------------------------------------------------------ cells
+    def cell_of(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Integer cell coordinates of points (..., 2)."""
+        cells = np.floor(points / self.cell_size).astype(np.int64)
+        return cells[..., 0], cells[..., 1]
+
+    def columns_in_box(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """Columns of the known cells that intersect the axis-aligned box [low, high]."""
+        lo_x, lo_y = np.floor(np.asarray(low) / self.cell_size).astype(np.int64)
+        hi_x, hi_y = np.floor(np.asarray(high) / self.cell_size).astype(np.int64)
+        ix, iy = self.cell_ix[:self.num_cells], self.cell_iy[:self.num_cells]
+        return np.flatnonzero((ix >= lo_x) & (ix <= hi_x) & (iy >= lo_y) & (iy <= hi_y))
+
+    def _columns_for_cells(self, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
+        """Columns of cells (registering new ones); one dict look-up per distinct cell."""
+        pairs, inverse = np.unique(np.stack([ix, iy], 1), axis=0, return_inverse=True)
+        columns = np.empty(len(pairs), dtype=np.int64)
+        for i, (cx, cy) in enumerate(pairs.tolist()):
+            column = self._cell_columns.get((cx, cy))
+            if column is None:
+                column = self._register_cell(cx, cy)
+            columns[i] = column
+        return columns[inverse.reshape(-1)]
+
+    def _register_cell(self, cx: int, cy: int) -> int:
+        column = self.num_cells
+        if column == self.table.shape[1]:
+            grow = self.table.shape[1]
+            self.table = np.concatenate(
+                [self.table, np.full((self.num_particles, grow), -1, np.int64)], axis=1)
+            self.cell_ix = np.concatenate([self.cell_ix, np.zeros(grow, np.int64)])
+            self.cell_iy = np.concatenate([self.cell_iy, np.zeros(grow, np.int64)])
+        self.cell_ix[column], self.cell_iy[column] = cx, cy
+        self._cell_columns[(cx, cy)] = column
+        self.num_cells += 1
+        return column
+
+    # ------------------------------------------------------------------ labels (known ids)
+    def label_columns(self, labels: np.ndarray) -> np.ndarray:
+        """(M, len(labels)) column of each particle's landmark with that label, -1 if none."""
+        index = np.array([self._label_index.get(int(v), -1) for v in labels], dtype=np.int64)
+        columns = self.label_column[:, np.maximum(index, 0)]
+        return np.where(index[None, :] >= 0, columns, -1)
+
+    def _label_slot(self, label: int) -> int:
+        index = self._label_index.get(label)
+        if index is None:
+            index = len(self._label_index)
+            self._label_index[label] = index
+            if index == self.label_column.shape[1]:
+                self.label_column = np.concatenate(
+                    [self.label_column, np.full_like(self.label_column, -1)], axis=1)
+        return index
+
+    # ------------------------------------------------------------------ pool rows
+    def _allocate_rows(self, count: int) -> np.ndarray:
+        """``count`` unused rows (refcount set to 1), growing the pool when needed."""
+        free = np.flatnonzero(self.refcount == 0)
+        if len(free) < count:
+            self._grow_rows(max(self.num_rows, count - len(free)))
+            free = np.flatnonzero(self.refcount == 0)
+        rows = free[:count]
+        self.refcount[rows] = 1
+        return rows
+
+    def _grow_rows(self, extra: int) -> None:
+        def grow(array: np.ndarray, fill) -> np.ndarray:
+            pad = np.full((extra,) + array.shape[1:], fill, dtype=array.dtype)
+            return np.concatenate([array, pad])
+        self.mean, self.cov = grow(self.mean, 0.0), grow(self.cov, 0.0)
+        self.logodds, self.occupied = grow(self.logodds, 0.0), grow(self.occupied, False)
+        self.label, self.key = grow(self.label, -1), grow(self.key, -1)
+        self.refcount = grow(self.refcount, 0)
+
+    def _grow_capacity(self) -> None:
+        """Double the slots per block (rare: only when a cell holds many landmarks)."""
+        extra = self.capacity
+
+        def widen(array: np.ndarray, fill) -> np.ndarray:
+            pad = np.full((array.shape[0], extra) + array.shape[2:], fill, dtype=array.dtype)
+            return np.concatenate([array, pad], axis=1)
+        self.mean, self.cov = widen(self.mean, 0.0), widen(self.cov, 0.0)
+        self.logodds, self.occupied = widen(self.logodds, 0.0), widen(self.occupied, False)
+        self.label, self.key = widen(self.label, -1), widen(self.key, -1)
+        self.capacity *= 2
+
+    def _own_rows(self, particles: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """Make the blocks (particle, column) private to their particle; return their rows.
+
+        Shared blocks are copied; missing blocks are created empty. Pairs must be unique.
+        """
+        rows = self.table[particles, columns]
+        missing = rows < 0
+        shared = ~missing & (self.refcount[np.maximum(rows, 0)] > 1)
+        if np.any(missing):
+            fresh = self._allocate_rows(int(missing.sum()))
+            self.occupied[fresh] = False
+            rows[missing] = fresh
+        if np.any(shared):
+            old = rows[shared]
+            copies = self._allocate_rows(len(old))
+            for array in (self.mean, self.cov, self.logodds, self.label, self.key, self.occupied):
+                array[copies] = array[old]
+            np.subtract.at(self.refcount, old, 1)
+            rows[shared] = copies
+        self.table[particles, columns] = rows
+        return rows
+
+    # ------------------------------------------------------------------ working set
+    def gather(self, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
+        """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set."""
+        num_particles = self.num_particles
+        particle = np.arange(num_particles)[:, None]
+        rows = np.where(columns >= 0, self.table[particle, np.maximum(columns, 0)], -1)
+        occupied = self.occupied[np.maximum(rows, 0)] & (rows >= 0)[..., None]
+        owner, flat = np.nonzero(occupied.reshape(num_particles, -1))
+        counts = np.bincount(owner, minlength=num_particles)
+        width = int(counts.max(initial=0))
+        rank = np.arange(len(owner)) - (np.cumsum(counts) - counts)[owner]
+        block, slot = np.divmod(flat, self.capacity)
+        src_row = rows[owner, block]
+
+        total = width + num_new_slots
+        ws = WorkingSet(
+            row=np.full((num_particles, total), -1, np.int64),
+            slot=np.zeros((num_particles, total), np.int64),
+            column=np.full((num_particles, total), -1, np.int64),
+            mean=np.zeros((num_particles, total, 2)),
+            cov=np.tile(np.array([1.0, 0.0, 1.0]), (num_particles, total, 1)),
+            logodds=np.zeros((num_particles, total)),
+            label=np.full((num_particles, total), -1, np.int64),
+            key=np.full((num_particles, total), -1, np.int64),
+            valid=np.zeros((num_particles, total), bool),
+            dirty=np.zeros((num_particles, total), bool),
+            is_new=np.zeros((num_particles, total), bool),
+            num_new_slots=num_new_slots,
+        )
+        ws.row[owner, rank] = src_row
+        ws.slot[owner, rank] = slot
+        ws.column[owner, rank] = columns[owner, block]
+        ws.mean[owner, rank] = self.mean[src_row, slot]
+        ws.cov[owner, rank] = self.cov[src_row, slot]
+        ws.logodds[owner, rank] = self.logodds[src_row, slot]
+        ws.label[owner, rank] = self.label[src_row, slot]
+        ws.key[owner, rank] = self.key[src_row, slot]
+        ws.valid[owner, rank] = True
+        return ws
+
+    def scatter(self, ws: WorkingSet, track_labels: bool) -> None:
+        """Write changed and new working-set entries back, copying shared blocks first."""
+        self._write_existing(ws, track_labels)
+        self._insert_new(ws, track_labels)
+
+    def _write_existing(self, ws: WorkingSet, track_labels: bool) -> None:
+        owner, entry = np.nonzero(ws.dirty & (ws.row >= 0))
+        if len(owner) == 0:
+            return
+        columns = ws.column[owner, entry]
+        pairs, inverse = np.unique(owner * self.table.shape[1] + columns, return_inverse=True)
+        pair_particle, pair_column = np.divmod(pairs, self.table.shape[1])
+        rows = self._own_rows(pair_particle, pair_column)[inverse.reshape(-1)]
+        slots = ws.slot[owner, entry]
+        keep = ws.valid[owner, entry]
+        self.mean[rows, slots] = ws.mean[owner, entry]
+        self.cov[rows, slots] = ws.cov[owner, entry]
+        self.logodds[rows, slots] = ws.logodds[owner, entry]
+        self.occupied[rows, slots] = keep
+        if track_labels and not np.all(keep):
+            gone = ~keep
+            labels = ws.label[owner[gone], entry[gone]]
+            index = np.array([self._label_index.get(int(v), -1) for v in labels], np.int64)
+            known = index >= 0
+            self.label_column[owner[gone][known], index[known]] = -1
+
+    def _insert_new(self, ws: WorkingSet, track_labels: bool) -> None:
+        owner, entry = np.nonzero(ws.is_new & ws.valid)
+        if len(owner) == 0:
+            return
+        ix, iy = self.cell_of(ws.mean[owner, entry])
+        columns = self._columns_for_cells(ix, iy)
+        width = self.table.shape[1]
+        pair_key = owner * width + columns
+        order = np.argsort(pair_key, kind="stable")
+        owner, entry, columns, pair_key = owner[order], entry[order], columns[order], pair_key[order]
+        pairs, first, inverse = np.unique(pair_key, return_index=True, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        rank = np.arange(len(owner)) - first[inverse]
+        pair_particle, pair_column = np.divmod(pairs, width)
+        rows = self._own_rows(pair_particle, pair_column)[inverse]
+        while True:
+            free = ~self.occupied[rows]
+            position = np.cumsum(free, axis=1)
+            fits = position[:, -1] > rank
+            if np.all(fits):
+                break
+            self._grow_capacity()
+        slots = np.argmax(position > rank[:, None], axis=1)
+        count = len(owner)
+        self.mean[rows, slots] = ws.mean[owner, entry]
+        self.cov[rows, slots] = ws.cov[owner, entry]
+        self.logodds[rows, slots] = ws.logodds[owner, entry]
+        self.label[rows, slots] = ws.label[owner, entry]
+        keys = self.next_key + np.arange(count)
+        self.key[rows, slots] = keys
+        self.next_key += count
+        self.occupied[rows, slots] = True
+        ws.key[owner, entry] = keys
+        if track_labels:
+            labels = ws.label[owner, entry]
+            index = np.array([self._label_slot(int(v)) for v in labels], np.int64)
+            self.label_column[owner, index] = columns
+
+    # ------------------------------------------------------------------ resampling and queries
+    def resample(self, indices: np.ndarray) -> None:
+        """Particle m takes the map of particle ``indices[m]``: tables only, blocks shared."""
+        self.table = self.table[indices]
+        self.label_column = self.label_column[indices]
+        used = self.table[:, :self.num_cells]
+        self.refcount = np.bincount(used[used >= 0], minlength=self.num_rows).astype(np.int64)
+
+    def particle_map(self, particle: int):
+        """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle."""
+        rows = self.table[particle, :self.num_cells]
+        rows = rows[rows >= 0]
+        mask = self.occupied[rows]
+        return (self.mean[rows][mask], self.cov[rows][mask], self.logodds[rows][mask],
+                self.label[rows][mask], self.key[rows][mask])
+
+    def reset(self) -> None:
+        """Forget every map."""
+        self.__init__(self.num_particles, self.cell_size, 4, 64)

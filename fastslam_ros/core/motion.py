@@ -1,0 +1,83 @@
+"""Odometry motion model (Probabilistic Robotics, table 5.6) in its sampled and Gaussian forms.
+
+Odometry between two poses is decomposed into (rot1, trans, rot2). FastSLAM 1.0 samples the
+nonlinear model; FastSLAM 2.0 uses the Gaussian form s_t = h(s_{t-1}, u) + w, w ~ N(0, P_t),
+with P_t = V M V^T, M the control noise and V = dh/du.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import relative_pose, wrap_angle
+
+
+@dataclass(frozen=True)
+class OdometryControl:
+    """One odometry step: first rotation, translation, second rotation (rad, m, rad)."""
+
+    rot1: float
+    trans: float
+    rot2: float
+
+    @classmethod
+    def from_delta(cls, delta) -> "OdometryControl":
+        """Decompose a relative pose (dx, dy, dtheta) in the start frame.
+
+        Backward motion keeps a small rot1 with a negative translation instead of turning by pi,
+        so reversing does not look like a half turn to the noise model.
+        """
+        dx, dy, dtheta = (float(v) for v in delta)
+        trans = float(np.hypot(dx, dy))
+        rot1 = float(np.arctan2(dy, dx)) if trans > 1e-9 else 0.0
+        if abs(rot1) > np.pi / 2.0:
+            rot1 = float(wrap_angle(rot1 - np.pi))
+            trans = -trans
+        return cls(rot1, trans, float(wrap_angle(dtheta - rot1)))
+
+    @classmethod
+    def between(cls, odom_from, odom_to) -> "OdometryControl":
+        """The control that moves odometry pose ``odom_from`` to ``odom_to``."""
+        return cls.from_delta(relative_pose(odom_from, odom_to))
+
+
+def control_variances(u: OdometryControl, alphas, min_translation_sigma: float,
+                      min_rotation_sigma: float) -> np.ndarray:
+    """Variances of (rot1, trans, rot2): alpha-scaled terms plus a fixed floor."""
+    a1, a2, a3, a4 = alphas
+    rot1_sq, trans_sq, rot2_sq = u.rot1 ** 2, u.trans ** 2, u.rot2 ** 2
+    return np.array([
+        a1 * rot1_sq + a2 * trans_sq + min_rotation_sigma ** 2,
+        a3 * trans_sq + a4 * (rot1_sq + rot2_sq) + min_translation_sigma ** 2,
+        a1 * rot2_sq + a2 * trans_sq + min_rotation_sigma ** 2,
+    ])
+
+
+def apply_control(poses: np.ndarray, rot1, trans, rot2) -> np.ndarray:
+    """h(s, u): move poses (M, 3) by the controls (scalars or (M,) arrays)."""
+    heading = poses[:, 2] + rot1
+    return np.stack([poses[:, 0] + trans * np.cos(heading),
+                     poses[:, 1] + trans * np.sin(heading),
+                     wrap_angle(poses[:, 2] + rot1 + rot2)], axis=1)
+
+
+def sample_motion(poses: np.ndarray, u: OdometryControl, variances: np.ndarray,
+                  standard_normals: np.ndarray) -> np.ndarray:
+    """Sample the odometry model for every particle; ``standard_normals`` is (M, 3)."""
+    noisy = np.array([u.rot1, u.trans, u.rot2]) - standard_normals * np.sqrt(variances)
+    return apply_control(poses, noisy[:, 0], noisy[:, 1], noisy[:, 2])
+
+
+def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:
+    """P_t = V M V^T for every particle (M, 3, 3), V = dh/d(rot1, trans, rot2)."""
+    heading = poses[:, 2] + u.rot1
+    c, s = np.cos(heading), np.sin(heading)
+    jac = np.zeros((poses.shape[0], 3, 3))
+    jac[:, 0, 0] = -u.trans * s
+    jac[:, 0, 1] = c
+    jac[:, 1, 0] = u.trans * c
+    jac[:, 1, 1] = s
+    jac[:, 2, 0] = 1.0
+    jac[:, 2, 2] = 1.0
+    return (jac * variances[None, None, :]) @ jac.transpose(0, 2, 1)

@@ -1,0 +1,88 @@
+"""Range-bearing observation of a point landmark from a sensor mounted on the robot.
+
+The sensor sits at (sensor_x, sensor_y, sensor_yaw) in the robot frame. All functions broadcast
+over leading dimensions, so (M, K) particle-landmark pairs are evaluated in one call.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import wrap_angle
+
+
+@dataclass(frozen=True)
+class SensorOffset:
+    """Sensor pose in the robot frame (m, m, rad)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+
+@dataclass
+class ObservationTerms:
+    """Intermediate quantities of h(s, m) reused by the Jacobians."""
+
+    dx: np.ndarray
+    dy: np.ndarray
+    q: np.ndarray
+    lever_x: np.ndarray
+    lever_y: np.ndarray
+    range: np.ndarray
+    bearing: np.ndarray
+
+
+def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> ObservationTerms:
+    """Predicted range and bearing with the terms the Jacobians need (broadcasting)."""
+    c, s = np.cos(ptheta), np.sin(ptheta)
+    lever_x = c * offset.x - s * offset.y
+    lever_y = s * offset.x + c * offset.y
+    dx = mx - (px + lever_x)
+    dy = my - (py + lever_y)
+    q = dx * dx + dy * dy
+    return ObservationTerms(dx, dy, q, lever_x, lever_y, np.sqrt(q),
+                            wrap_angle(np.arctan2(dy, dx) - ptheta - offset.yaw))
+
+
+def observe(pose, landmark, offset: SensorOffset = SensorOffset()) -> np.ndarray:
+    """h(s, m): (range, bearing) of landmarks (..., 2) seen from poses (..., 3)."""
+    pose, landmark = np.asarray(pose, float), np.asarray(landmark, float)
+    t = observation_terms(pose[..., 0], pose[..., 1], pose[..., 2],
+                          landmark[..., 0], landmark[..., 1], offset)
+    return np.stack([t.range, t.bearing], axis=-1)
+
+
+def landmark_jacobian(t: ObservationTerms) -> np.ndarray:
+    """G_m = dh/dm, shape (..., 2, 2)."""
+    r = t.range
+    return np.stack([np.stack([t.dx / r, t.dy / r], -1),
+                     np.stack([-t.dy / t.q, t.dx / t.q], -1)], -2)
+
+
+def pose_jacobian(t: ObservationTerms) -> np.ndarray:
+    """G_s = dh/ds, shape (..., 2, 3); the sensor lever arm makes theta enter both rows."""
+    r = t.range
+    row_range = np.stack([-t.dx / r, -t.dy / r, (t.dx * t.lever_y - t.dy * t.lever_x) / r], -1)
+    row_bearing = np.stack([t.dy / t.q, -t.dx / t.q,
+                            -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0], -1)
+    return np.stack([row_range, row_bearing], -2)
+
+
+def jacobians(pose, landmark, offset: SensorOffset = SensorOffset()):
+    """(G_s, G_m) at (pose, landmark)."""
+    pose, landmark = np.asarray(pose, float), np.asarray(landmark, float)
+    t = observation_terms(pose[..., 0], pose[..., 1], pose[..., 2],
+                          landmark[..., 0], landmark[..., 1], offset)
+    return pose_jacobian(t), landmark_jacobian(t)
+
+
+def inverse_observe(pose, ranges, bearings, offset: SensorOffset = SensorOffset()) -> np.ndarray:
+    """g^-1(z, s): landmark position (..., 2) from a range-bearing observation and a pose."""
+    pose = np.asarray(pose, float)
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    sensor_x = pose[..., 0] + c * offset.x - s * offset.y
+    sensor_y = pose[..., 1] + s * offset.x + c * offset.y
+    angle = pose[..., 2] + offset.yaw + bearings
+    return np.stack([sensor_x + ranges * np.cos(angle), sensor_y + ranges * np.sin(angle)], -1)

@@ -1,0 +1,74 @@
+"""Every particle's path s_1:t stored once per ancestor (shared ancestry, not M path copies).
+
+Each update appends one generation: the M poses and, for each, the index of its parent in the
+previous generation. Resampling only permutes ``leaf``. Generations whose nodes all descend from
+a single ancestor are moved to a plain chain, so memory grows with the path length, not with M.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class PathHistory:
+    """Ancestry tree of particle poses with periodic pruning of dead branches."""
+
+    def __init__(self, num_particles: int, prune_every: int = 32) -> None:
+        self.num_particles = num_particles
+        self.prune_every = prune_every
+        self._chain_stamps: list[float] = []
+        self._chain_poses: list[np.ndarray] = []
+        self._stamps: list[float] = []
+        self._poses: list[np.ndarray] = []
+        self._parents: list[np.ndarray] = []
+        self.leaf = np.zeros(num_particles, dtype=np.int64)
+        self._next_prune = 2 * prune_every
+
+    def __len__(self) -> int:
+        return len(self._chain_stamps) + len(self._stamps)
+
+    def record(self, stamp: float, poses: np.ndarray) -> None:
+        """Append the particles' current poses as a new generation."""
+        self._stamps.append(float(stamp))
+        self._poses.append(np.array(poses, dtype=float))
+        self._parents.append(self.leaf.copy())
+        self.leaf = np.arange(self.num_particles)
+        if len(self._stamps) >= self._next_prune:
+            self._prune()
+            # Doubling keeps pruning amortised O(1) even if the particles never coalesce.
+            self._next_prune = len(self._stamps) + max(self.prune_every, len(self._stamps))
+
+    def resample(self, indices: np.ndarray) -> None:
+        """Particle m now continues the path of particle ``indices[m]``."""
+        self.leaf = self.leaf[indices]
+
+    def path(self, particle: int) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (T,), poses (T, 3)) of one particle, oldest first."""
+        node = int(self.leaf[particle])
+        tail = []
+        for generation in range(len(self._stamps) - 1, -1, -1):
+            tail.append(self._poses[generation][node])
+            node = int(self._parents[generation][node])
+        poses = self._chain_poses + tail[::-1]
+        stamps = self._chain_stamps + self._stamps
+        if not poses:
+            return np.zeros(0), np.zeros((0, 3))
+        return np.array(stamps), np.array(poses)
+
+    def _prune(self) -> None:
+        """Drop nodes no particle descends from; move single-ancestor generations to the chain."""
+        alive = np.unique(self.leaf)
+        self.leaf = np.searchsorted(alive, self.leaf)
+        for generation in range(len(self._stamps) - 1, -1, -1):
+            parents = self._parents[generation][alive]
+            self._poses[generation] = self._poses[generation][alive]
+            alive = np.unique(parents)
+            self._parents[generation] = np.searchsorted(alive, parents)
+        single = [len(p) == 1 for p in self._poses]
+        # Generations older than the newest single-node one form one chain.
+        cut = max((i + 1 for i, is_single in enumerate(single) if is_single), default=0)
+        keep_from = min(cut, len(self._stamps) - self.prune_every)
+        if keep_from > 0 and all(single[:keep_from]):
+            self._chain_stamps.extend(self._stamps[:keep_from])
+            self._chain_poses.extend(p[0] for p in self._poses[:keep_from])
+            del self._stamps[:keep_from], self._poses[:keep_from], self._parents[:keep_from]
+            self._parents[0] = np.zeros_like(self._parents[0])
