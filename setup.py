@@ -16,7 +16,8 @@ setup(
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6", "scipy>=1.10"],
+    install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6", "scipy>=1.10",
+                      "pyyaml>=5"],
     extras_require={
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],

@@ -26,7 +26,7 @@ from .config import FastSLAMConfig
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import (initialize_landmarks, landmark_covariance_in_measurement_space, unpack,
                            update_landmarks)
-from .landmark_store import LandmarkStore, WorkingSet
+from .landmark_store import COV, MEAN, LandmarkStore, WorkingSet
 from .motion import (OdometryControl, apply_control, control_variances, motion_covariance,
                      sample_motion)
 from .observation import SensorOffset, inverse_observe, observation_terms, pose_jacobian
@@ -292,11 +292,11 @@ class FastSLAM:
         slot = choice[rows]
         t = observation_terms(mean[rows, 0], mean[rows, 1], mean[rows, 2],
                               ws.mean[rows, slot, 0], ws.mean[rows, slot, 1], self.offset)
-        landmark_term = unpack(landmark_covariance_in_measurement_space(
-            t, ws.cov[rows, slot], self.noise_diag))
+        landmark_term = landmark_covariance_in_measurement_space(t, ws.cov[rows, slot],
+                                                                 self.noise_diag)
         innovation = np.stack([z_range - t.range, wrap_angle(z_bearing - t.bearing)], -1)
         mean, cov, log_factor = mean.copy(), cov.copy(), log_factor.copy()
-        mean[rows], cov[rows], _, log_factor[rows] = refine_proposal(
+        mean[rows], cov[rows], log_factor[rows] = refine_proposal(
             mean[rows], cov[rows], pose_jacobian(t), innovation, landmark_term)
         return log_factor, mean, cov
 
@@ -321,9 +321,11 @@ class FastSLAM:
             for rank in range(int(repeat.max()) + 1):
                 batch = repeat == rank
                 p, s, j = particle[batch], slot[batch], obs[batch]
-                ws.mean[p, s], ws.cov[p, s] = update_landmarks(
-                    self.poses[p], ws.mean[p, s], ws.cov[p, s], ranges[j], bearings[j],
+                state = ws.state[p, s]
+                state[:, MEAN], state[:, COV] = update_landmarks(
+                    self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                     self.offset, self.noise_diag)
+                ws.state[p, s] = state
             np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
             ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot],
                                                     config.logodds_max)
@@ -405,10 +407,16 @@ class FastSLAM:
         deviation[:, 2] = wrap_angle(deviation[:, 2])
         return mean, (deviation * weights[:, None]).T @ deviation
 
-    def best_map(self) -> LandmarkMap:
-        """The best particle's landmarks with covariances and existence probabilities."""
+    def best_map(self, min_existence: float = 0.0) -> LandmarkMap:
+        """The best particle's landmarks with covariances and existence probabilities.
+
+        ``min_existence`` keeps only landmarks at least that likely to exist, e.g. to leave out
+        tentative ones seen once (a new landmark starts at sigmoid(logodds_observed)).
+        """
         mean, cov, logodds, label, key = self.landmarks.particle_map(self._best)
-        return LandmarkMap(mean, unpack(cov), 1.0 / (1.0 + np.exp(-logodds)), label, key)
+        existence = 1.0 / (1.0 + np.exp(-logodds))
+        keep = existence >= min_existence
+        return LandmarkMap(mean[keep], unpack(cov[keep]), existence[keep], label[keep], key[keep])
 
     def best_path(self) -> tuple[np.ndarray, np.ndarray]:
         """(stamps (T,), poses (T, 3)) of the best particle, one pose per update."""

@@ -19,25 +19,51 @@ from dataclasses import dataclass
 import numpy as np
 
 
+MEAN, COV, LOGODDS = slice(0, 2), slice(2, 5), 5
+"""Layout of the float record of a landmark: mean (x, y), packed covariance, log-odds."""
+LABEL, KEY = 0, 1
+"""Layout of the integer record: external label (-1: none) and store-wide key."""
+STATE_WIDTH = 6
+
+
 @dataclass
 class WorkingSet:
     """Landmarks of every particle near the robot as dense (M, K) arrays.
 
     The last ``num_new_slots`` columns are empty slots where the filter places new landmarks.
+    ``mean``, ``cov``, ... are views into the packed ``state`` / ``ident`` records, so writing
+    through them (also with fancy indices) updates the working set.
     """
 
     row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
     slot: np.ndarray      # (M, K) slot within the row
     column: np.ndarray    # (M, K) cell column of the entry, -1 for a new slot
-    mean: np.ndarray      # (M, K, 2)
-    cov: np.ndarray       # (M, K, 3) packed (xx, xy, yy)
-    logodds: np.ndarray   # (M, K)
-    label: np.ndarray     # (M, K) external id of the observation that created it, -1 if none
-    key: np.ndarray       # (M, K) store-wide unique landmark key, -1 for an empty slot
+    state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
+    ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
     valid: np.ndarray     # (M, K) entry holds a live landmark
     dirty: np.ndarray     # (M, K) existing entry changed (updated, evidence, removed)
     is_new: np.ndarray    # (M, K) created during this update
     num_new_slots: int
+
+    @property
+    def mean(self) -> np.ndarray:
+        return self.state[..., MEAN]
+
+    @property
+    def cov(self) -> np.ndarray:
+        return self.state[..., COV]
+
+    @property
+    def logodds(self) -> np.ndarray:
+        return self.state[..., LOGODDS]
+
+    @property
+    def label(self) -> np.ndarray:
+        return self.ident[..., LABEL]
+
+    @property
+    def key(self) -> np.ndarray:
+        return self.ident[..., KEY]
 
     @property
     def first_new_slot(self) -> int:
@@ -47,19 +73,16 @@ class WorkingSet:
 class LandmarkStore:
     """Per-particle landmark maps with structural sharing (see module docstring)."""
 
-    def __init__(self, num_particles: int, cell_size: float, capacity: int = 4,
+    def __init__(self, num_particles: int, cell_size: float, capacity: int = 8,
                  initial_rows: int = 64) -> None:
         self.num_particles = num_particles
         self.cell_size = float(cell_size)
         self.capacity = capacity
-        self.mean = np.zeros((initial_rows, capacity, 2))
-        self.cov = np.zeros((initial_rows, capacity, 3))
-        self.logodds = np.zeros((initial_rows, capacity))
-        self.label = np.full((initial_rows, capacity), -1, dtype=np.int64)
-        self.key = np.full((initial_rows, capacity), -1, dtype=np.int64)
+        self.state = np.zeros((initial_rows, capacity, STATE_WIDTH))
+        self.ident = np.full((initial_rows, capacity, 2), -1, dtype=np.int64)
         self.occupied = np.zeros((initial_rows, capacity), dtype=bool)
         self.refcount = np.zeros(initial_rows, dtype=np.int64)
-        self.table = np.full((num_particles, 16), -1, dtype=np.int64)
+        self.table = np.full((num_particles, 16), -1, dtype=np.int32)
         self.cell_ix = np.zeros(16, dtype=np.int64)
         self.cell_iy = np.zeros(16, dtype=np.int64)
         self.num_cells = 0
@@ -67,9 +90,29 @@ class LandmarkStore:
         self.next_key = 0
         # Known association: column of the landmark with a given label, per particle.
         self._label_index: dict[int, int] = {}
-        self.label_column = np.full((num_particles, 8), -1, dtype=np.int64)
+        self.label_column = np.full((num_particles, 8), -1, dtype=np.int32)
 
-    # ------------------------------------------------------------------ sizes and memory
+    # ------------------------------------------------------------------ views and memory
+    @property
+    def mean(self) -> np.ndarray:
+        return self.state[..., MEAN]
+
+    @property
+    def cov(self) -> np.ndarray:
+        return self.state[..., COV]
+
+    @property
+    def logodds(self) -> np.ndarray:
+        return self.state[..., LOGODDS]
+
+    @property
+    def label(self) -> np.ndarray:
+        return self.ident[..., LABEL]
+
+    @property
+    def key(self) -> np.ndarray:
+        return self.ident[..., KEY]
+
     @property
     def num_rows(self) -> int:
         return self.refcount.shape[0]
@@ -80,8 +123,7 @@ class LandmarkStore:
 
     def nbytes(self) -> int:
         """Bytes held by the pool, the tables and the cell index."""
-        arrays = (self.mean, self.cov, self.logodds, self.label, self.key, self.occupied,
-                  self.refcount, self.table, self.cell_ix, self.cell_iy, self.label_column)
+        arrays = (self.state, self.ident, self.occupied, self.refcount, self.table, self.cell_ix, self.cell_iy, self.label_column)
         return int(sum(a.nbytes for a in arrays))
 
     def landmark_counts(self) -> np.ndarray:
@@ -104,7 +146,11 @@ class LandmarkStore:
         return np.flatnonzero((ix >= lo_x) & (ix <= hi_x) & (iy >= lo_y) & (iy <= hi_y))
 
     def _columns_for_cells(self, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
-        """Columns of cells (registering new ones); one dict look-up per distinct cell."""
+        """Insertion columns of cells (registering new ones); one look-up per distinct cell.
+
+        A cell may own several columns (when its blocks fill up); new landmarks go to the
+        newest one.
+        """
         pairs, inverse = np.unique(np.stack([ix, iy], 1), axis=0, return_inverse=True)
         columns = np.empty(len(pairs), dtype=np.int64)
         for i, (cx, cy) in enumerate(pairs.tolist()):
@@ -115,11 +161,12 @@ class LandmarkStore:
         return columns[inverse.reshape(-1)]
 
     def _register_cell(self, cx: int, cy: int) -> int:
+        """A new column for cell (cx, cy), which becomes its insertion column."""
         column = self.num_cells
         if column == self.table.shape[1]:
             grow = self.table.shape[1]
             self.table = np.concatenate(
-                [self.table, np.full((self.num_particles, grow), -1, np.int64)], axis=1)
+                [self.table, np.full((self.num_particles, grow), -1, np.int32)], axis=1)
             self.cell_ix = np.concatenate([self.cell_ix, np.zeros(grow, np.int64)])
             self.cell_iy = np.concatenate([self.cell_iy, np.zeros(grow, np.int64)])
         self.cell_ix[column], self.cell_iy[column] = cx, cy
@@ -159,22 +206,8 @@ class LandmarkStore:
         def grow(array: np.ndarray, fill) -> np.ndarray:
             pad = np.full((extra,) + array.shape[1:], fill, dtype=array.dtype)
             return np.concatenate([array, pad])
-        self.mean, self.cov = grow(self.mean, 0.0), grow(self.cov, 0.0)
-        self.logodds, self.occupied = grow(self.logodds, 0.0), grow(self.occupied, False)
-        self.label, self.key = grow(self.label, -1), grow(self.key, -1)
-        self.refcount = grow(self.refcount, 0)
-
-    def _grow_capacity(self) -> None:
-        """Double the slots per block (rare: only when a cell holds many landmarks)."""
-        extra = self.capacity
-
-        def widen(array: np.ndarray, fill) -> np.ndarray:
-            pad = np.full((array.shape[0], extra) + array.shape[2:], fill, dtype=array.dtype)
-            return np.concatenate([array, pad], axis=1)
-        self.mean, self.cov = widen(self.mean, 0.0), widen(self.cov, 0.0)
-        self.logodds, self.occupied = widen(self.logodds, 0.0), widen(self.occupied, False)
-        self.label, self.key = widen(self.label, -1), widen(self.key, -1)
-        self.capacity *= 2
+        self.state, self.ident = grow(self.state, 0.0), grow(self.ident, -1)
+        self.occupied, self.refcount = grow(self.occupied, False), grow(self.refcount, 0)
 
     def _own_rows(self, particles: np.ndarray, columns: np.ndarray) -> np.ndarray:
         """Make the blocks (particle, column) private to their particle; return their rows.
@@ -191,7 +224,7 @@ class LandmarkStore:
         if np.any(shared):
             old = rows[shared]
             copies = self._allocate_rows(len(old))
-            for array in (self.mean, self.cov, self.logodds, self.label, self.key, self.occupied):
+            for array in (self.state, self.ident, self.occupied):
                 array[copies] = array[old]
             np.subtract.at(self.refcount, old, 1)
             rows[shared] = copies
@@ -213,28 +246,20 @@ class LandmarkStore:
         src_row = rows[owner, block]
 
         total = width + num_new_slots
-        ws = WorkingSet(
-            row=np.full((num_particles, total), -1, np.int64),
-            slot=np.zeros((num_particles, total), np.int64),
-            column=np.full((num_particles, total), -1, np.int64),
-            mean=np.zeros((num_particles, total, 2)),
-            cov=np.tile(np.array([1.0, 0.0, 1.0]), (num_particles, total, 1)),
-            logodds=np.zeros((num_particles, total)),
-            label=np.full((num_particles, total), -1, np.int64),
-            key=np.full((num_particles, total), -1, np.int64),
-            valid=np.zeros((num_particles, total), bool),
-            dirty=np.zeros((num_particles, total), bool),
-            is_new=np.zeros((num_particles, total), bool),
-            num_new_slots=num_new_slots,
-        )
+        shape = (num_particles, total)
+        # Empty slots get a unit covariance so that scoring them stays finite.
+        state = np.zeros(shape + (STATE_WIDTH,))
+        state[..., 2] = state[..., 4] = 1.0
+        ws = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
+                        column=np.full(shape, -1, np.int64), state=state,
+                        ident=np.full(shape + (2,), -1, np.int64),
+                        valid=np.zeros(shape, bool), dirty=np.zeros(shape, bool),
+                        is_new=np.zeros(shape, bool), num_new_slots=num_new_slots)
         ws.row[owner, rank] = src_row
         ws.slot[owner, rank] = slot
         ws.column[owner, rank] = columns[owner, block]
-        ws.mean[owner, rank] = self.mean[src_row, slot]
-        ws.cov[owner, rank] = self.cov[src_row, slot]
-        ws.logodds[owner, rank] = self.logodds[src_row, slot]
-        ws.label[owner, rank] = self.label[src_row, slot]
-        ws.key[owner, rank] = self.key[src_row, slot]
+        ws.state[owner, rank] = self.state[src_row, slot]
+        ws.ident[owner, rank] = self.ident[src_row, slot]
         ws.valid[owner, rank] = True
         return ws
 
@@ -253,9 +278,7 @@ class LandmarkStore:
         rows = self._own_rows(pair_particle, pair_column)[inverse.reshape(-1)]
         slots = ws.slot[owner, entry]
         keep = ws.valid[owner, entry]
-        self.mean[rows, slots] = ws.mean[owner, entry]
-        self.cov[rows, slots] = ws.cov[owner, entry]
-        self.logodds[rows, slots] = ws.logodds[owner, entry]
+        self.state[rows, slots] = ws.state[owner, entry]
         self.occupied[rows, slots] = keep
         if track_labels and not np.all(keep):
             gone = ~keep
@@ -265,38 +288,44 @@ class LandmarkStore:
             self.label_column[owner[gone][known], index[known]] = -1
 
     def _insert_new(self, ws: WorkingSet, track_labels: bool) -> None:
+        """Put new landmarks in their cell's block, opening another column when it is full."""
         owner, entry = np.nonzero(ws.is_new & ws.valid)
         if len(owner) == 0:
             return
         ix, iy = self.cell_of(ws.mean[owner, entry])
         columns = self._columns_for_cells(ix, iy)
-        width = self.table.shape[1]
-        pair_key = owner * width + columns
-        order = np.argsort(pair_key, kind="stable")
-        owner, entry, columns, pair_key = owner[order], entry[order], columns[order], pair_key[order]
-        pairs, first, inverse = np.unique(pair_key, return_index=True, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        rank = np.arange(len(owner)) - first[inverse]
-        pair_particle, pair_column = np.divmod(pairs, width)
-        rows = self._own_rows(pair_particle, pair_column)[inverse]
-        while True:
-            free = ~self.occupied[rows]
-            position = np.cumsum(free, axis=1)
+        placed_rows = np.empty(len(owner), np.int64)
+        placed_slots = np.empty(len(owner), np.int64)
+        pending = np.arange(len(owner))
+        while len(pending):
+            width = self.table.shape[1]
+            pair_key = owner[pending] * width + columns[pending]
+            pairs, first, inverse = np.unique(pair_key, return_index=True, return_inverse=True)
+            inverse = inverse.reshape(-1)
+            order = np.argsort(pair_key, kind="stable")
+            rank = np.empty(len(pending), np.int64)
+            rank[order] = np.arange(len(pending)) - np.searchsorted(pair_key[order],
+                                                                     pair_key[order])
+            pair_particle, pair_column = np.divmod(pairs, width)
+            rows = self._own_rows(pair_particle, pair_column)[inverse]
+            position = np.cumsum(~self.occupied[rows], axis=1)
             fits = position[:, -1] > rank
-            if np.all(fits):
-                break
-            self._grow_capacity()
-        slots = np.argmax(position > rank[:, None], axis=1)
+            slots = np.argmax(position > rank[:, None], axis=1)
+            done = pending[fits]
+            placed_rows[done], placed_slots[done] = rows[fits], slots[fits]
+            self.occupied[rows[fits], slots[fits]] = True
+            pending = pending[~fits]
+            if len(pending):
+                # Full blocks: the cells get a fresh insertion column for everyone.
+                for cx, cy in {(int(ix[i]), int(iy[i])) for i in pending}:
+                    self._register_cell(cx, cy)
+                columns[pending] = self._columns_for_cells(ix[pending], iy[pending])
         count = len(owner)
-        self.mean[rows, slots] = ws.mean[owner, entry]
-        self.cov[rows, slots] = ws.cov[owner, entry]
-        self.logodds[rows, slots] = ws.logodds[owner, entry]
-        self.label[rows, slots] = ws.label[owner, entry]
         keys = self.next_key + np.arange(count)
-        self.key[rows, slots] = keys
-        self.next_key += count
-        self.occupied[rows, slots] = True
         ws.key[owner, entry] = keys
+        self.next_key += count
+        self.state[placed_rows, placed_slots] = ws.state[owner, entry]
+        self.ident[placed_rows, placed_slots] = ws.ident[owner, entry]
         if track_labels:
             labels = ws.label[owner, entry]
             index = np.array([self._label_slot(int(v)) for v in labels], np.int64)
@@ -315,9 +344,10 @@ class LandmarkStore:
         rows = self.table[particle, :self.num_cells]
         rows = rows[rows >= 0]
         mask = self.occupied[rows]
-        return (self.mean[rows][mask], self.cov[rows][mask], self.logodds[rows][mask],
-                self.label[rows][mask], self.key[rows][mask])
+        state, ident = self.state[rows][mask], self.ident[rows][mask]
+        return (state[:, MEAN], state[:, COV], state[:, LOGODDS], ident[:, LABEL],
+                ident[:, KEY])
 
     def reset(self) -> None:
         """Forget every map."""
-        self.__init__(self.num_particles, self.cell_size, 4, 64)
+        self.__init__(self.num_particles, self.cell_size)

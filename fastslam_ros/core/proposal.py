@@ -33,15 +33,15 @@ def refine_proposal(mean: np.ndarray, cov: np.ndarray, pose_jacobian: np.ndarray
     """One observation's update of the pose proposal for n particles.
 
     mean (n, 3), cov (n, 3, 3), pose_jacobian G_s (n, 2, 3), innovation z - z_hat (n, 2) with
-    the bearing wrapped, landmark_term Q = G_m Sigma_m G_m^T + R (n, 2, 2).
-    Returns (mean, cov, L, log N(innovation; 0, L)).
+    the bearing wrapped, landmark_term Q = G_m Sigma_m G_m^T + R packed as (xx, xy, yy) (n, 3).
+    Returns (mean, cov, log N(innovation; 0, L)) with L = G_s P G_s^T + Q.
     """
     g, h = pose_jacobian[:, 0, :], pose_jacobian[:, 1, :]
     p_g = np.einsum("nij,nj->ni", cov, g)                      # P g   (n, 3)
     p_h = np.einsum("nij,nj->ni", cov, h)                      # P h   (n, 3)
-    l00 = np.einsum("ni,ni->n", g, p_g) + landmark_term[:, 0, 0]
-    l01 = np.einsum("ni,ni->n", g, p_h) + landmark_term[:, 0, 1]
-    l11 = np.einsum("ni,ni->n", h, p_h) + landmark_term[:, 1, 1]
+    l00 = np.einsum("ni,ni->n", g, p_g) + landmark_term[:, 0]
+    l01 = np.einsum("ni,ni->n", g, p_h) + landmark_term[:, 1]
+    l11 = np.einsum("ni,ni->n", h, p_h) + landmark_term[:, 2]
     det = l00 * l11 - l01 * l01
     i00, i01, i11 = l11 / det, -l01 / det, l00 / det            # L^-1
     gain0 = p_g * i00[:, None] + p_h * i01[:, None]             # K[:, :, 0]
@@ -50,11 +50,9 @@ def refine_proposal(mean: np.ndarray, cov: np.ndarray, pose_jacobian: np.ndarray
     new_mean = mean + gain0 * nu0[:, None] + gain1 * nu1[:, None]
     # P - K L K^T = P - [Pg Ph] L^-1 [Pg Ph]^T, symmetric by construction.
     new_cov = cov - (p_g[:, :, None] * gain0[:, None, :] + p_h[:, :, None] * gain1[:, None, :])
-    new_cov = 0.5 * (new_cov + new_cov.transpose(0, 2, 1))
-    weight_cov = np.stack([np.stack([l00, l01], -1), np.stack([l01, l11], -1)], -2)
-    mahalanobis = (i00 * nu0 * nu0 + 2.0 * i01 * nu0 * nu1 + i11 * nu1 * nu1)
+    mahalanobis = i00 * nu0 * nu0 + 2.0 * i01 * nu0 * nu1 + i11 * nu1 * nu1
     log_weight = -0.5 * mahalanobis - np.log(2.0 * np.pi) - 0.5 * np.log(det)
-    return new_mean, new_cov, weight_cov, log_weight
+    return new_mean, new_cov, log_weight
 
 
 def information_form_proposal(mean: np.ndarray, cov: np.ndarray, pose_jacobian: np.ndarray,

@@ -1,0 +1,166 @@
+"""The filter on simulated worlds: accuracy, association, clutter removal, numerics, estimates."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from fastslam_ros.tools.synthetic import make_world
+
+
+def config(**changes) -> FastSLAMConfig:
+    base = FastSLAMConfig(num_particles=50, sigma_range=0.1, sigma_bearing=0.02,
+                          alpha1=0.01, alpha2=0.0005, alpha3=0.01, alpha4=0.001,
+                          max_range=12.0, new_landmark_likelihood=1e-3, seed=1)
+    return base.replace(**changes)
+
+
+def aligned_rmse(estimate: np.ndarray, truth: np.ndarray) -> float:
+    """Position RMSE after the least-squares rotation + translation (2-D Kabsch)."""
+    est_c, tru_c = estimate - estimate.mean(0), truth - truth.mean(0)
+    u, _, vt = np.linalg.svd(est_c.T @ tru_c)
+    d = np.sign(np.linalg.det(u @ vt))
+    rotation = (u @ np.diag([1.0, d]) @ vt).T
+    residual = est_c @ rotation.T - tru_c
+    return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))
+
+
+def test_aligned_rmse_removes_a_rigid_motion_exactly():
+    rng = np.random.default_rng(0)
+    truth = rng.normal(size=(50, 2))
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    assert aligned_rmse(truth @ rotation.T + [3.0, -1.0], truth) < 1e-12
+    assert aligned_rmse(truth + rng.normal(0, 0.1, truth.shape), truth) > 0.05
+
+
+def run(slam, world):
+    """Feed the world; return (aligned position RMSE, same for dead reckoning, association)."""
+    previous = world.steps[0].odometry
+    errors, dead_reckoning, checked, correct, seen = [], [], 0, 0, set()
+    for k, step in enumerate(world.steps[1:]):
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        report = slam.update(step.ranges, step.bearings, step.ids, stamp=float(k))
+        for j, label in enumerate(step.ids):
+            if label < 0:
+                continue
+            checked += 1
+            if report.is_new[j]:
+                correct += label not in seen
+            else:
+                correct += report.associated_ids[j] == label
+            seen.add(label)
+        errors.append(slam.best_pose()[:2])
+        dead_reckoning.append(step.odometry[:2])
+    truth = np.array([s.truth[:2] for s in world.steps[1:]])
+    return (aligned_rmse(np.array(errors), truth), aligned_rmse(np.array(dead_reckoning), truth),
+            correct / max(checked, 1))
+
+
+@pytest.mark.parametrize("algorithm", ["fastslam1", "fastslam2"])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_unknown_association_beats_dead_reckoning_and_associates_right(algorithm, seed):
+    world = make_world(seed=seed, num_steps=400, laps=2.0)
+    slam = FastSLAM(config(algorithm=algorithm, seed=seed, alpha2=0.0006, alpha3=0.005),
+                    initial_pose=world.steps[0].truth)
+    error, dead_reckoning, association = run(slam, world)
+    assert error < 0.3 * dead_reckoning, (error, dead_reckoning)
+    assert association >= 0.99
+    seen = set(np.concatenate([s.ids for s in world.steps]).tolist())
+    found = slam.best_map()
+    assert set(found.ids.tolist()) == seen
+    assert len(found) <= len(seen) + 1
+
+
+def test_clutter_is_eliminated_and_true_landmarks_stay():
+    world = make_world(seed=4, num_steps=300, clutter_per_step=0.35, detection_probability=0.95)
+    clutter = sum(np.sum(s.ids < 0) for s in world.steps)
+    total = world.num_observations
+    assert 0.03 < clutter / total < 0.08          # about 5 % of detections are clutter
+    # Negative evidence only well inside the sensor's 12 m reach (no edge effects).
+    slam = FastSLAM(config(algorithm="fastslam2", logodds_missed=-0.6, logodds_remove=-1.0,
+                           max_range=11.0), initial_pose=world.steps[0].truth)
+    run(slam, world)
+    # Landmarks confirmed at least once after their creation (clutter from the last few
+    # readings cannot have been refuted yet).
+    found = slam.best_map(min_existence=0.8)
+    spurious = np.sum(found.ids < 0)
+    assert spurious <= 0.05 * len(found)
+    seen = set(np.concatenate([s.ids for s in world.steps]).tolist()) - {-1}
+    assert set(found.ids[found.ids >= 0].tolist()) == seen
+    assert np.sum(slam.best_map().ids < 0) < clutter / 10   # most clutter is gone entirely
+
+
+def test_same_seed_same_estimate_and_different_seed_differs():
+    world = make_world(seed=5, num_steps=80)
+    results = []
+    for seed in (7, 7, 8):
+        slam = FastSLAM(config(seed=seed), initial_pose=world.steps[0].truth)
+        run(slam, world)
+        results.append(slam.poses.copy())
+    np.testing.assert_array_equal(results[0], results[1])
+    assert not np.allclose(results[0], results[2])
+
+
+def test_covariances_stay_symmetric_positive_definite_and_finite():
+    world = make_world(seed=6, num_steps=400, laps=3.0)
+    slam = FastSLAM(config(algorithm="fastslam2"), initial_pose=world.steps[0].truth)
+    run(slam, world)
+    assert np.all(np.isfinite(slam.poses)) and np.all(np.isfinite(slam.log_weights))
+    for particle in range(slam.num_particles):
+        _, cov, _, _, _ = slam.landmarks.particle_map(particle)
+        xx, xy, yy = cov[:, 0], cov[:, 1], cov[:, 2]
+        assert np.all(xx > 0) and np.all(xx * yy - xy * xy > 0)
+
+
+def test_far_outliers_stay_finite_in_log_space_and_total_underflow_is_reported():
+    slam = FastSLAM(config(association="known", num_particles=20), initial_pose=(0, 0, 0))
+    slam.update([5.0], [0.0], [1])
+    slam.predict((0, 0, 0), (0.1, 0, 0))
+    # An observation 1e5 sigma away from the known landmark: a linear-space likelihood would
+    # be exactly 0 for every particle; log weights stay finite.
+    report = slam.update([5.0e4], [0.0], [1])
+    assert not report.weights_underflow
+    assert np.all(np.isfinite(slam.log_weights)) and np.all(np.isfinite(slam.poses))
+    # If nothing finite is left (e.g. NaN from outside), weights reset to uniform, flagged.
+    slam.log_weights = np.full(20, -np.inf)
+    report = slam.update([5.0], [0.0], [1])
+    assert report.weights_underflow and slam.num_underflows == 1
+    np.testing.assert_allclose(slam.weights(), 1 / 20)
+
+
+def test_best_path_follows_the_best_particle_and_grows_per_update():
+    world = make_world(seed=7, num_steps=600, laps=3.0)
+    slam = FastSLAM(config(), initial_pose=world.steps[0].truth)
+    run(slam, world)
+    stamps, poses = slam.best_path()
+    assert len(stamps) == len(world.steps) - 1 == slam.num_updates
+    np.testing.assert_array_equal(stamps, np.arange(len(stamps), dtype=float))
+    np.testing.assert_allclose(poses[-1], slam.poses[slam.best_index()])
+    truth = np.array([s.truth for s in world.steps[1:]])
+    assert np.sqrt(np.mean(np.sum((poses[:, :2] - truth[:, :2]) ** 2, axis=1))) < 0.5
+    # Shared ancestry: far fewer stored poses than one path per particle.
+    assert len(slam.history) == slam.num_updates
+    stored = len(slam.history._chain_poses) + sum(len(p) for p in slam.history._poses)
+    assert stored < 0.15 * slam.num_particles * slam.num_updates
+
+
+def test_mean_pose_and_covariance_of_known_particles():
+    slam = FastSLAM(config(num_particles=4), initial_pose=(0, 0, 0))
+    slam.poses = np.array([[0, 0, np.pi - 0.1], [2, 0, -np.pi + 0.1], [0, 2, np.pi - 0.1],
+                           [2, 2, -np.pi + 0.1]], float)
+    mean, cov = slam.mean_pose_and_covariance()
+    np.testing.assert_allclose(mean, [1, 1, np.pi], atol=1e-12)
+    np.testing.assert_allclose(np.diag(cov), [1, 1, 0.01], atol=1e-12)
+
+
+def test_pending_odometry_is_reported_but_not_yet_sampled():
+    slam = FastSLAM(config(num_particles=5), initial_pose=(1.0, 2.0, 0.5))
+    slam.predict((0, 0, 0), (0.2, 0.0, 0.1))
+    np.testing.assert_allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
+    expected = [1.0 + 0.2 * np.cos(0.5), 2.0 + 0.2 * np.sin(0.5), 0.6]
+    np.testing.assert_allclose(slam.best_pose(), expected, atol=1e-12)
+    # Beyond max_pending_translation the motion is sampled at once.
+    slam.predict((0.2, 0.0, 0.1), (2.0, 0.0, 0.1))
+    assert not np.allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))

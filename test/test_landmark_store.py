@@ -1,0 +1,87 @@
+"""Copy-on-write landmark store: sharing after resampling, isolation of writes, overflow."""
+from __future__ import annotations
+
+import numpy as np
+
+from fastslam_ros.core.landmark_store import LandmarkStore
+
+
+def insert(store, particle, points, labels=None):
+    """Create landmarks for one particle through the working-set path the filter uses."""
+    ws = store.gather(np.full((store.num_particles, 0), -1, np.int64), len(points))
+    ws.mean[particle] = points
+    ws.cov[particle] = (0.1, 0.0, 0.1)
+    ws.valid[particle] = ws.is_new[particle] = True
+    if labels is not None:
+        ws.label[particle] = labels
+    store.scatter(ws, track_labels=labels is not None)
+
+
+def test_resampled_particles_share_blocks_until_one_writes():
+    store = LandmarkStore(4, cell_size=5.0)
+    points = np.array([[1.0, 1.0], [12.0, 3.0], [-7.0, 8.0]])
+    insert(store, 0, points)
+    rows_before = store.rows_in_use()
+    store.resample(np.zeros(4, np.int64))
+    assert store.rows_in_use() == rows_before          # shared, not copied
+    # Particle 2 moves its first landmark: only that block gets copied, and only for it.
+    columns = store.columns_in_box(np.array([-100, -100]), np.array([100, 100]))
+    ws = store.gather(np.broadcast_to(columns, (4, len(columns))), 0)
+    target = np.flatnonzero(np.all(ws.mean[2] == points[0], axis=1))[0]
+    ws.mean[2, target] = (1.5, 1.5)
+    ws.dirty[2, target] = True
+    store.scatter(ws, track_labels=False)
+    assert store.rows_in_use() == rows_before + 1
+    for particle in range(4):
+        mean = store.particle_map(particle)[0]
+        moved = np.any(np.all(mean == (1.5, 1.5), axis=1))
+        assert moved == (particle == 2)
+        assert len(mean) == 3
+
+
+def test_removed_landmark_disappears_only_for_its_particle():
+    store = LandmarkStore(3, cell_size=5.0)
+    insert(store, 0, np.array([[1.0, 1.0], [2.0, 2.0]]))
+    store.resample(np.zeros(3, np.int64))
+    columns = store.columns_in_box(np.array([-10, -10]), np.array([10, 10]))
+    ws = store.gather(np.broadcast_to(columns, (3, len(columns))), 0)
+    ws.valid[1, 0] = False
+    ws.dirty[1, 0] = True
+    store.scatter(ws, track_labels=False)
+    np.testing.assert_array_equal(store.landmark_counts(), [2, 1, 2])
+
+
+def test_full_cells_overflow_into_new_columns_and_keep_every_landmark():
+    store = LandmarkStore(2, cell_size=10.0, capacity=4)
+    rng = np.random.default_rng(0)
+    points = rng.uniform(0.0, 9.9, (11, 2))             # all in one cell
+    insert(store, 1, points)
+    assert store.num_cells == 3                          # ceil(11 / 4) columns for the cell
+    mean = store.particle_map(1)[0]
+    np.testing.assert_allclose(np.sort(mean[:, 0]), np.sort(points[:, 0]))
+    assert len(store.particle_map(0)[0]) == 0
+    keys = store.particle_map(1)[4]
+    assert len(np.unique(keys)) == 11
+
+
+def test_label_index_finds_landmarks_anywhere_and_forgets_removed_ones():
+    store = LandmarkStore(2, cell_size=5.0)
+    insert(store, 0, np.array([[1.0, 1.0], [40.0, -3.0]]), labels=np.array([7, 9]))
+    columns = store.label_columns(np.array([7, 9, 11]))
+    assert columns[0, 0] >= 0 and columns[0, 1] >= 0 and columns[0, 2] == -1
+    assert np.all(columns[1] == -1)
+    ws = store.gather(columns[:, :2], 0)
+    where = np.flatnonzero(ws.label[0] == 9)[0]
+    ws.valid[0, where] = False
+    ws.dirty[0, where] = True
+    store.scatter(ws, track_labels=True)
+    assert store.label_columns(np.array([9]))[0, 0] == -1
+
+
+def test_memory_grows_with_distinct_blocks_not_particles():
+    store = LandmarkStore(100, cell_size=10.0)
+    rng = np.random.default_rng(1)
+    insert(store, 0, rng.uniform(-500, 500, (5000, 2)))
+    store.resample(np.zeros(100, np.int64))
+    record = 6 * 8 + 2 * 8 + 1
+    assert store.nbytes() < 0.2 * 100 * 5000 * record

@@ -1,0 +1,183 @@
+"""Motion and observation models, the landmark EKF and the 2.0 proposal against independent math."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
+from fastslam_ros.core.landmark_ekf import (initialize_landmarks, pack, unpack,
+                                            update_landmarks)
+from fastslam_ros.core.motion import (OdometryControl, apply_control, control_variances,
+                                      motion_covariance, sample_motion)
+from fastslam_ros.core.observation import (SensorOffset, inverse_observe, jacobians, observe)
+from fastslam_ros.core.proposal import (information_form_proposal, refine_proposal,
+                                        sample_pose)
+
+OFFSETS = [SensorOffset(), SensorOffset(0.4, -0.2, 0.3), SensorOffset(3.78, 0.5, -np.pi / 2)]
+
+
+def test_wrap_angle_range_and_identity():
+    angles = np.linspace(-20, 20, 10001)
+    wrapped = wrap_angle(angles)
+    assert np.all(wrapped > -np.pi) and np.all(wrapped <= np.pi)
+    np.testing.assert_allclose(np.sin(wrapped), np.sin(angles), atol=1e-12)
+    np.testing.assert_allclose(np.cos(wrapped), np.cos(angles), atol=1e-12)
+    assert wrap_angle(np.pi) == pytest.approx(np.pi)
+    assert wrap_angle(-np.pi) == pytest.approx(np.pi)
+
+
+def test_compose_and_relative_pose_are_inverse():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(-5, 5, (50, 3))
+    b = rng.uniform(-5, 5, (50, 3))
+    np.testing.assert_allclose(compose(a, relative_pose(a, b)), wrap_pose(b), atol=1e-12)
+
+
+def wrap_pose(p):
+    return np.column_stack([p[:, :2], wrap_angle(p[:, 2])])
+
+
+@pytest.mark.parametrize("offset", OFFSETS)
+def test_jacobians_match_finite_differences(offset):
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        pose = rng.uniform([-3, -3, -np.pi], [3, 3, np.pi])
+        landmark = pose[:2] + rng.uniform(2, 8) * np.array([np.cos(a := rng.uniform(-3, 3)),
+                                                            np.sin(a)])
+        g_s, g_m = jacobians(pose, landmark, offset)
+        eps = 1e-6
+        for i in range(3):
+            d = np.zeros(3)
+            d[i] = eps
+            diff = observe(pose + d, landmark, offset) - observe(pose - d, landmark, offset)
+            diff[1] = wrap_angle(diff[1])
+            np.testing.assert_allclose(g_s[:, i], diff / (2 * eps), atol=1e-6)
+        for i in range(2):
+            d = np.zeros(2)
+            d[i] = eps
+            diff = observe(pose, landmark + d, offset) - observe(pose, landmark - d, offset)
+            diff[1] = wrap_angle(diff[1])
+            np.testing.assert_allclose(g_m[:, i], diff / (2 * eps), atol=1e-6)
+
+
+@pytest.mark.parametrize("offset", OFFSETS)
+def test_inverse_observation_round_trips(offset):
+    rng = np.random.default_rng(2)
+    poses = rng.uniform([-3, -3, -np.pi], [3, 3, np.pi], (100, 3))
+    ranges = rng.uniform(0.5, 30, 100)
+    bearings = rng.uniform(-np.pi, np.pi, 100)
+    landmarks = inverse_observe(poses, ranges, bearings, offset)
+    z = observe(poses, landmarks, offset)
+    np.testing.assert_allclose(z[:, 0], ranges, atol=1e-9)
+    np.testing.assert_allclose(wrap_angle(z[:, 1] - bearings), 0.0, atol=1e-9)
+
+
+def test_odometry_decomposition_reproduces_the_motion_and_handles_reversing():
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        start = rng.uniform([-3, -3, -np.pi], [3, 3, np.pi])
+        delta = rng.uniform([-1, -1, -1], [1, 1, 1])
+        u = OdometryControl.from_delta(delta)
+        moved = apply_control(start[None], u.rot1, u.trans, u.rot2)[0]
+        np.testing.assert_allclose(wrap_pose(moved[None]), wrap_pose(compose(start, delta)[None]),
+                                   atol=1e-12)
+        assert abs(u.rot1) <= np.pi / 2 + 1e-12
+    backwards = OdometryControl.from_delta([-1.0, 0.0, 0.0])
+    assert backwards.trans == pytest.approx(-1.0) and backwards.rot1 == pytest.approx(0.0)
+
+
+def test_gaussian_motion_covariance_matches_sampled_spread():
+    rng = np.random.default_rng(4)
+    pose = np.array([[1.0, 2.0, 0.3]])
+    u = OdometryControl(0.1, 0.8, -0.05)
+    var = control_variances(u, (0.05, 0.01, 0.05, 0.01), 1e-3, 1e-3)
+    samples = sample_motion(np.repeat(pose, 200000, 0), u, var, rng.standard_normal((200000, 3)))
+    mean = apply_control(pose, u.rot1, u.trans, u.rot2)[0]
+    deviation = samples - mean
+    deviation[:, 2] = wrap_angle(deviation[:, 2])
+    empirical = deviation.T @ deviation / len(samples)
+    np.testing.assert_allclose(empirical, motion_covariance(pose, u, var)[0], rtol=0.05,
+                               atol=2e-5)
+
+
+def test_landmark_initialization_covariance_is_the_linearized_inverse():
+    pose = np.array([[0.5, -1.0, 0.4]])
+    offset = SensorOffset(0.3, 0.1, 0.2)
+    noise = np.array([0.04, 0.001])
+    mean, cov = initialize_landmarks(pose, np.array([5.0]), np.array([0.3]), offset, noise)
+    _, g_m = jacobians(pose[0], mean[0], offset)
+    g_inv = np.linalg.inv(g_m)
+    np.testing.assert_allclose(unpack(cov)[0], g_inv @ np.diag(noise) @ g_inv.T, rtol=1e-10)
+
+
+def test_landmark_ekf_update_matches_textbook_joseph_form():
+    rng = np.random.default_rng(5)
+    offset = SensorOffset(0.2, 0.1, -0.1)
+    noise = np.array([0.01, 0.0004])
+    poses = rng.uniform([-1, -1, -np.pi], [1, 1, np.pi], (30, 3))
+    landmarks = poses[:, :2] + rng.uniform(3, 6, (30, 2))
+    a = rng.normal(size=(30, 2, 2))
+    covs = a @ a.transpose(0, 2, 1) * 0.1 + 0.01 * np.eye(2)
+    z = observe(poses, landmarks, offset) + rng.normal(0, [0.1, 0.02], (30, 2))
+    new_mean, new_cov = update_landmarks(poses, landmarks, pack(covs), z[:, 0], z[:, 1], offset,
+                                         noise)
+    for i in range(30):
+        _, g = jacobians(poses[i], landmarks[i], offset)
+        q = g @ covs[i] @ g.T + np.diag(noise)
+        k = covs[i] @ g.T @ np.linalg.inv(q)
+        nu = z[i] - observe(poses[i], landmarks[i], offset)
+        nu[1] = wrap_angle(nu[1])
+        np.testing.assert_allclose(new_mean[i], landmarks[i] + k @ nu, atol=1e-12)
+        expected = (np.eye(2) - k @ g) @ covs[i]
+        np.testing.assert_allclose(unpack(new_cov)[i], expected, atol=1e-12)
+
+
+def test_landmark_ekf_is_consistent_nees_over_seeds():
+    """A landmark seen repeatedly from known poses: NEES averages to 2 (chi-square, 2 dof)."""
+    offset = SensorOffset(0.1, 0.0, 0.0)
+    noise = np.array([0.1 ** 2, 0.02 ** 2])
+    runs = 400
+    rng = np.random.default_rng(6)
+    truth = np.array([6.0, 3.0])
+    poses = np.column_stack([np.linspace(0, 4, 10), np.zeros(10), np.linspace(0, 0.5, 10)])
+    nees = []
+    for _ in range(runs):
+        z0 = observe(poses[0], truth, offset) + rng.normal(0, np.sqrt(noise))
+        mean, cov = initialize_landmarks(poses[:1], z0[:1], z0[1:], offset, noise)
+        for pose in poses[1:]:
+            z = observe(pose, truth, offset) + rng.normal(0, np.sqrt(noise))
+            mean, cov = update_landmarks(pose[None], mean, cov, z[:1], z[1:], offset, noise)
+        error = mean[0] - truth
+        nees.append(error @ np.linalg.inv(unpack(cov)[0]) @ error)
+    # Mean of 400 chi2(2) draws: 2 +- 3 sigma (sigma = 2 / sqrt(400) = 0.1).
+    assert 1.7 < np.mean(nees) < 2.3
+
+
+def test_proposal_kalman_form_equals_information_form():
+    rng = np.random.default_rng(7)
+    n = 40
+    mean = rng.normal(size=(n, 3))
+    a = rng.normal(size=(n, 3, 3))
+    cov = a @ a.transpose(0, 2, 1) * 0.01 + 1e-3 * np.eye(3)
+    g_s = rng.normal(size=(n, 2, 3))
+    b = rng.normal(size=(n, 2, 2))
+    q = b @ b.transpose(0, 2, 1) * 0.01 + 1e-3 * np.eye(2)
+    nu = rng.normal(size=(n, 2)) * 0.1
+    new_mean, new_cov, log_w = refine_proposal(mean, cov, g_s, nu, pack(q))
+    info_mean, info_cov = information_form_proposal(mean, cov, g_s, nu, q)
+    np.testing.assert_allclose(new_mean, info_mean, atol=1e-10)
+    np.testing.assert_allclose(new_cov, info_cov, atol=1e-10)
+    big_l = g_s @ cov @ g_s.transpose(0, 2, 1) + q
+    expected = [(-0.5 * v @ np.linalg.inv(l) @ v - np.log(2 * np.pi)
+                 - 0.5 * np.log(np.linalg.det(l))) for v, l in zip(nu, big_l)]
+    np.testing.assert_allclose(log_w, expected, atol=1e-10)
+
+
+def test_sample_pose_has_the_requested_covariance_even_when_singular():
+    rng = np.random.default_rng(8)
+    a = np.array([[0.2, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.0, 0.05]])
+    cov = a @ a.T   # rank 2
+    samples = sample_pose(np.zeros((100000, 3)), np.repeat(cov[None], 100000, 0),
+                          rng.standard_normal((100000, 3)))
+    assert np.all(np.isfinite(samples))
+    np.testing.assert_allclose(samples.T @ samples / 100000, cov, atol=3e-4)
