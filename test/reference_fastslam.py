@@ -132,6 +132,7 @@ class ReferenceFastSLAM:
         # Association of every observation, every particle, at the pre-update pose.
         choice = [[None] * self.M for _ in range(K)]
         factor = [[0.0] * self.M for _ in range(K)]
+        all_scores = [[None] * self.M for _ in range(K)]
         for m in range(self.M):
             pose = motion[m][0] if motion else self.poses[m]
             pose_cov = motion[m][1] if motion else None
@@ -146,9 +147,11 @@ class ReferenceFastSLAM:
                     nu[1] = wrap(nu[1])
                     maha = float(nu @ np.linalg.inv(s_cov) @ nu)
                     scores.append((n, log_gauss(nu, s_cov), maha))
+                all_scores[j][m] = scores
                 choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
+            if c.association == "ml":
+                self._exclusive(all_scores, choice, factor, m, K)
 
-        new_landmarks = [dict() for _ in range(self.M)]
         for m in range(self.M):
             if motion:
                 mean, cov = motion[m]
@@ -180,10 +183,13 @@ class ReferenceFastSLAM:
         for m in range(self.M):
             before = {id(lm) for lm in self.maps[m]}
             observed = set()
+            created_by_label = {}
             for j, z in enumerate(z_all):
                 n = choice[j][m]
-                if isinstance(n, int):
-                    lm = self.maps[m][n]
+                if n == "new" and c.association == "known" and labels[j] in created_by_label:
+                    n = created_by_label[labels[j]]     # repeated id: update what it created
+                if isinstance(n, (int, dict)):
+                    lm = self.maps[m][n] if isinstance(n, int) else n
                     z_hat, _, g_m = measure(self.poses[m], lm["mean"], self.offset)
                     q = g_m @ lm["cov"] @ g_m.T + self.R
                     gain = lm["cov"] @ g_m.T @ np.linalg.inv(q)
@@ -206,7 +212,7 @@ class ReferenceFastSLAM:
                     lm = dict(mean=mean, cov=g_inv @ self.R @ g_inv.T,
                               logodds=c.logodds_observed, label=int(labels[j]))
                     self.maps[m].append(lm)
-                    new_landmarks[m][j] = lm
+                    created_by_label[int(labels[j])] = lm
             survivors = []
             for lm in self.maps[m]:
                 if id(lm) in before and id(lm) not in observed and c.logodds_missed != 0.0:
@@ -234,6 +240,25 @@ class ReferenceFastSLAM:
             self.poses = [self.poses[i].copy() for i in indices]
             self.maps = [copy.deepcopy(self.maps[i]) for i in indices]
             self.log_w = [-math.log(self.M)] * self.M
+
+    def _exclusive(self, all_scores, choice, factor, m, K):
+        """One landmark per reading: the most likely observation keeps it, the rest re-pick."""
+        removed = [set() for _ in range(K)]
+        while True:
+            claims = {}
+            for j in range(K):
+                if isinstance(choice[j][m], int):
+                    claims.setdefault(choice[j][m], []).append(j)
+            losers = []
+            for n, js in claims.items():
+                winner = max(js, key=lambda j: (factor[j][m], -j))
+                losers += [(j, n) for j in js if j != winner]
+            if not losers:
+                return
+            for j, n in losers:
+                removed[j].add(n)
+                remaining = [s for s in all_scores[j][m] if s[0] not in removed[j]]
+                choice[j][m], factor[j][m] = self._choose(remaining, m, j, None, None)
 
     def _choose(self, scores, m, j, label, uniforms):
         """(landmark index | 'new' | 'ignore', log factor)."""

@@ -164,3 +164,16 @@ def test_pending_odometry_is_reported_but_not_yet_sampled():
     # Beyond max_pending_translation the motion is sampled at once.
     slam.predict((0.2, 0.0, 0.1), (2.0, 0.0, 0.1))
     assert not np.allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
+
+
+def test_known_id_seen_twice_in_one_reading_makes_one_landmark():
+    slam = FastSLAM(config(association="known", num_particles=10), initial_pose=(0, 0, 0))
+    report = slam.update([5.0, 5.05], [0.1, 0.1], [3, 3])
+    found = slam.best_map()
+    assert len(found) == 1 and found.ids[0] == 3
+    assert list(report.is_new) == [True, False] and list(report.associated_ids) == [-1, 3]
+    single = FastSLAM(config(association="known", num_particles=10), initial_pose=(0, 0, 0))
+    single.update([5.0], [0.1], [3])
+    # The second observation was fused: the covariance shrank below a single initialisation.
+    assert np.linalg.det(found.covariances[0]) < 0.75 * np.linalg.det(
+        single.best_map().covariances[0])

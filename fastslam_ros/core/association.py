@@ -48,6 +48,33 @@ def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):
     return np.where(is_new, NEW, best), np.where(is_new, log_p0, best_log_lik)
 
 
+def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray,
+                                           candidate_columns: np.ndarray, num_particles: int,
+                                           log_p0: float):
+    """Maximum likelihood where a landmark takes at most one observation of a reading.
+
+    Rows are (observation, particle) pairs, observation-major; ``candidate_columns`` names the
+    landmark behind each candidate. In rounds, every observation picks its most likely
+    remaining candidate (or new, below p0); when several observations of one particle pick the
+    same landmark, the most likely keeps it (ties: the earlier observation) and the others
+    drop it and pick again. A point landmark gives at most one detection per reading, so this
+    keeps two nearby landmarks from collapsing into one.
+    """
+    log_lik = candidate_log_lik.copy()
+    particle = np.arange(len(log_lik)) % num_particles
+    while True:
+        pick, log_factor = associate_maximum_likelihood(log_lik, log_p0)
+        rows = np.flatnonzero(pick >= 0)
+        landmark = candidate_columns[rows, pick[rows]]
+        key = particle[rows] * (int(landmark.max(initial=0)) + 1) + landmark
+        order = np.lexsort((rows, -log_factor[rows], key))
+        sorted_key = key[order]
+        losers = rows[order[1:][sorted_key[1:] == sorted_key[:-1]]]
+        if len(losers) == 0:
+            return pick, log_factor
+        log_lik[losers, pick[losers]] = -np.inf
+
+
 def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
                           rng: np.random.Generator):
     """Sample the association in proportion to the likelihoods (p0 for a new landmark).

@@ -260,17 +260,19 @@ class FastSLAM:
         log_lik = np.where(valid, log_lik, -np.inf).transpose(1, 0, 2).reshape(shape)
         mahalanobis = np.where(valid, mahalanobis, np.inf).transpose(1, 0, 2).reshape(shape)
         mode = config.association
-        if mode == "known" or mode == "ml":
-            # Known ids: the only candidate is the landmark carrying the id, if any.
-            pick, log_factor = assoc.associate_maximum_likelihood(
-                log_lik, -np.inf if mode == "known" else self._log_p0)
+        candidates = candidates.transpose(1, 0, 2).reshape(shape)
+        if mode == "known":
+            # The only candidate is the landmark carrying the id, if the particle has one.
+            pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
+        elif mode == "ml":
+            pick, log_factor = assoc.associate_exclusive_maximum_likelihood(
+                log_lik, candidates, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
             pick, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
         else:
             pick, log_factor = assoc.associate_two_gates(
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
-        candidates = candidates.transpose(1, 0, 2).reshape(shape)
         rows = np.flatnonzero(pick >= 0)
         choice = pick.copy()
         choice[rows] = candidates[rows, pick[rows]]
@@ -286,54 +288,47 @@ class FastSLAM:
         Returns the observation's log weight factors N(z; z_hat, L) at the refined-so-far
         proposal (p0 / 1 for new / ignored, unchanged), and the new proposal mean and cov.
         """
-        rows = np.flatnonzero(choice >= 0)
-        if cov is None or len(rows) == 0:
+        associated = choice >= 0
+        if cov is None or not associated.any():
             return log_factor, mean, cov
+        everyone = associated.all()
+        rows = slice(None) if everyone else np.flatnonzero(associated)
         slot = choice[rows]
-        t = observation_terms(mean[rows, 0], mean[rows, 1], mean[rows, 2],
-                              ws.mean[rows, slot, 0], ws.mean[rows, slot, 1], self.offset)
-        landmark_term = landmark_covariance_in_measurement_space(t, ws.cov[rows, slot],
+        landmark = ws.state[np.arange(self.num_particles)[rows], slot]
+        sub_mean = mean[rows]
+        t = observation_terms(sub_mean[:, 0], sub_mean[:, 1], sub_mean[:, 2],
+                              landmark[:, 0], landmark[:, 1], self.offset)
+        landmark_term = landmark_covariance_in_measurement_space(t, landmark[:, COV],
                                                                  self.noise_diag)
         innovation = np.stack([z_range - t.range, wrap_angle(z_bearing - t.bearing)], -1)
+        refined = refine_proposal(sub_mean, cov[rows], pose_jacobian(t), innovation,
+                                  landmark_term)
+        if everyone:
+            return refined[2], refined[0], refined[1]
         mean, cov, log_factor = mean.copy(), cov.copy(), log_factor.copy()
-        mean[rows], cov[rows], log_factor[rows] = refine_proposal(
-            mean[rows], cov[rows], pose_jacobian(t), innovation, landmark_term)
+        mean[rows], cov[rows], log_factor[rows] = refined
         return log_factor, mean, cov
 
     def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
                       ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> None:
-        """EKF updates of the associated landmarks and new landmarks for all observations.
+        """New landmarks, then EKF updates of the associated ones, for all observations.
 
-        All (observation, particle) pairs are processed in one batch; a landmark that two
-        observations of the reading hit is updated by them in turn (one batch per repeat).
-        ``choices`` (K, M) is updated in place: new landmarks get the column they were put in.
+        ``choices`` (K, M) is updated in place: a new landmark's particles get the column it was
+        put in. With known ids, a repeated id in one reading updates the landmark that its
+        first observation created. All (observation, particle) pairs are updated in one batch;
+        a landmark that several observations hit is updated by them in turn.
         """
         config = self.config
-        obs, particle = np.nonzero(choices >= 0)
-        if len(obs):
-            slot = choices[obs, particle]
-            pair = particle * ws.valid.shape[1] + slot
-            order = np.lexsort((obs, pair))
-            obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
-            first = np.r_[True, pair[1:] != pair[:-1]]
-            repeat = np.arange(len(pair)) - np.maximum.accumulate(
-                np.where(first, np.arange(len(pair)), 0))
-            for rank in range(int(repeat.max()) + 1):
-                batch = repeat == rank
-                p, s, j = particle[batch], slot[batch], obs[batch]
-                state = ws.state[p, s]
-                state[:, MEAN], state[:, COV] = update_landmarks(
-                    self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
-                    self.offset, self.noise_diag)
-                ws.state[p, s] = state
-            np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
-            ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot],
-                                                    config.logodds_max)
-            ws.dirty[particle, slot] = True
-            observed[particle, slot] = True
+        first_new = ws.first_new_slot
+        count = len(ranges)
+        if config.association == "known" and count > 1:
+            _, first_index, inverse = np.unique(labels, return_index=True, return_inverse=True)
+            creator = first_index[inverse.reshape(-1)]
+            repeated = (creator != np.arange(count))[:, None] & (choices == assoc.NEW)
+            choices[repeated] = np.broadcast_to(first_new + creator[:, None], choices.shape)[repeated]
         obs, particle = np.nonzero(choices == assoc.NEW)
         if len(obs):
-            slot = ws.first_new_slot + obs
+            slot = first_new + obs
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
                 self.poses[particle], ranges[obs], bearings[obs], self.offset, self.noise_diag)
             ws.logodds[particle, slot] = config.logodds_observed
@@ -342,6 +337,29 @@ class FastSLAM:
             ws.is_new[particle, slot] = True
             observed[particle, slot] = True
             choices[obs, particle] = slot
+        created = first_new + np.arange(count)[:, None]
+        obs, particle = np.nonzero((choices >= 0) & (choices != created))
+        if len(obs) == 0:
+            return
+        slot = choices[obs, particle]
+        pair = particle * ws.valid.shape[1] + slot
+        order = np.lexsort((obs, pair))
+        obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
+        first = np.r_[True, pair[1:] != pair[:-1]]
+        repeat = np.arange(len(pair)) - np.maximum.accumulate(
+            np.where(first, np.arange(len(pair)), 0))
+        for rank in range(int(repeat.max()) + 1):
+            batch = repeat == rank
+            p, s, j = particle[batch], slot[batch], obs[batch]
+            state = ws.state[p, s]
+            state[:, MEAN], state[:, COV] = update_landmarks(
+                self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
+                self.offset, self.noise_diag)
+            ws.state[p, s] = state
+        np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
+        ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot], config.logodds_max)
+        ws.dirty[particle, slot] = True
+        observed[particle, slot] = True
 
     def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""

@@ -64,10 +64,10 @@ def landmark_jacobian(t: ObservationTerms) -> np.ndarray:
 def pose_jacobian(t: ObservationTerms) -> np.ndarray:
     """G_s = dh/ds, shape (..., 2, 3); the sensor lever arm makes theta enter both rows."""
     r = t.range
-    row_range = np.stack([-t.dx / r, -t.dy / r, (t.dx * t.lever_y - t.dy * t.lever_x) / r], -1)
-    row_bearing = np.stack([t.dy / t.q, -t.dx / t.q,
-                            -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0], -1)
-    return np.stack([row_range, row_bearing], -2)
+    entries = np.stack([-t.dx / r, -t.dy / r, (t.dx * t.lever_y - t.dy * t.lever_x) / r,
+                        t.dy / t.q, -t.dx / t.q, -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0],
+                       -1)
+    return entries.reshape(entries.shape[:-1] + (2, 3))
 
 
 def jacobians(pose, landmark, offset: SensorOffset = SensorOffset()):

@@ -1,0 +1,94 @@
+"""``fastslam-convert KIND SRC --out BAG``: public datasets -> bag schema v1.
+
+KIND is ``mrclam`` (UTIAS MRCLAM, one robot), ``victoria-park`` (ACFR Victoria Park,
+``rfs_slam_txt``) or ``freiburg`` (Freiburg "Robot Mapping" course world). ``--calibrate``
+prints the noise parameters estimated from the data (MRCLAM, Freiburg) instead of converting.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fastslam_ros.tools.converters import Recording, freiburg, mrclam, victoria_park
+
+KINDS = ("mrclam", "victoria-park", "freiburg")
+
+
+def load_recording(kind: str, source: Path | str, robot: int = 1, use_ids: bool = True
+                   ) -> Recording:
+    """Parse a dataset folder of the given kind."""
+    if kind == "mrclam":
+        return mrclam.load_mrclam(source, robot, use_ids=use_ids)
+    if kind == "victoria-park":
+        return victoria_park.load_victoria_park(source)
+    if kind == "freiburg":
+        return freiburg.load_freiburg(source)
+    raise ValueError(f"kind: must be one of {KINDS} (got {kind!r})")
+
+
+def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_ids: bool = True,
+            duration: float | None = None, storage: str = "mcap", overwrite: bool = False
+            ) -> Recording:
+    """Convert a dataset to a schema-v1 bag at ``out``; return the recording written."""
+    from fastslam_ros.tools.bag_schema import write_schema_bag
+
+    recording = load_recording(kind, source, robot, use_ids)
+    if duration is not None:
+        recording = recording.head(duration)
+    write_schema_bag(out, recording.to_schema_bag(), storage=storage, overwrite=overwrite)
+    return recording
+
+
+def calibrate(kind: str, source: Path | str) -> dict[str, float]:
+    """Noise parameters estimated from the data (``mrclam``: all robots against Vicon)."""
+    if kind == "mrclam":
+        return mrclam.calibrate(source)
+    if kind == "freiburg":
+        return freiburg.calibrate(source)
+    raise ValueError(f"--calibrate: not available for {kind} (it has no full ground truth)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="fastslam-convert", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("kind", choices=KINDS, help="dataset family")
+    parser.add_argument("source", type=Path, help="dataset folder (e.g. MRCLAM_Dataset6)")
+    parser.add_argument("--out", type=Path, help="output bag folder (required unless --calibrate)")
+    parser.add_argument("--robot", type=int, default=1, help="MRCLAM robot number 1-5 (default 1)")
+    parser.add_argument("--no-ids", action="store_true",
+                        help="write landmark ids as -1 (MRCLAM; Victoria Park never has ids)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="keep only the first DURATION seconds")
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output bag")
+    parser.add_argument("--calibrate", action="store_true",
+                        help="print noise parameters estimated from the data and exit")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if not args.source.exists():
+        print(f"fastslam-convert: {args.source}: no such folder", file=sys.stderr)
+        return 2
+    try:
+        if args.calibrate:
+            for name, value in calibrate(args.kind, args.source).items():
+                print(f"{name}: {value:.6g}")
+            return 0
+        if args.out is None:
+            print("fastslam-convert: --out is required", file=sys.stderr)
+            return 2
+        recording = convert(args.kind, args.source, args.out, args.robot, not args.no_ids,
+                            args.duration, args.storage, args.overwrite)
+    except (OSError, ValueError) as error:
+        print(f"fastslam-convert: {error}", file=sys.stderr)
+        return 1
+    print(recording.summary())
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

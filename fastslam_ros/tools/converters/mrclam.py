@@ -1,0 +1,224 @@
+"""UTIAS MRCLAM (multi-robot cooperative localization and mapping) -> one robot's recording.
+
+Two layouts of the same files are read, detected from the time stamps:
+
+* ``distributed``: the files as released (Unix-epoch times, ``#`` headers, CRLF, tabs);
+* ``resampled``: the output of the dataset's own 50 Hz sampling tools (times from 0, no
+  headers, spaces); rows with a negative time (before the common start) are dropped.
+
+Odometry poses integrate the logged (v, omega) commands with exact arcs, starting at the
+ground-truth pose at the first odometry time, so the map and odom frames coincide at the start.
+Each measurement time becomes one scan of points x = r cos(b), y = r sin(b) in the robot frame,
+labelled with the landmark's subject id (barcode -> subject through ``Barcodes.dat``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
+                                           polar_to_points, read_table, robust_std, wrap_angle)
+
+EPOCH_THRESHOLD = 1.0e8
+"""Stamps above this (s) are Unix-epoch times of the distributed files."""
+GLITCH_WINDOW = 7
+"""Samples in the running median that Vicon glitches are detected against."""
+GLITCH_POSITION = 0.10
+"""A ground-truth sample farther than this (m) from its running median is a glitch."""
+GLITCH_HEADING = 0.30
+"""Same bound for the heading (rad)."""
+
+
+def detect_variant(folder: Path | str, robot: int) -> str:
+    """``"distributed"`` (epoch times) or ``"resampled"`` (times from 0) for this robot's files."""
+    odometry = read_table(Path(folder) / f"Robot{robot}_Odometry.dat", 3)
+    return "distributed" if odometry[0, 0] > EPOCH_THRESHOLD else "resampled"
+
+
+def _read_timed(path: Path, columns: int) -> tuple[np.ndarray, int]:
+    """Rows of a time-stamped file sorted by time, without negative times; and the dropped count."""
+    table = read_table(path, columns)
+    keep = table[:, 0] >= 0.0
+    table = table[keep]
+    return table[np.argsort(table[:, 0], kind="stable")], int(np.count_nonzero(~keep))
+
+
+def load_barcodes(folder: Path | str) -> dict[int, int]:
+    """Barcode number -> subject id."""
+    table = read_table(Path(folder) / "Barcodes.dat", 2).astype(int)
+    return {int(barcode): int(subject) for subject, barcode in table}
+
+
+def load_landmarks(folder: Path | str) -> tuple[np.ndarray, np.ndarray]:
+    """Landmark truth: positions (L, 2) in the Vicon (map) frame and subject ids (L,)."""
+    table = read_table(Path(folder) / "Landmark_Groundtruth.dat", 3)
+    return table[:, 1:3].copy(), table[:, 0].astype(np.int32)
+
+
+def remove_vicon_glitches(poses: np.ndarray) -> np.ndarray:
+    """Boolean mask of the ground-truth samples to keep (isolated jumps removed).
+
+    A sample is a glitch when its position or heading is far from the running median of its
+    neighbours: a real motion moves the median with it, an isolated jump does not.
+    """
+    from scipy.ndimage import median_filter
+
+    size = min(GLITCH_WINDOW, len(poses)) | 1
+    median_x = median_filter(poses[:, 0], size=size, mode="nearest")
+    median_y = median_filter(poses[:, 1], size=size, mode="nearest")
+    cos_median = median_filter(np.cos(poses[:, 2]), size=size, mode="nearest")
+    sin_median = median_filter(np.sin(poses[:, 2]), size=size, mode="nearest")
+    position_error = np.hypot(poses[:, 0] - median_x, poses[:, 1] - median_y)
+    heading_error = np.abs(wrap_angle(poses[:, 2] - np.arctan2(sin_median, cos_median)))
+    return (position_error <= GLITCH_POSITION) & (heading_error <= GLITCH_HEADING)
+
+
+def load_ground_truth(folder: Path | str, robot: int) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+    """Vicon poses of one robot without glitches: stamps (T,), poses (T, 3), dropped counts."""
+    table, negative = _read_timed(Path(folder) / f"Robot{robot}_Groundtruth.dat", 4)
+    keep = remove_vicon_glitches(table[:, 1:4])
+    poses = table[keep, 1:4]
+    poses[:, 2] = wrap_angle(poses[:, 2])
+    counts = {"ground_truth_dropped_negative_time": negative,
+              "ground_truth_dropped_glitches": int(np.count_nonzero(~keep))}
+    return table[keep, 0], poses, counts
+
+
+def interpolate_poses(stamps: np.ndarray, poses: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Poses linearly interpolated at ``at`` (heading unwrapped first; clamped at the ends)."""
+    heading = np.unwrap(poses[:, 2])
+    return np.column_stack((np.interp(at, stamps, poses[:, 0]), np.interp(at, stamps, poses[:, 1]),
+                            wrap_angle(np.interp(at, stamps, heading))))
+
+
+def load_odometry(folder: Path | str, robot: int, start_pose: np.ndarray | None = None,
+                  ground_truth: tuple[np.ndarray, np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Odometry of one robot: stamps (N,), integrated poses (N, 3), commands (N, 2), negatives dropped.
+
+    The integration starts at ``start_pose``, else at the ground truth interpolated at the first
+    odometry time, else at the origin.
+    """
+    table, negative = _read_timed(Path(folder) / f"Robot{robot}_Odometry.dat", 3)
+    stamps, commands = table[:, 0], table[:, 1:3]
+    if start_pose is None:
+        start_pose = (interpolate_poses(*ground_truth, stamps[:1])[0] if ground_truth is not None
+                      else np.zeros(3))
+    poses = integrate_unicycle(stamps, commands[:, 0], commands[:, 1], np.asarray(start_pose, float))
+    return stamps, poses, commands, negative
+
+
+def load_measurements(folder: Path | str, robot: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    """Landmark measurements of one robot: stamps, subject ids, ranges, bearings, dropped counts.
+
+    Barcodes of robots and barcodes absent from ``Barcodes.dat`` are dropped and counted.
+    """
+    folder = Path(folder)
+    table, negative = _read_timed(folder / f"Robot{robot}_Measurement.dat", 4)
+    barcode_to_subject = load_barcodes(folder)
+    _, landmark_subjects = load_landmarks(folder)
+    barcodes = table[:, 1].astype(int)
+    subjects = np.array([barcode_to_subject.get(b, -1) for b in np.unique(barcodes)])
+    subject_of_row = subjects[np.searchsorted(np.unique(barcodes), barcodes)]
+    known = subject_of_row >= 0
+    is_landmark = np.isin(subject_of_row, landmark_subjects)
+    counts = {"measurements_read": int(len(table) + negative),
+              "measurements_dropped_negative_time": negative,
+              "measurements_dropped_robot_barcodes": int(np.count_nonzero(known & ~is_landmark)),
+              "measurements_dropped_unknown_barcodes": int(np.count_nonzero(~known))}
+    rows = table[is_landmark]
+    return (rows[:, 0], subject_of_row[is_landmark].astype(np.int32), rows[:, 2],
+            wrap_angle(rows[:, 3]), counts)
+
+
+def load_mrclam(folder: Path | str, robot: int, use_ids: bool = True) -> Recording:
+    """Convert one robot of an MRCLAM dataset folder (either variant) to a :class:`Recording`."""
+    folder = Path(folder)
+    gt_stamps, gt_poses, counts = load_ground_truth(folder, robot)
+    odom_stamps, odom_poses, _, negative = load_odometry(folder, robot,
+                                                         ground_truth=(gt_stamps, gt_poses))
+    meas_stamps, subjects, ranges, bearings, meas_counts = load_measurements(folder, robot)
+    labels = subjects if use_ids else np.full_like(subjects, -1)
+    scan_stamps, scan_points, scan_ids = group_by_stamp(
+        meas_stamps, polar_to_points(ranges, bearings), labels)
+    landmark_positions, landmark_ids = load_landmarks(folder)
+    counts = {"variant": detect_variant(folder, robot),
+              "odometry_dropped_negative_time": negative, **counts, **meas_counts}
+    return Recording(odom_stamps, odom_poses, scan_stamps, scan_points, scan_ids,
+                     gt_stamps, gt_poses, False, landmark_positions, landmark_ids, counts)
+
+
+def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
+              step: float = 1.0) -> dict[str, float]:
+    """Noise parameters of the MRCLAM setup, estimated against the Vicon ground truth.
+
+    * sigma_range, sigma_bearing: robust std (MAD) of the measurement residuals, the range and
+      bearing predicted from the interpolated Vicon pose and the landmark truth.
+    * alpha1..alpha4: the odometry (rot1, trans, rot2) of ``step``-second increments compared
+      with the Vicon increments (see :func:`fit_alphas`).
+    """
+    folder = Path(folder)
+    range_residuals, bearing_residuals, odometry_steps, true_steps = [], [], [], []
+    positions, ids = load_landmarks(folder)
+    for robot in robots:
+        gt_stamps, gt_poses, _ = load_ground_truth(folder, robot)
+        stamps, subjects, ranges, bearings, _ = load_measurements(folder, robot)
+        inside = (stamps >= gt_stamps[0]) & (stamps <= gt_stamps[-1])
+        poses = interpolate_poses(gt_stamps, gt_poses, stamps[inside])
+        landmark = positions[np.searchsorted(ids, subjects[inside])]
+        delta = landmark - poses[:, :2]
+        range_residuals.append(ranges[inside] - np.hypot(delta[:, 0], delta[:, 1]))
+        bearing_residuals.append(wrap_angle(bearings[inside] - np.arctan2(delta[:, 1], delta[:, 0])
+                                            + poses[:, 2]))
+
+        odom_stamps, odom_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3))
+        grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]), step)
+        odometry_steps.append(relative_motion(interpolate_poses(odom_stamps, odom_poses, grid)))
+        true_steps.append(relative_motion(interpolate_poses(gt_stamps, gt_poses, grid)))
+    range_residuals = np.concatenate(range_residuals)
+    bearing_residuals = np.concatenate(bearing_residuals)
+    return {"sigma_range": robust_std(range_residuals),
+            "sigma_bearing": robust_std(bearing_residuals),
+            "sigma_range_q90": float(np.quantile(np.abs(range_residuals), 0.9) / 1.645),
+            "sigma_bearing_q90": float(np.quantile(np.abs(bearing_residuals), 0.9) / 1.645),
+            **fit_alphas(np.concatenate(odometry_steps), np.concatenate(true_steps))}
+
+
+def relative_motion(poses: np.ndarray) -> np.ndarray:
+    """(rot1, trans, rot2) rows (N-1, 3) between consecutive poses."""
+    delta = np.diff(poses, axis=0)
+    translation = np.hypot(delta[:, 0], delta[:, 1])
+    rotation1 = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - poses[:-1, 2])
+    rotation2 = wrap_angle(delta[:, 2] - rotation1)
+    return np.column_stack((rotation1, translation, rotation2))
+
+
+def fit_alphas(odometry: np.ndarray, truth: np.ndarray, min_translation: float = 0.03
+               ) -> dict[str, float]:
+    """alpha1..alpha4 of the odometry model from (rot1, trans, rot2) steps of odometry and truth.
+
+    The model's variances are var(rot) = alpha1 rot^2 + alpha2 trans^2 and var(trans) = alpha3
+    trans^2 + alpha4 (rot1^2 + rot2^2). The squared errors of the heading change (rot1 + rot2),
+    of the direction of travel (rot1, only over steps longer than ``min_translation``, where it
+    is defined) and of the translation are fitted by non-negative least squares, leaving out the
+    largest 2 % (Vicon dropouts, collisions).
+    """
+    from scipy.optimize import nnls
+
+    def fit(design: np.ndarray, squared_errors: np.ndarray) -> np.ndarray:
+        keep = squared_errors <= np.quantile(squared_errors, 0.98)
+        return nnls(design[keep], squared_errors[keep])[0]
+
+    rot1, trans, rot2 = truth.T
+    turn_error = wrap_angle(odometry[:, 0] + odometry[:, 2] - rot1 - rot2)
+    moving = trans > min_translation
+    direction_error = wrap_angle(odometry[moving, 0] - rot1[moving])
+    rotation_design = np.vstack((np.column_stack((rot1**2 + rot2**2, 2.0 * trans**2)),
+                                 np.column_stack((rot1[moving]**2, trans[moving]**2))))
+    alpha1, alpha2 = fit(rotation_design, np.concatenate((turn_error**2, direction_error**2)))
+    alpha3, alpha4 = fit(np.column_stack((trans**2, rot1**2 + rot2**2)),
+                         (odometry[:, 1] - trans)**2)
+    return {"alpha1": float(alpha1), "alpha2": float(alpha2), "alpha3": float(alpha3),
+            "alpha4": float(alpha4)}

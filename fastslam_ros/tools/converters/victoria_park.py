@@ -1,0 +1,98 @@
+"""ACFR Victoria Park (``rfs_slam_txt`` files of RFS-SLAM) -> recording of the car.
+
+* Odometry: the rear-left wheel encoder speed is moved to the rear-axle centre,
+  v_c = v_e / (1 - tan(steering) H / L), and the rear-axle-centre pose is integrated with the
+  bicycle (Ackermann) model: x' = v_c cos(theta), y' = v_c sin(theta),
+  theta' = v_c tan(steering) / L, exactly over each 25 ms step (arcs).
+* Tree detections: the laser's bearing runs 0..pi from the vehicle's right to its left, so the
+  bearing in the laser frame (x forward, y left) is ``bearing - pi/2``. Points are written in
+  the laser frame; its position on the vehicle (a forward, b left of the rear-axle centre) is the
+  node's ``sensor_x``/``sensor_y`` (``config/victoria_park.yaml``). No ids (-1).
+* Ground truth: GPS positions (``gps.dat``, in RFS-SLAM's start-aligned frame), position-only.
+  All three files share one clock (0 = first GPS fix, 20.967 s of the original ACFR clock).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
+                                           polar_to_points, read_table, wrap_angle)
+
+WHEELBASE = 2.83
+"""L: distance between the axles (m)."""
+ENCODER_OFFSET = 0.76
+"""H: lateral distance from the rear-axle centre to the rear-left wheel encoder (m)."""
+LASER_FORWARD = 3.78
+"""a: laser position ahead of the rear axle (m)."""
+LASER_LEFT = 0.50
+"""b: laser position left of the vehicle's centre line (m), the sign of RFS-SLAM's and ACFR's
+kinematics (x_L = x + a cos(theta) - b sin(theta), y_L = y + a sin(theta) + b cos(theta))."""
+
+
+def axle_centre_speed(encoder_speed: np.ndarray, steering: np.ndarray) -> np.ndarray:
+    """Speed of the rear-axle centre from the rear-left wheel encoder speed (m/s)."""
+    return encoder_speed / (1.0 - np.tan(steering) * ENCODER_OFFSET / WHEELBASE)
+
+
+def load_odometry(folder: Path | str, start_pose: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps (N,) and rear-axle-centre poses (N, 3) integrated from ``inputs.dat``."""
+    table = read_table(Path(folder) / "inputs.dat", 3)
+    stamps, encoder_speed, steering = table.T
+    speed = axle_centre_speed(encoder_speed, steering)
+    yaw_rate = speed * np.tan(steering) / WHEELBASE
+    start = np.zeros(3) if start_pose is None else np.asarray(start_pose, float)
+    return stamps, integrate_unicycle(stamps, speed, yaw_rate, start)
+
+
+def load_detections(folder: Path | str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Tree detections: stamps, ranges (m), laser-frame bearings (rad, 0 = ahead), diameters (m)."""
+    table = read_table(Path(folder) / "measurements.dat", 4)
+    table = table[np.argsort(table[:, 0], kind="stable")]
+    return table[:, 0], table[:, 1], wrap_angle(table[:, 2] - np.pi / 2.0), table[:, 3]
+
+
+def load_gps(folder: Path | str) -> tuple[np.ndarray, np.ndarray]:
+    """GPS stamps (G,) and positions (G, 2) (m)."""
+    table = read_table(Path(folder) / "gps.dat", 3)
+    return table[:, 0], table[:, 1:3].copy()
+
+
+def load_victoria_park(folder: Path | str) -> Recording:
+    """Convert the ``rfs_slam_txt`` folder (or the dataset folder holding it) to a Recording."""
+    folder = Path(folder)
+    if (folder / "rfs_slam_txt").is_dir():
+        folder = folder / "rfs_slam_txt"
+    odom_stamps, odom_poses = load_odometry(folder)
+    stamps, ranges, bearings, _ = load_detections(folder)
+    labels = np.full(len(stamps), -1, dtype=np.int32)
+    scan_stamps, scan_points, scan_ids = group_by_stamp(stamps, polar_to_points(ranges, bearings),
+                                                        labels)
+    gps_stamps, gps_positions = load_gps(folder)
+    ground_truth = np.column_stack((gps_positions, np.zeros(len(gps_stamps))))
+    counts = {"detections": len(stamps), "gps_fixes": len(gps_stamps)}
+    return Recording(odom_stamps, odom_poses, scan_stamps, scan_points, scan_ids,
+                     gps_stamps, ground_truth, True, None, None, counts)
+
+
+def gps_time_lag(folder: Path | str, lags: np.ndarray = np.arange(-2.0, 2.001, 0.05)) -> float:
+    """Lag (s) of the GPS behind the odometry that best matches their speeds.
+
+    GPS speed (from fixes 0.2 s apart, jumps removed) is compared with the odometry speed
+    shifted by each candidate lag; the lag with the least median absolute difference wins.
+    """
+    folder = Path(folder)
+    if (folder / "rfs_slam_txt").is_dir():
+        folder = folder / "rfs_slam_txt"
+    table = read_table(folder / "inputs.dat", 3)
+    speed = np.abs(axle_centre_speed(table[:, 1], table[:, 2]))
+    gps_stamps, gps_positions = load_gps(folder)
+    step = np.diff(gps_stamps)
+    gps_speed = np.hypot(*np.diff(gps_positions, axis=0).T) / np.maximum(step, 1e-3)
+    middle = gps_stamps[:-1] + 0.5 * step
+    valid = (np.abs(step - 0.2) < 0.02) & (gps_speed < 10.0)
+    errors = [np.median(np.abs(gps_speed[valid] - np.interp(middle[valid] - lag, table[:, 0], speed)))
+              for lag in lags]
+    return float(lags[int(np.argmin(errors))])
