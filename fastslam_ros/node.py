@@ -261,6 +261,8 @@ class FastSLAMNode(Node):
         """Declare parameters (ParameterError on a bad value), create the filter and the I/O."""
         super().__init__(NODE_NAME, **node_kwargs)
         self.output_listeners: list[Callable[[str, object], None]] = []
+        self.publish_to_dds = True
+        """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
         self.stats: dict[str, int] = dict.fromkeys(COUNTERS, 0)
         self.settings: dict[str, object] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""
@@ -589,7 +591,8 @@ class FastSLAMNode(Node):
 
     def _publish(self, publisher, msg) -> None:
         """Publish and hand the message to every output listener (replay records them)."""
-        publisher.publish(msg)
+        if self.publish_to_dds:
+            publisher.publish(msg)
         for listener in self.output_listeners:
             listener(publisher.topic_name, msg)
 

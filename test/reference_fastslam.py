@@ -53,6 +53,7 @@ class ReferenceFastSLAM:
         self.log_w = [-math.log(self.M)] * self.M
         self.maps = [[] for _ in range(self.M)]   # dicts: mean, cov, logodds, label
         self.pending = None
+        self.prior = None          # FastSLAM 2.0: per particle (mean, cov) of flushed odometry
         self.R = np.diag([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.offset = (config.sensor_x, config.sensor_y, config.sensor_yaw)
         self.log_p0 = math.log(config.new_landmark_likelihood)
@@ -73,9 +74,38 @@ class ReferenceFastSLAM:
                                  wrap(pt + step[2])])
         if (math.hypot(self.pending[0], self.pending[1]) > self.c.max_pending_translation
                 or abs(self.pending[2]) > self.c.max_pending_rotation):
-            u, var = self._take()
+            self._advance()
+
+    def _advance(self):
+        """Sample the pending odometry (1.0) or push it through the Gaussian prior (2.0)."""
+        if self.pending is None:
+            return
+        u, var = self._take()
+        if self.c.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.M, 3))
             self.poses = [self._sample_motion(p, u, var, n) for p, n in zip(self.poses, normals)]
+            return
+        prior = self.prior or [(p, np.zeros((3, 3))) for p in self.poses]
+        self.prior = []
+        for mean, cov in prior:
+            rot1, trans, _ = u
+            f = np.eye(3)
+            f[0, 2] = -trans * math.sin(mean[2] + rot1)
+            f[1, 2] = trans * math.cos(mean[2] + rot1)
+            self.prior.append((self._move(mean, *u),
+                               f @ cov @ f.T + self._motion_cov(mean, u, var)))
+        if max(cov[2, 2] for _, cov in self.prior) > self.c.max_prior_heading_sigma ** 2:
+            self.poses = self._sample_prior()
+
+    def _sample_prior(self):
+        normals = self.rng.standard_normal((self.M, 3))
+        poses = []
+        for (mean, cov), n in zip(self.prior, normals):
+            pose = mean + np.linalg.cholesky(cov + 1e-12 * np.eye(3)) @ n
+            pose[2] = wrap(pose[2])
+            poses.append(pose)
+        self.prior = None
+        return poses
 
     def _take(self):
         dx, dy, dtheta = self.pending
@@ -117,15 +147,8 @@ class ReferenceFastSLAM:
         fast2 = c.algorithm == "fastslam2"
         z_all = [np.array([r, wrap(b)]) for r, b in zip(ranges, bearings)]
         K = len(z_all)
-        motion = None
-        if self.pending is not None:
-            u, var = self._take()
-            if fast2:
-                motion = [(self._move(p, *u), self._motion_cov(p, u, var)) for p in self.poses]
-            else:
-                normals = self.rng.standard_normal((self.M, 3))
-                self.poses = [self._sample_motion(p, u, var, n)
-                              for p, n in zip(self.poses, normals)]
+        self._advance()
+        motion = self.prior
         uniforms = (self.rng.random(K * self.M).reshape(K, self.M)
                     if c.association == "monte_carlo" and K else None)
 
@@ -173,12 +196,8 @@ class ReferenceFastSLAM:
                 motion[m] = (mean, cov)
             self.log_w[m] += sum(factor[j][m] for j in range(K))
         if motion and fast2:
-            normals = self.rng.standard_normal((self.M, 3))
-            for m in range(self.M):
-                mean, cov = motion[m]
-                pose = mean + np.linalg.cholesky(cov + 1e-12 * np.eye(3)) @ normals[m]
-                pose[2] = wrap(pose[2])
-                self.poses[m] = pose
+            self.prior = motion
+            self.poses = self._sample_prior()
 
         for m in range(self.M):
             before = {id(lm) for lm in self.maps[m]}

@@ -10,13 +10,14 @@ from fastslam_ros.tools.synthetic import make_world
 from reference_fastslam import ReferenceFastSLAM
 
 CASES = [
-    ("fastslam1", "known"), ("fastslam1", "ml"), ("fastslam1", "monte_carlo"),
-    ("fastslam1", "two_gate"), ("fastslam2", "known"), ("fastslam2", "ml"),
-    ("fastslam2", "monte_carlo"), ("fastslam2", "two_gate"),
+    ("fastslam2", "ml", 0.3),     # odometry flushed between readings: the 2.0 Gaussian prior
+    ("fastslam1", "known", 5.0), ("fastslam1", "ml", 0.3), ("fastslam1", "monte_carlo", 5.0),
+    ("fastslam1", "two_gate", 5.0), ("fastslam2", "known", 5.0), ("fastslam2", "ml", 5.0),
+    ("fastslam2", "monte_carlo", 5.0), ("fastslam2", "two_gate", 5.0),
 ]
 
 
-def small_config(algorithm: str, association: str) -> FastSLAMConfig:
+def small_config(algorithm: str, association: str, flush: float) -> FastSLAMConfig:
     return FastSLAMConfig(
         num_particles=12, algorithm=algorithm, association=association,
         new_landmark_likelihood=0.05, association_gate=6.0, new_landmark_gate=16.0,
@@ -25,7 +26,8 @@ def small_config(algorithm: str, association: str) -> FastSLAMConfig:
         sensor_x=0.3, sensor_y=-0.1, sensor_yaw=0.05,
         max_range=9.0, field_of_view=np.deg2rad(200.0),
         logodds_observed=0.8, logodds_missed=-0.9, logodds_remove=-0.5,
-        resample_threshold=0.7, cell_size=4.0, max_pending_translation=5.0)
+        resample_threshold=0.7, cell_size=4.0, max_pending_translation=flush,
+        max_prior_heading_sigma=0.06)
 
 
 def sorted_map(means, covs, logodds, labels):
@@ -33,23 +35,24 @@ def sorted_map(means, covs, logodds, labels):
     return means[order], covs[order], logodds[order], labels[order]
 
 
-@pytest.mark.parametrize("algorithm,association", CASES)
-def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association):
+@pytest.mark.parametrize("algorithm,association,flush", CASES)
+def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush):
     # Score every landmark, as the reference does (the small world never reaches the cap).
     monkeypatch.setattr(fastslam_module, "MAX_CANDIDATES", 1000)
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
-                       detection_probability=0.8, clutter_per_step=0.8, laps=0.6)
-    config = small_config(algorithm, association)
+                       detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
+    config = small_config(algorithm, association, flush)
     start = world.steps[0].truth
     fast = FastSLAM(config, rng=np.random.default_rng(11), initial_pose=start)
     slow = ReferenceFastSLAM(config, np.random.default_rng(11), start)
     previous = world.steps[0].odometry
     created = resampled = 0
     for k, step in enumerate(world.steps[1:]):
-        # Two odometry messages per step exercise the accumulation of increments.
-        middle = 0.5 * (previous + step.odometry)
-        for a, b in ((previous, middle), (middle, step.odometry)):
+        # Several odometry messages per step exercise the accumulation of increments (and,
+        # with a short flush distance, motion applied between readings).
+        points = [previous + (step.odometry - previous) * f for f in (0.0, 0.3, 0.7, 1.0)]
+        for a, b in zip(points[:-1], points[1:]):
             fast.predict(a, b)
             slow.predict(a, b)
         previous = step.odometry

@@ -52,6 +52,10 @@ class FastSLAMConfig:
     observation, so one (rot1, trans, rot2) step never spans a long curve."""
     max_pending_rotation: float = 0.5
     """Same bound for accumulated rotation (rad)."""
+    max_prior_heading_sigma: float = 0.3
+    """FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so
+    the proposal sees all of its uncertainty; once its heading standard deviation exceeds this
+    (rad) the particles are sampled from it, before linearisation fails."""
     sigma_range: float = 0.1
     """Range measurement standard deviation (m)."""
     sigma_bearing: float = 0.0175
@@ -109,6 +113,7 @@ class FastSLAMConfig:
         need(self.min_rotation_sigma > 0.0, "min_rotation_sigma", "> 0")
         need(self.max_pending_translation > 0.0, "max_pending_translation", "> 0")
         need(self.max_pending_rotation > 0.0, "max_pending_rotation", "> 0")
+        need(self.max_prior_heading_sigma > 0.0, "max_prior_heading_sigma", "> 0")
         need(self.sigma_range > 0.0, "sigma_range", "> 0")
         need(self.sigma_bearing > 0.0, "sigma_bearing", "> 0")
         need(self.min_range >= 0.0, "min_range", ">= 0")

@@ -27,8 +27,7 @@ from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import (initialize_landmarks, landmark_covariance_in_measurement_space, unpack,
                            update_landmarks)
 from .landmark_store import COV, MEAN, LandmarkStore, WorkingSet
-from .motion import (OdometryControl, apply_control, control_variances, motion_covariance,
-                     sample_motion)
+from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import SensorOffset, inverse_observe, observation_terms, pose_jacobian
 from .path_history import PathHistory
 from .proposal import refine_proposal, sample_pose
@@ -92,6 +91,7 @@ class FastSLAM:
         self.history = PathHistory(count)
         self._pending = np.zeros(3)
         self._has_pending = False
+        self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
         self.num_updates = 0
         self.num_underflows = 0
@@ -104,32 +104,44 @@ class FastSLAM:
     def predict(self, odom_from, odom_to) -> None:
         """Accumulate the odometry increment between two odometry poses (odom frame).
 
-        The motion is applied at the next ``update`` (FastSLAM 2.0 needs it unsampled), or at
-        once when it grows beyond ``max_pending_translation`` / ``max_pending_rotation``.
+        The motion is applied at the next ``update``, or at once when it grows beyond
+        ``max_pending_translation`` / ``max_pending_rotation`` (so one (rot1, trans, rot2) step
+        never spans a long curve): FastSLAM 1.0 then samples it; FastSLAM 2.0 adds it to each
+        particle's Gaussian prior N(s_hat, P), which its proposal uses at the next observation.
         """
         self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
         self._has_pending = True
         if (np.hypot(self._pending[0], self._pending[1]) > self.config.max_pending_translation
                 or abs(self._pending[2]) > self.config.max_pending_rotation):
-            self._sample_pending_motion()
+            self._advance_motion()
 
-    def _take_pending_control(self):
-        """The accumulated control and its variances, or None; clears the accumulator."""
+    def _advance_motion(self) -> None:
+        """Apply the accumulated odometry: sampled (1.0) or into the Gaussian prior (2.0)."""
         if not self._has_pending:
-            return None
+            return
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
                                       self.config.min_rotation_sigma)
         self._pending = np.zeros(3)
         self._has_pending = False
-        return control, variances
-
-    def _sample_pending_motion(self) -> None:
-        taken = self._take_pending_control()
-        if taken is not None:
-            control, variances = taken
+        if self.config.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.num_particles, 3))
             self.poses = sample_motion(self.poses, control, variances, normals)
+            return
+        mean, cov = self._prior if self._prior is not None else (
+            self.poses, np.zeros((self.num_particles, 3, 3)))
+        self._prior = propagate_gaussian(mean, cov, control, variances)
+        if np.max(self._prior[1][:, 2, 2]) > self.config.max_prior_heading_sigma ** 2:
+            # Too wide to linearise at the next observation: let the particles carry it.
+            self.poses = self._sample_prior()
+
+    def _sample_prior(self) -> np.ndarray:
+        """Draw every particle's pose from its Gaussian prior, which is then consumed."""
+        mean, cov = self._prior
+        self._prior = None
+        sampled = sample_pose(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
+        sampled[:, 2] = wrap_angle(sampled[:, 2])
+        return sampled
 
     # ------------------------------------------------------------------ update
     def update(self, ranges, bearings, ids=None, stamp: float = 0.0) -> UpdateReport:
@@ -152,16 +164,9 @@ class FastSLAM:
         ranges, bearings, labels = ranges[usable], wrap_angle(bearings[usable]), labels[usable]
 
         fastslam2 = self.config.algorithm == "fastslam2"
-        taken = self._take_pending_control()
-        proposal_mean, proposal_cov = self.poses, None
-        if taken is not None:
-            control, variances = taken
-            if fastslam2:
-                proposal_mean = apply_control(self.poses, control.rot1, control.trans, control.rot2)
-                proposal_cov = motion_covariance(self.poses, control, variances)
-            else:
-                normals = self.rng.standard_normal((self.num_particles, 3))
-                self.poses = proposal_mean = sample_motion(self.poses, control, variances, normals)
+        self._advance_motion()
+        proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
+                                                                                    None)
 
         ws = self._gather(proposal_mean, ranges, labels if known else None)
         choices, log_factors = self._associate(ws, proposal_mean, proposal_cov, ranges, bearings,
@@ -173,10 +178,8 @@ class FastSLAM:
                     ws, proposal_mean, proposal_cov, choices[j], log_factors[j], ranges[j],
                     bearings[j])
             if proposal_cov is not None:
-                normals = self.rng.standard_normal((self.num_particles, 3))
-                sampled = sample_pose(proposal_mean, proposal_cov, normals)
-                sampled[:, 2] = wrap_angle(sampled[:, 2])
-                self.poses = sampled
+                self._prior = (proposal_mean, proposal_cov)
+                self.poses = self._sample_prior()
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
 
@@ -404,7 +407,8 @@ class FastSLAM:
 
     def particle_poses(self) -> np.ndarray:
         """(M, 3) poses with the odometry received since the last update applied (its mean)."""
-        return compose(self.poses, self._pending) if self._has_pending else self.poses.copy()
+        poses = self._prior[0] if self._prior is not None else self.poses
+        return compose(poses, self._pending) if self._has_pending else poses.copy()
 
     def best_pose(self) -> np.ndarray:
         """(3,) pose of the best particle, pending odometry applied."""

@@ -69,6 +69,18 @@ def sample_motion(poses: np.ndarray, u: OdometryControl, variances: np.ndarray,
     return apply_control(poses, noisy[:, 0], noisy[:, 1], noisy[:, 2])
 
 
+def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u: OdometryControl,
+                       variances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """EKF prediction of N(mean, cov) through h: (h(mean, u), F cov F^T + V M V^T)."""
+    heading = mean[:, 2] + u.rot1
+    jac = np.zeros((mean.shape[0], 3, 3))
+    jac[:, 0, 0] = jac[:, 1, 1] = jac[:, 2, 2] = 1.0
+    jac[:, 0, 2] = -u.trans * np.sin(heading)
+    jac[:, 1, 2] = u.trans * np.cos(heading)
+    predicted = jac @ cov @ jac.transpose(0, 2, 1) + motion_covariance(mean, u, variances)
+    return apply_control(mean, u.rot1, u.trans, u.rot2), predicted
+
+
 def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:
     """P_t = V M V^T for every particle (M, 3, 3), V = dh/d(rot1, trans, rot2)."""
     heading = poses[:, 2] + u.rot1
