@@ -1,9 +1,10 @@
-"""Per-particle data association: known ids, maximum likelihood, Monte Carlo, two gates.
+"""Per-particle data association: maximum likelihood, Monte Carlo, two gates (and scoring).
 
-Every rule sees the same inputs for all particles at once: the log-likelihood and squared
-Mahalanobis distance of the observation against each candidate landmark ((M, K) arrays, -inf /
-+inf where a slot holds no landmark), and returns the chosen slot per particle (``NEW`` or
-``IGNORE`` when none) with the log factor that multiplies the particle's weight.
+Every rule sees the same inputs for all rows at once (a row is one observation of one particle):
+the log-likelihood and squared Mahalanobis distance against each candidate landmark ((n, C)
+arrays, -inf / +inf where there is no candidate), and returns the chosen candidate per row
+(``NEW`` or ``IGNORE`` when none) with the log factor that multiplies the particle's weight.
+Known ids reuse the maximum-likelihood rule with the id's landmark as the only candidate.
 """
 from __future__ import annotations
 
@@ -25,16 +26,6 @@ def gaussian_log_likelihood(innovation_range, innovation_bearing, cov_xx, cov_xy
     mahalanobis = (cov_yy * innovation_range ** 2 - 2.0 * cov_xy * innovation_range
                    * innovation_bearing + cov_xx * innovation_bearing ** 2) / det
     return -0.5 * mahalanobis - LOG_TWO_PI - 0.5 * np.log(det), mahalanobis
-
-
-def associate_known(candidate_label: np.ndarray, candidate_log_lik: np.ndarray, label: int,
-                    log_p0: float):
-    """The landmark carrying the observation's id, or a new one when the particle has none."""
-    match = candidate_label == label
-    found = match.any(axis=1)
-    choice = np.where(found, np.argmax(match, axis=1), NEW)
-    chosen = np.take_along_axis(candidate_log_lik, np.maximum(choice, 0)[:, None], 1)[:, 0]
-    return choice, np.where(found, chosen, log_p0)
 
 
 def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):

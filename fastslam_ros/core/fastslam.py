@@ -417,9 +417,6 @@ class FastSLAM:
     def weights(self) -> np.ndarray:
         return np.exp(self.log_weights)
 
-    def n_eff(self) -> float:
-        return effective_sample_size(self.weights())
-
     def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean pose (circular mean of theta) and the particle spread around it."""
         poses, weights = self.particle_poses(), self.weights()

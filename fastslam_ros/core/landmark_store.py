@@ -347,7 +347,3 @@ class LandmarkStore:
         state, ident = self.state[rows][mask], self.ident[rows][mask]
         return (state[:, MEAN], state[:, COV], state[:, LOGODDS], ident[:, LABEL],
                 ident[:, KEY])
-
-    def reset(self) -> None:
-        """Forget every map."""
-        self.__init__(self.num_particles, self.cell_size)

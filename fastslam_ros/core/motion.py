@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import relative_pose, wrap_angle
+from .geometry import wrap_angle
 
 
 @dataclass(frozen=True)
@@ -35,11 +35,6 @@ class OdometryControl:
             rot1 = float(wrap_angle(rot1 - np.pi))
             trans = -trans
         return cls(rot1, trans, float(wrap_angle(dtheta - rot1)))
-
-    @classmethod
-    def between(cls, odom_from, odom_to) -> "OdometryControl":
-        """The control that moves odometry pose ``odom_from`` to ``odom_to``."""
-        return cls.from_delta(relative_pose(odom_from, odom_to))
 
 
 def control_variances(u: OdometryControl, alphas, min_translation_sigma: float,
