@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools.synthetic import make_world
 
 
@@ -161,9 +162,17 @@ def test_pending_odometry_is_reported_but_not_yet_sampled():
     np.testing.assert_allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
     expected = [1.0 + 0.2 * np.cos(0.5), 2.0 + 0.2 * np.sin(0.5), 0.6]
     np.testing.assert_allclose(slam.best_pose(), expected, atol=1e-12)
-    # Beyond max_pending_translation the motion is sampled at once.
+    # Beyond max_pending_translation, FastSLAM 2.0 moves the motion into its Gaussian prior
+    # (the particles still read the same, the estimate follows the odometry) ...
     slam.predict((0.2, 0.0, 0.1), (2.0, 0.0, 0.1))
-    assert not np.allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
+    np.testing.assert_allclose(slam.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
+    moved = compose(np.array([1.0, 2.0, 0.5]), np.array([2.0, 0.0, 0.1]))
+    np.testing.assert_allclose(slam.best_pose(), moved, atol=1e-12)
+    # ... and FastSLAM 1.0 samples it at once.
+    slam1 = FastSLAM(config(num_particles=5, algorithm="fastslam1"), initial_pose=(1.0, 2.0, 0.5))
+    slam1.predict((0, 0, 0), (2.0, 0.0, 0.1))
+    assert not np.allclose(slam1.poses, np.tile([1.0, 2.0, 0.5], (5, 1)))
+    assert np.linalg.norm(slam1.best_pose() - moved) < 0.5
 
 
 def test_known_id_seen_twice_in_one_reading_makes_one_landmark():
