@@ -1,0 +1,403 @@
+"""Bag schema v1: the topics every fastslam_ros tool reads and writes, and a numpy view of them.
+
+| topic | type | frame | content |
+|---|---|---|---|
+| ``/odom`` | ``nav_msgs/Odometry`` | ``odom`` -> ``base_link`` | wheel odometry pose |
+| ``/landmarks`` | ``sensor_msgs/PointCloud2`` | sensor | x y z (float32), id (int32, -1 unknown) |
+| ``/ground_truth/pose`` | ``nav_msgs/Odometry`` | ``map`` | true base pose |
+| ``/ground_truth/landmarks`` | ``sensor_msgs/PointCloud2`` | ``map`` | x y z id, one message |
+
+A position-only reference (GPS) has an identity orientation and a yaw variance
+(``pose.covariance[35]``) of -1. Bags are MCAP by default, sqlite3 on request; both are read.
+Stamps are float seconds in Python and ``builtin_interfaces/Time`` in the bag; every message is
+logged at its header stamp.
+"""
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Connection
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+ODOM_TOPIC = "/odom"
+LANDMARKS_TOPIC = "/landmarks"
+GROUND_TRUTH_POSE_TOPIC = "/ground_truth/pose"
+GROUND_TRUTH_LANDMARKS_TOPIC = "/ground_truth/landmarks"
+ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+CLOUD_TYPE = "sensor_msgs/msg/PointCloud2"
+STORAGE_PLUGINS = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+POSITION_ONLY_YAW_VARIANCE = -1.0
+"""``pose.covariance[35]`` of a position-only reference: its orientation carries no information."""
+
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+
+# sensor_msgs/PointField datatype codes -> numpy dtypes.
+POINT_FIELD_DTYPES = {1: np.int8, 2: np.uint8, 3: np.int16, 4: np.uint16, 5: np.int32,
+                      6: np.uint32, 7: np.float32, 8: np.float64}
+POINT_FIELD_FLOAT32 = 7
+POINT_FIELD_INT32 = 5
+LANDMARK_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4")])
+
+
+class SchemaError(ValueError):
+    """A bag that does not follow schema v1 (missing topics, wrong fields)."""
+
+
+@dataclass
+class PoseSeries:
+    """Timed planar poses: ``stamps`` (N,) s, ``poses`` (N, 3) x, y (m), theta (rad)."""
+
+    stamps: np.ndarray
+    poses: np.ndarray
+    frame_id: str = "odom"
+    child_frame_id: str = "base_link"
+    position_only: bool = False
+
+
+@dataclass
+class LandmarkScans:
+    """One entry per sensor reading: points (K, 2) in the sensor frame and ids (K,) int32."""
+
+    stamps: np.ndarray
+    points: list[np.ndarray]
+    ids: list[np.ndarray]
+    frame_id: str = "sensor"
+
+
+@dataclass
+class LandmarkSet:
+    """Landmark positions (L, 2) in the map frame and their ids (L,) int32."""
+
+    positions: np.ndarray
+    ids: np.ndarray
+
+
+@dataclass
+class SchemaBag:
+    """Everything a schema-v1 bag holds, as arrays."""
+
+    odometry: PoseSeries
+    scans: LandmarkScans
+    ground_truth: PoseSeries | None = None
+    landmarks_truth: LandmarkSet | None = None
+
+
+@dataclass
+class _Record:
+    """One serialized message waiting to be written."""
+
+    stamp_ns: int
+    order: int
+    topic: str
+    data: bytes = field(repr=False)
+
+
+# ---------------------------------------------------------------- conversions
+
+
+def stamp_to_ns(stamp: float) -> int:
+    """Float seconds -> integer nanoseconds (exact for the fractional part)."""
+    seconds = int(np.floor(stamp))
+    nanoseconds = int(round((stamp - seconds) * 1e9))
+    return seconds * 1_000_000_000 + nanoseconds
+
+
+def ns_to_stamp(stamp_ns: int) -> float:
+    """Integer nanoseconds -> float seconds."""
+    seconds, nanoseconds = divmod(int(stamp_ns), 1_000_000_000)
+    return seconds + nanoseconds / 1e9
+
+
+def time_msg_to_stamp(time_msg: Any) -> float:
+    """``builtin_interfaces/Time`` (rosbags or rclpy) -> float seconds."""
+    return time_msg.sec + time_msg.nanosec / 1e9
+
+
+def _time_msg(stamp_ns: int) -> Any:
+    seconds, nanoseconds = divmod(stamp_ns, 1_000_000_000)
+    return TYPESTORE.types["builtin_interfaces/msg/Time"](sec=seconds, nanosec=nanoseconds)
+
+
+def yaw_to_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    """Planar heading -> quaternion (x, y, z, w)."""
+    return 0.0, 0.0, float(np.sin(0.5 * yaw)), float(np.cos(0.5 * yaw))
+
+
+def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
+    """Heading (rad, in (-pi, pi]) of a quaternion, assuming it is (nearly) planar."""
+    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles to (-pi, pi]."""
+    wrapped = np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
+    return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
+
+
+def odometry_to_pose(msg: Any) -> tuple[float, float, float]:
+    """(x, y, theta) of a ``nav_msgs/Odometry`` (rosbags or rclpy message)."""
+    position = msg.pose.pose.position
+    q = msg.pose.pose.orientation
+    return position.x, position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)
+
+
+def cloud_to_arrays(msg: Any) -> dict[str, np.ndarray]:
+    """Every field of a ``sensor_msgs/PointCloud2`` (rosbags or rclpy) as a 1-D array by name."""
+    endian = ">" if msg.is_bigendian else "<"
+    names, formats, offsets = [], [], []
+    for point_field in msg.fields:
+        if point_field.datatype not in POINT_FIELD_DTYPES or point_field.count != 1:
+            continue
+        names.append(point_field.name)
+        formats.append(np.dtype(POINT_FIELD_DTYPES[point_field.datatype]).newbyteorder(endian))
+        offsets.append(point_field.offset)
+    dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets,
+                      "itemsize": msg.point_step})
+    count = msg.width * msg.height
+    raw = np.frombuffer(memoryview(msg.data).cast("B"), dtype=np.uint8)
+    if count == 0:
+        return {name: np.zeros(0, dtype=dtype.fields[name][0]) for name in names}
+    if msg.row_step == msg.width * msg.point_step:
+        points = raw[:count * msg.point_step].view(dtype)
+    else:
+        rows = raw.reshape(msg.height, msg.row_step)[:, :msg.width * msg.point_step]
+        points = np.ascontiguousarray(rows).view(dtype).reshape(-1)
+    return {name: points[name].astype(points.dtype[name].newbyteorder("="))
+            for name in names}
+
+
+def landmark_cloud_arrays(msg: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(points (K, 2) float32, ids (K,) int32)`` of a landmark cloud; ids -1 when absent."""
+    fields = cloud_to_arrays(msg)
+    if "x" not in fields or "y" not in fields:
+        raise SchemaError("landmark cloud without x/y fields")
+    points = np.stack([fields["x"], fields["y"]], axis=1).astype(np.float32)
+    if "id" in fields:
+        ids = fields["id"].astype(np.int32)
+    else:
+        ids = np.full(len(points), -1, dtype=np.int32)
+    return points, ids
+
+
+# ---------------------------------------------------------------- message builders
+
+
+def _odometry_message(stamp_ns: int, pose: np.ndarray, frame_id: str, child_frame_id: str,
+                      position_only: bool) -> Any:
+    types = TYPESTORE.types
+    vector3 = types["geometry_msgs/msg/Vector3"]
+    covariance = np.zeros(36)
+    if position_only:
+        qx, qy, qz, qw = 0.0, 0.0, 0.0, 1.0
+        covariance[35] = POSITION_ONLY_YAW_VARIANCE
+    else:
+        qx, qy, qz, qw = yaw_to_quaternion(pose[2])
+    return types[ODOMETRY_TYPE](
+        header=types["std_msgs/msg/Header"](stamp=_time_msg(stamp_ns), frame_id=frame_id),
+        child_frame_id=child_frame_id,
+        pose=types["geometry_msgs/msg/PoseWithCovariance"](
+            pose=types["geometry_msgs/msg/Pose"](
+                position=types["geometry_msgs/msg/Point"](x=float(pose[0]), y=float(pose[1]),
+                                                          z=0.0),
+                orientation=types["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw)),
+            covariance=covariance),
+        twist=types["geometry_msgs/msg/TwistWithCovariance"](
+            twist=types["geometry_msgs/msg/Twist"](linear=vector3(x=0.0, y=0.0, z=0.0),
+                                                   angular=vector3(x=0.0, y=0.0, z=0.0)),
+            covariance=np.zeros(36)))
+
+
+def _landmark_cloud_message(stamp_ns: int, points: np.ndarray, ids: np.ndarray,
+                            frame_id: str) -> Any:
+    types = TYPESTORE.types
+    point_field = types["sensor_msgs/msg/PointField"]
+    records = np.zeros(len(points), dtype=LANDMARK_CLOUD_DTYPE)
+    if len(points):
+        records["x"] = points[:, 0]
+        records["y"] = points[:, 1]
+        records["id"] = ids
+    fields = [point_field(name=name, offset=offset, datatype=datatype, count=1)
+              for name, offset, datatype in (("x", 0, POINT_FIELD_FLOAT32),
+                                             ("y", 4, POINT_FIELD_FLOAT32),
+                                             ("z", 8, POINT_FIELD_FLOAT32),
+                                             ("id", 12, POINT_FIELD_INT32))]
+    return types[CLOUD_TYPE](
+        header=types["std_msgs/msg/Header"](stamp=_time_msg(stamp_ns), frame_id=frame_id),
+        height=1, width=len(points), fields=fields, is_bigendian=False,
+        point_step=LANDMARK_CLOUD_DTYPE.itemsize,
+        row_step=LANDMARK_CLOUD_DTYPE.itemsize * len(points),
+        data=records.view(np.uint8), is_dense=True)
+
+
+def _serialize(msg: Any, msgtype: str) -> bytes:
+    return bytes(TYPESTORE.serialize_cdr(msg, msgtype))
+
+
+# ---------------------------------------------------------------- writing
+
+
+def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False) -> Writer:
+    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` removes an old one."""
+    if storage not in STORAGE_PLUGINS:
+        raise ValueError(f"storage: must be one of {sorted(STORAGE_PLUGINS)} (got {storage!r})")
+    path = Path(path)
+    if path.exists():
+        if not overwrite:
+            raise FileExistsError(f"{path} exists (remove it or choose another output)")
+        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    return Writer(path, version=9, storage_plugin=STORAGE_PLUGINS[storage])
+
+
+def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
+                     overwrite: bool = False) -> Path:
+    """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``)."""
+    records = list(_schema_records(bag))
+    records.sort(key=lambda record: (record.stamp_ns, record.order))
+    writer = open_writer(path, storage, overwrite)
+    with writer:
+        connections = {}
+        for topic, msgtype in ((ODOM_TOPIC, ODOMETRY_TYPE), (LANDMARKS_TOPIC, CLOUD_TYPE),
+                               (GROUND_TRUTH_POSE_TOPIC, ODOMETRY_TYPE),
+                               (GROUND_TRUTH_LANDMARKS_TOPIC, CLOUD_TYPE)):
+            if any(record.topic == topic for record in records):
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=TYPESTORE)
+        for record in records:
+            writer.write(connections[record.topic], record.stamp_ns, record.data)
+    return Path(path)
+
+
+def _schema_records(bag: SchemaBag) -> Iterable[_Record]:
+    """Serialized messages of ``bag``; ``order`` breaks ties (truth, odometry, then scans)."""
+    if bag.landmarks_truth is not None:
+        first_stamp = min(_first_stamps(bag))
+        truth = bag.landmarks_truth
+        msg = _landmark_cloud_message(stamp_to_ns(first_stamp), np.asarray(truth.positions),
+                                      np.asarray(truth.ids, dtype=np.int32), "map")
+        yield _Record(stamp_to_ns(first_stamp), 0, GROUND_TRUTH_LANDMARKS_TOPIC,
+                      _serialize(msg, CLOUD_TYPE))
+    for order, topic, series in ((1, ODOM_TOPIC, bag.odometry),
+                                 (2, GROUND_TRUTH_POSE_TOPIC, bag.ground_truth)):
+        if series is None:
+            continue
+        for stamp, pose in zip(series.stamps, np.asarray(series.poses, dtype=float)):
+            stamp_ns = stamp_to_ns(stamp)
+            msg = _odometry_message(stamp_ns, pose, series.frame_id, series.child_frame_id,
+                                    series.position_only)
+            yield _Record(stamp_ns, order, topic, _serialize(msg, ODOMETRY_TYPE))
+    scans = bag.scans
+    for stamp, points, ids in zip(scans.stamps, scans.points, scans.ids):
+        stamp_ns = stamp_to_ns(stamp)
+        msg = _landmark_cloud_message(stamp_ns, np.asarray(points).reshape(-1, 2),
+                                      np.asarray(ids, dtype=np.int32), scans.frame_id)
+        yield _Record(stamp_ns, 3, LANDMARKS_TOPIC, _serialize(msg, CLOUD_TYPE))
+
+
+def _first_stamps(bag: SchemaBag) -> list[float]:
+    stamps = [series.stamps[0] for series in (bag.odometry, bag.ground_truth, bag.scans)
+              if series is not None and len(series.stamps)]
+    return stamps or [0.0]
+
+
+# ---------------------------------------------------------------- reading
+
+
+def bag_topics(path: str | Path) -> dict[str, str]:
+    """``{topic: msgtype}`` of a rosbag2 folder (mcap or sqlite3)."""
+    with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        return {connection.topic: connection.msgtype for connection in reader.connections}
+
+
+def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
+    """``(log stamps (N,) s, deserialized rosbags messages)`` of one topic, in time order.
+
+    Works on any rosbag2 folder, including the node outputs a replay records. An absent topic
+    gives empty results.
+    """
+    return read_topics(path, [topic])[topic]
+
+
+def read_topics(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[np.ndarray, list[Any]]]:
+    """``read_topic`` for several topics in one pass over the bag."""
+    wanted = list(topics)
+    stamps: dict[str, list[float]] = {topic: [] for topic in wanted}
+    messages: dict[str, list[Any]] = {topic: [] for topic in wanted}
+    with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        connections = [c for c in reader.connections if c.topic in stamps]
+        # An empty selection would mean "every connection" to rosbags.
+        for connection, stamp_ns, raw in (reader.messages(connections=connections)
+                                          if connections else ()):
+            stamps[connection.topic].append(ns_to_stamp(stamp_ns))
+            messages[connection.topic].append(reader.deserialize(raw, connection.msgtype))
+    return {topic: (np.asarray(stamps[topic], dtype=float), messages[topic]) for topic in wanted}
+
+
+def read_last(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[float, Any]]:
+    """``{topic: (log stamp s, message)}`` of the last message of each present topic.
+
+    Only the kept messages are deserialized, so a long ``nav_msgs/Path`` history costs nothing.
+    """
+    wanted = set(topics)
+    last: dict[str, tuple[int, Connection, bytes]] = {}
+    with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        connections = [c for c in reader.connections if c.topic in wanted]
+        for connection, stamp_ns, raw in (reader.messages(connections=connections)
+                                          if connections else ()):
+            last[connection.topic] = (stamp_ns, connection, raw)
+        return {topic: (ns_to_stamp(stamp_ns), reader.deserialize(raw, connection.msgtype))
+                for topic, (stamp_ns, connection, raw) in last.items()}
+
+
+def pose_series_from_messages(messages: list[Any]) -> PoseSeries:
+    """Planar poses of ``nav_msgs/Odometry`` messages, stamped by their headers."""
+    if not messages:
+        return PoseSeries(np.zeros(0), np.zeros((0, 3)))
+    stamps = np.array([time_msg_to_stamp(msg.header.stamp) for msg in messages])
+    poses = np.array([odometry_to_pose(msg) for msg in messages], dtype=float).reshape(-1, 3)
+    first = messages[0]
+    position_only = bool(first.pose.covariance[35] < 0.0)
+    if position_only:
+        poses[:, 2] = np.nan
+    return PoseSeries(stamps, poses, first.header.frame_id, first.child_frame_id, position_only)
+
+
+def read_schema_bag(path: str | Path, require_inputs: bool = True) -> SchemaBag:
+    """Read a schema-v1 bag into arrays.
+
+    A position-only ground truth reads back with ``theta`` = NaN. Raises ``SchemaError`` when
+    ``/odom`` or ``/landmarks`` is missing (unless ``require_inputs`` is False, for a
+    ground-truth-only bag), ``FileNotFoundError`` when ``path`` does not exist.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"bag not found: {path}")
+    available = bag_topics(path)
+    missing = [topic for topic in (ODOM_TOPIC, LANDMARKS_TOPIC) if topic not in available]
+    if missing and require_inputs:
+        raise SchemaError(f"{path}: missing topic(s) {', '.join(missing)} "
+                          f"(has: {', '.join(sorted(available)) or 'none'})")
+    data = read_topics(path, [ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
+                              GROUND_TRUTH_LANDMARKS_TOPIC])
+    odometry = pose_series_from_messages(data[ODOM_TOPIC][1])
+    cloud_messages = data[LANDMARKS_TOPIC][1]
+    scan_stamps = np.array([time_msg_to_stamp(msg.header.stamp) for msg in cloud_messages])
+    points, ids = [], []
+    for msg in cloud_messages:
+        scan_points, scan_ids = landmark_cloud_arrays(msg)
+        points.append(scan_points)
+        ids.append(scan_ids)
+    frame_id = cloud_messages[0].header.frame_id if cloud_messages else "sensor"
+    scans = LandmarkScans(scan_stamps.reshape(-1), points, ids, frame_id)
+    ground_truth = None
+    if data[GROUND_TRUTH_POSE_TOPIC][1]:
+        ground_truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1])
+    landmarks_truth = None
+    if data[GROUND_TRUTH_LANDMARKS_TOPIC][1]:
+        truth_points, truth_ids = landmark_cloud_arrays(data[GROUND_TRUTH_LANDMARKS_TOPIC][1][-1])
+        landmarks_truth = LandmarkSet(truth_points.astype(float), truth_ids)
+    return SchemaBag(odometry, scans, ground_truth, landmarks_truth)

@@ -1,0 +1,508 @@
+"""Accuracy of a recorded run against ground truth: trajectory ATE, landmark RMSE and OSPA.
+
+``fastslam-eval OUT`` reads a bag recorded by ``fastslam-replay`` (or by ``ros2 bag record`` on
+a live node) and compares
+
+* the at-the-time estimate ``/fastslam/pose``,
+* the best particle's final path (the last ``/fastslam/path``),
+* dead reckoning (``/odom``),
+
+with ``/ground_truth/pose``, and the final map ``/fastslam/map_cloud`` with
+``/ground_truth/landmarks`` (only the landmarks whose label appears in the input clouds, when
+they carry labels: a landmark never seen cannot be missed). Each trajectory is matched to the
+ground truth by linear interpolation of the ground truth at the trajectory's stamps (never
+across a gap longer than ``max_gap``), and scored raw and after its own least-squares SE(2)
+alignment (rotation and translation, no scale). Only positions are compared, so a position-only
+reference (GPS) works.
+
+The landmark map is put in the ground-truth frame with the final path's alignment (the map
+belongs to that particle), then matched to the truth: by id when both carry ids, otherwise by
+optimal assignment; a pair farther apart than ``cutoff`` counts as one missed and one spurious
+landmark. OSPA uses cut-off c = 2 m and order p = 2:
+``OSPA = ((min_assignment sum min(d, c)^p + c^p |n - m|) / max(n, m))^(1/p)``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
+                                           LANDMARKS_TOPIC, ODOM_TOPIC, LandmarkSet, PoseSeries,
+                                           bag_topics, cloud_to_arrays, landmark_cloud_arrays,
+                                           pose_series_from_messages, quaternion_to_yaw,
+                                           read_last, read_topics, time_msg_to_stamp)
+
+POSE_TOPIC = "/fastslam/pose"
+PATH_TOPIC = "/fastslam/path"
+MAP_CLOUD_TOPIC = "/fastslam/map_cloud"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+REPLAY_INFO_TOPIC = "/fastslam_replay/info"
+OSPA_CUTOFF = 2.0
+"""OSPA cut-off c (m): a missing or spurious landmark costs as much as one c metres off."""
+OSPA_ORDER = 2
+"""OSPA order p."""
+DEFAULT_MAX_GAP = 1.0
+"""Ground truth is not interpolated across gaps longer than this (s)."""
+
+
+# ---------------------------------------------------------------- metric functions
+
+
+@dataclass
+class Transform2D:
+    """A planar rigid transform ``p -> R(yaw) p + translation``."""
+
+    yaw: float = 0.0
+    translation: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """The 2x2 rotation matrix."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return np.array([[c, -s], [s, c]])
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """Transform (N, 2) points."""
+        return np.asarray(points, dtype=float) @ self.rotation.T + self.translation
+
+
+def align_se2(estimate: np.ndarray, reference: np.ndarray) -> Transform2D:
+    """The rigid transform minimising ``sum |T(estimate_i) - reference_i|^2`` (closed form).
+
+    2-D Kabsch/Umeyama without scale: with centred point sets and ``H = sum e_i r_i^T``, the
+    optimal angle is ``atan2(H01 - H10, H00 + H11)``.
+    """
+    estimate = np.asarray(estimate, dtype=float)
+    reference = np.asarray(reference, dtype=float)
+    if len(estimate) == 0:
+        return Transform2D()
+    estimate_mean, reference_mean = estimate.mean(axis=0), reference.mean(axis=0)
+    h = (estimate - estimate_mean).T @ (reference - reference_mean)
+    yaw = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    rotated_mean = Transform2D(yaw).apply(estimate_mean[None])[0]
+    return Transform2D(yaw, reference_mean - rotated_mean)
+
+
+def error_stats(errors: np.ndarray) -> dict[str, float]:
+    """RMSE, maximum and final value of position errors (m); NaN when there are none."""
+    if len(errors) == 0:
+        return {"rmse": math.nan, "max": math.nan, "final": math.nan}
+    return {"rmse": float(np.sqrt(np.mean(errors**2))), "max": float(np.max(errors)),
+            "final": float(errors[-1])}
+
+
+def interpolate_positions(stamps: np.ndarray, positions: np.ndarray, query: np.ndarray,
+                          max_gap: float = DEFAULT_MAX_GAP) -> tuple[np.ndarray, np.ndarray]:
+    """Positions at ``query`` stamps by linear interpolation, and a mask of the valid ones.
+
+    A query is valid when it lies inside the series and its two neighbours are at most
+    ``max_gap`` seconds apart (an exact stamp match is always valid).
+    """
+    stamps = np.asarray(stamps, dtype=float)
+    query = np.asarray(query, dtype=float)
+    if len(stamps) == 0:
+        return np.zeros((len(query), 2)), np.zeros(len(query), dtype=bool)
+    upper = np.clip(np.searchsorted(stamps, query, side="left"), 0, len(stamps) - 1)
+    lower = np.clip(upper - 1, 0, len(stamps) - 1)
+    exact = stamps[upper] == query
+    lower = np.where(exact, upper, lower)
+    inside = (query >= stamps[0]) & (query <= stamps[-1])
+    valid = inside & (exact | (stamps[upper] - stamps[lower] <= max_gap))
+    span = stamps[upper] - stamps[lower]
+    fraction = np.divide(query - stamps[lower], span, out=np.zeros_like(query), where=span > 0)
+    interpolated = (positions[lower] * (1.0 - fraction)[:, None]
+                    + positions[upper] * fraction[:, None])
+    return interpolated, valid
+
+
+@dataclass
+class TrajectoryResult:
+    """A trajectory matched to the ground truth, raw and aligned."""
+
+    stamps: np.ndarray
+    estimate: np.ndarray
+    reference: np.ndarray
+    alignment: Transform2D
+    raw_errors: np.ndarray
+    aligned_errors: np.ndarray
+
+    def metrics(self) -> dict[str, Any]:
+        """ATE statistics (m) raw and aligned, the alignment, and the number of samples."""
+        return {"raw": error_stats(self.raw_errors), "aligned": error_stats(self.aligned_errors),
+                "alignment": {"yaw": self.alignment.yaw,
+                              "x": float(self.alignment.translation[0]),
+                              "y": float(self.alignment.translation[1])},
+                "samples": int(len(self.stamps))}
+
+
+def evaluate_trajectory(stamps: np.ndarray, positions: np.ndarray, ground_truth: PoseSeries,
+                        max_gap: float = DEFAULT_MAX_GAP) -> TrajectoryResult | None:
+    """Match an estimated trajectory to the ground truth; None when no sample overlaps."""
+    reference, valid = interpolate_positions(ground_truth.stamps, ground_truth.poses[:, :2],
+                                             stamps, max_gap)
+    if not np.any(valid):
+        return None
+    estimate = np.asarray(positions, dtype=float)[valid]
+    reference = reference[valid]
+    alignment = align_se2(estimate, reference)
+    return TrajectoryResult(
+        stamps=np.asarray(stamps)[valid], estimate=estimate, reference=reference,
+        alignment=alignment,
+        raw_errors=np.linalg.norm(estimate - reference, axis=1),
+        aligned_errors=np.linalg.norm(alignment.apply(estimate) - reference, axis=1))
+
+
+def ospa(estimate: np.ndarray, truth: np.ndarray, cutoff: float = OSPA_CUTOFF,
+         order: int = OSPA_ORDER) -> float:
+    """OSPA distance (m) between two point sets (Schuhmacher et al. 2008)."""
+    estimate = np.asarray(estimate, dtype=float).reshape(-1, 2)
+    truth = np.asarray(truth, dtype=float).reshape(-1, 2)
+    larger = max(len(estimate), len(truth))
+    if larger == 0:
+        return 0.0
+    if min(len(estimate), len(truth)) == 0:
+        return float(cutoff)
+    distance = np.minimum(np.linalg.norm(estimate[:, None] - truth[None], axis=2), cutoff)
+    cost = distance**order
+    rows, cols = linear_sum_assignment(cost)
+    total = cost[rows, cols].sum() + cutoff**order * (larger - len(rows))
+    return float((total / larger) ** (1.0 / order))
+
+
+def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.ndarray,
+                    truth_ids: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray, str]:
+    """Pairs ``(estimate index, truth index)`` closer than ``cutoff`` and the method used.
+
+    By id when both sides carry ids (the nearest estimate of each truth id; estimates without
+    an id are then unmatched); otherwise by optimal assignment of the distances.
+    """
+    estimate = np.asarray(estimate, dtype=float).reshape(-1, 2)
+    truth = np.asarray(truth, dtype=float).reshape(-1, 2)
+    empty = np.zeros(0, dtype=int)
+    if len(estimate) == 0 or len(truth) == 0:
+        return empty, empty, "none"
+    distance = np.linalg.norm(estimate[:, None] - truth[None], axis=2)
+    if np.any(np.asarray(estimate_ids) >= 0) and np.any(np.asarray(truth_ids) >= 0):
+        method = "id"
+        pairs = []
+        for truth_index, truth_id in enumerate(truth_ids):
+            candidates = np.flatnonzero(estimate_ids == truth_id) if truth_id >= 0 else empty
+            if len(candidates):
+                best = candidates[np.argmin(distance[candidates, truth_index])]
+                pairs.append((best, truth_index))
+        rows = np.array([p[0] for p in pairs], dtype=int)
+        cols = np.array([p[1] for p in pairs], dtype=int)
+    else:
+        method = "assignment"
+        rows, cols = linear_sum_assignment(np.minimum(distance, cutoff * 10.0))
+    close = distance[rows, cols] <= cutoff
+    return rows[close], cols[close], method
+
+
+def landmark_metrics(estimate: np.ndarray, estimate_ids: np.ndarray, truth: LandmarkSet,
+                     cutoff: float = OSPA_CUTOFF) -> dict[str, Any]:
+    """RMSE of matched landmarks, missed / spurious counts and OSPA (positions in map frame)."""
+    rows, cols, method = match_landmarks(estimate, estimate_ids, truth.positions, truth.ids,
+                                         cutoff)
+    errors = np.linalg.norm(np.asarray(estimate).reshape(-1, 2)[rows] - truth.positions[cols],
+                            axis=1)
+    return {"rmse": float(np.sqrt(np.mean(errors**2))) if len(errors) else math.nan,
+            "matched": int(len(rows)), "missed": int(len(truth.positions) - len(rows)),
+            "spurious": int(len(estimate) - len(rows)), "estimated": int(len(estimate)),
+            "truth": int(len(truth.positions)), "match_method": method, "cutoff": cutoff,
+            "ospa": ospa(estimate, truth.positions, OSPA_CUTOFF, OSPA_ORDER)}
+
+
+# ---------------------------------------------------------------- loading a run
+
+
+@dataclass
+class LandmarkEstimate:
+    """The final map of the best particle (map frame)."""
+
+    positions: np.ndarray
+    covariances: np.ndarray
+    ids: np.ndarray
+    existence: np.ndarray
+
+
+@dataclass
+class RunData:
+    """Everything read from a recorded run (and its ground truth)."""
+
+    estimate: PoseSeries | None
+    final_path: PoseSeries | None
+    odometry: PoseSeries | None
+    ground_truth: PoseSeries | None
+    landmarks: LandmarkEstimate | None
+    landmarks_truth: LandmarkSet | None
+    replay_info: dict[str, Any]
+    diagnostics: dict[str, str]
+    observed_ids: np.ndarray | None = None
+    """Labels (>= 0) that appear in the input clouds: the landmarks the robot saw; None when the
+    clouds carry no labels."""
+
+
+def _pose_stamped_series(messages: list[Any]) -> PoseSeries:
+    """Planar poses of PoseStamped / PoseWithCovarianceStamped messages."""
+    stamps, poses = [], []
+    for msg in messages:
+        pose = msg.pose.pose if hasattr(msg.pose, "pose") else msg.pose
+        q = pose.orientation
+        stamps.append(time_msg_to_stamp(msg.header.stamp))
+        poses.append((pose.position.x, pose.position.y,
+                      quaternion_to_yaw(q.x, q.y, q.z, q.w)))
+    frame = messages[0].header.frame_id if messages else "map"
+    return PoseSeries(np.array(stamps), np.array(poses).reshape(-1, 3), frame, "base_link")
+
+
+def _landmark_estimate(msg: Any) -> LandmarkEstimate:
+    fields = cloud_to_arrays(msg)
+    count = len(fields.get("x", []))
+    positions = np.zeros((0, 2))
+    if count:
+        positions = np.stack([fields["x"], fields["y"]], axis=1).astype(float)
+    covariances = np.zeros((count, 2, 2))
+    if {"cov_xx", "cov_xy", "cov_yy"} <= fields.keys():
+        covariances[:, 0, 0] = fields["cov_xx"]
+        covariances[:, 0, 1] = covariances[:, 1, 0] = fields["cov_xy"]
+        covariances[:, 1, 1] = fields["cov_yy"]
+    ids = fields["id"].astype(int) if "id" in fields else np.full(count, -1)
+    existence = fields["existence"].astype(float) if "existence" in fields else np.ones(count)
+    return LandmarkEstimate(positions, covariances, ids, existence)
+
+
+def _diagnostic_values(msg: Any) -> dict[str, str]:
+    """Every key/value of a DiagnosticArray, flattened (later statuses win)."""
+    return {pair.key: pair.value for status in msg.status for pair in status.values}
+
+
+def load_run(out_path: str | Path, ground_truth_path: str | Path | None = None) -> RunData:
+    """Read a recorded run; ground truth and odometry come from ``ground_truth_path`` if given
+    (else from ``out_path``)."""
+    out_path = Path(out_path)
+    if not out_path.exists():
+        raise FileNotFoundError(f"bag not found: {out_path}")
+    truth_path = Path(ground_truth_path) if ground_truth_path else out_path
+    data = read_topics(out_path, [POSE_TOPIC])
+    last = read_last(out_path, [PATH_TOPIC, MAP_CLOUD_TOPIC, DIAGNOSTICS_TOPIC, REPLAY_INFO_TOPIC])
+    truth_topics = bag_topics(truth_path)
+    source = {topic: truth_path if topic in truth_topics else out_path
+              for topic in (GROUND_TRUTH_POSE_TOPIC, GROUND_TRUTH_LANDMARKS_TOPIC, ODOM_TOPIC,
+                            LANDMARKS_TOPIC)}
+    series: dict[str, list[Any]] = {}
+    for path in set(source.values()):
+        topics = [topic for topic, where in source.items() if where == path]
+        series.update({topic: messages for topic, (_, messages)
+                       in read_topics(path, topics).items()})
+    pose_messages = data[POSE_TOPIC][1]
+    landmarks_truth = None
+    if series[GROUND_TRUTH_LANDMARKS_TOPIC]:
+        points, ids = landmark_cloud_arrays(series[GROUND_TRUTH_LANDMARKS_TOPIC][-1])
+        landmarks_truth = LandmarkSet(points.astype(float), ids)
+    labels = [landmark_cloud_arrays(msg)[1] for msg in series[LANDMARKS_TOPIC]]
+    observed_ids = np.unique(np.concatenate(labels)) if labels else np.zeros(0, np.int32)
+    observed_ids = observed_ids[observed_ids >= 0]
+    return RunData(
+        estimate=_pose_stamped_series(pose_messages) if pose_messages else None,
+        final_path=(_pose_stamped_series(last[PATH_TOPIC][1].poses)
+                    if PATH_TOPIC in last and last[PATH_TOPIC][1].poses else None),
+        odometry=pose_series_from_messages(series[ODOM_TOPIC]) if series[ODOM_TOPIC] else None,
+        ground_truth=(pose_series_from_messages(series[GROUND_TRUTH_POSE_TOPIC])
+                      if series[GROUND_TRUTH_POSE_TOPIC] else None),
+        landmarks=_landmark_estimate(last[MAP_CLOUD_TOPIC][1]) if MAP_CLOUD_TOPIC in last else None,
+        landmarks_truth=landmarks_truth,
+        replay_info=(json.loads(last[REPLAY_INFO_TOPIC][1].data)
+                     if REPLAY_INFO_TOPIC in last else {}),
+        diagnostics=(_diagnostic_values(last[DIAGNOSTICS_TOPIC][1])
+                     if DIAGNOSTICS_TOPIC in last else {}),
+        observed_ids=observed_ids if len(observed_ids) else None)
+
+
+# ---------------------------------------------------------------- evaluation
+
+
+@dataclass
+class Evaluation:
+    """Metrics plus the matched trajectories, for tables and plots."""
+
+    metrics: dict[str, Any]
+    run: RunData
+    trajectories: dict[str, TrajectoryResult]
+    landmark_alignment: Transform2D | None
+
+
+def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
+                 max_gap: float = DEFAULT_MAX_GAP, min_existence: float = 0.0) -> Evaluation:
+    """Compute every metric of a loaded run."""
+    trajectories: dict[str, TrajectoryResult] = {}
+    metrics: dict[str, Any] = {}
+    if run.ground_truth is not None:
+        for name, series in (("estimate", run.estimate), ("final_path", run.final_path),
+                             ("dead_reckoning", run.odometry)):
+            if series is not None and len(series.stamps):
+                result = evaluate_trajectory(series.stamps, series.poses[:, :2],
+                                             run.ground_truth, max_gap)
+                if result is not None:
+                    trajectories[name] = result
+                    metrics[name] = result.metrics()
+    metrics["ground_truth_position_only"] = bool(run.ground_truth is not None
+                                                 and run.ground_truth.position_only)
+    landmark_alignment = None
+    if run.landmarks is not None:
+        keep = run.landmarks.existence >= min_existence
+        metrics["landmarks_estimated"] = int(np.count_nonzero(keep))
+        if run.landmarks_truth is not None:
+            source = trajectories.get("final_path") or trajectories.get("estimate")
+            landmark_alignment = source.alignment if source else Transform2D()
+            positions = run.landmarks.positions[keep]
+            ids = run.landmarks.ids[keep]
+            truth = run.landmarks_truth
+            if run.observed_ids is not None:  # a landmark never seen cannot be missed
+                seen = np.isin(truth.ids, run.observed_ids)
+                metrics["landmarks_never_observed"] = int(np.count_nonzero(~seen))
+                truth = LandmarkSet(truth.positions[seen], truth.ids[seen])
+            metrics["landmarks"] = landmark_metrics(landmark_alignment.apply(positions), ids,
+                                                    truth, cutoff)
+            metrics["landmarks_raw"] = landmark_metrics(positions, ids, truth, cutoff)
+    checked = run.diagnostics.get("associations_checked")
+    correct = run.diagnostics.get("associations_correct")
+    if checked is not None and correct is not None and int(float(checked)) > 0:
+        metrics["association"] = {"checked": int(float(checked)), "correct": int(float(correct)),
+                                  "accuracy": float(correct) / float(checked)}
+    info = run.replay_info
+    if info:
+        metrics["runtime"] = {key: info[key] for key in
+                              ("wall_time", "cpu_time", "bag_duration", "real_time_factor")
+                              if key in info}
+        metrics["stats"] = info.get("stats", {})
+        metrics["params"] = info.get("params", {})
+    return Evaluation(metrics, run, trajectories, landmark_alignment)
+
+
+def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
+             cutoff: float = OSPA_CUTOFF, max_gap: float = DEFAULT_MAX_GAP,
+             min_existence: float = 0.0) -> dict[str, Any]:
+    """Metrics of a recorded run (JSON-ready).
+
+    Keys, each present when its inputs are: ``estimate``, ``final_path``, ``dead_reckoning``
+    (each ``{"raw": {"rmse", "max", "final"}, "aligned": {...}, "alignment": {"yaw", "x", "y"},
+    "samples"}``, metres); ``landmarks`` (after the final path's alignment) and
+    ``landmarks_raw``, each ``{"rmse", "ospa", "matched", "missed", "spurious", "estimated",
+    "truth", "match_method", "cutoff"}``; ``landmarks_never_observed`` (truth landmarks left out
+    because no input cloud labels them); ``landmarks_estimated``; ``association``
+    (``{"checked", "correct", "accuracy"}`` from the last ``/diagnostics``); ``runtime``
+    (``{"wall_time", "cpu_time", "bag_duration", "real_time_factor"}`` from the replay);
+    ``stats`` (node counters); ``params``; ``ground_truth_position_only``.
+    """
+    run = load_run(out_path, ground_truth_path)
+    return evaluate_run(run, cutoff, max_gap, min_existence).metrics
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` with NaN and infinities replaced by None (strict JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {key: json_ready(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _number(value: float, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.{digits}f}"
+
+
+def markdown_table(metrics: dict[str, Any]) -> str:
+    """The summary as Markdown: one row per trajectory, then landmarks, association, runtime."""
+    lines = ["| trajectory | ATE RMSE (m) | max (m) | final (m) | aligned RMSE (m) | "
+             "aligned max (m) | aligned final (m) |",
+             "|---|---|---|---|---|---|---|"]
+    labels = {"estimate": "estimate (at the time)", "final_path": "best particle, final path",
+              "dead_reckoning": "dead reckoning"}
+    for key, label in labels.items():
+        if key in metrics:
+            raw, aligned = metrics[key]["raw"], metrics[key]["aligned"]
+            lines.append(f"| {label} | {_number(raw['rmse'])} | {_number(raw['max'])} | "
+                         f"{_number(raw['final'])} | {_number(aligned['rmse'])} | "
+                         f"{_number(aligned['max'])} | {_number(aligned['final'])} |")
+    summary = []
+    if "landmarks" in metrics:
+        lm = metrics["landmarks"]
+        never = metrics.get("landmarks_never_observed", 0)
+        unseen = f" ({never} never observed, not counted)" if never else ""
+        summary.append(f"| landmarks (aligned) | RMSE {_number(lm['rmse'])} m, OSPA "
+                       f"{_number(lm['ospa'])} m (c = {OSPA_CUTOFF:g} m, p = {OSPA_ORDER}), "
+                       f"{lm['matched']} matched by {lm['match_method']}, {lm['missed']} missed, "
+                       f"{lm['spurious']} spurious of {lm['estimated']}{unseen} |")
+    elif "landmarks_estimated" in metrics:
+        summary.append(f"| landmarks | {metrics['landmarks_estimated']} in the final map "
+                       "(no landmark ground truth) |")
+    if "association" in metrics:
+        a = metrics["association"]
+        summary.append(f"| association | {100.0 * a['accuracy']:.2f} % correct "
+                       f"({a['correct']} of {a['checked']}) |")
+    if "runtime" in metrics and "wall_time" in metrics["runtime"]:
+        r = metrics["runtime"]
+        cpu = f", {r['cpu_time']:.1f} s of CPU" if "cpu_time" in r else ""
+        summary.append(f"| runtime | {r['wall_time']:.1f} s for {r['bag_duration']:.1f} s of data, "
+                       f"{r['real_time_factor']:.1f}x real time{cpu} |")
+    if summary:
+        lines += ["", "| | |", "|---|---|"] + summary
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``fastslam-eval``: print the Markdown summary; optionally write JSON and a plot."""
+    parser = argparse.ArgumentParser(prog="fastslam-eval",
+                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+    parser.add_argument("out", type=Path,
+                        help="bag recorded by fastslam-replay (or ros2 bag record)")
+    parser.add_argument("--ground-truth", type=Path, default=None,
+                        help="schema bag holding /ground_truth/* and /odom (default: OUT itself)")
+    parser.add_argument("--json", type=Path, default=None, help="write the metrics here")
+    parser.add_argument("--plot", type=Path, default=None,
+                        help="write a figure here (PNG, PDF, SVG)")
+    parser.add_argument("--cutoff", type=float, default=OSPA_CUTOFF,
+                        help=f"landmark match distance (m) [{OSPA_CUTOFF}]")
+    parser.add_argument("--max-gap", type=float, default=DEFAULT_MAX_GAP,
+                        help="longest ground-truth gap interpolated across (s) "
+                             f"[{DEFAULT_MAX_GAP}]")
+    parser.add_argument("--min-existence", type=float, default=0.0,
+                        help="ignore estimated landmarks with a lower existence probability [0]")
+    args = parser.parse_args(argv)
+    try:
+        run = load_run(args.out, args.ground_truth)
+    except (FileNotFoundError, OSError, ValueError) as error:
+        print(f"fastslam-eval: cannot read {args.out}: {error}", file=sys.stderr)
+        return 1
+    if run.estimate is None:
+        print(f"fastslam-eval: {args.out} has no {POSE_TOPIC} messages", file=sys.stderr)
+        return 1
+    if run.ground_truth is None:
+        print(f"fastslam-eval: no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}",
+              file=sys.stderr)
+        return 1
+    evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence)
+    print(markdown_table(evaluation.metrics))
+    if args.json:
+        args.json.write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+    if args.plot:
+        from fastslam_ros.tools.plot import plot_evaluation
+        plot_evaluation(evaluation, args.plot)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

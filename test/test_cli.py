@@ -1,0 +1,121 @@
+"""The console commands on real files: sim -> replay -> eval (JSON, plot), errors, --help."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fastslam_ros.tools import demo, evaluate, play, replay, sim
+from fastslam_ros.tools.bag_schema import (LandmarkSet, PoseSeries, read_schema_bag,
+                                           write_schema_bag)
+from fastslam_ros.tools.sim import SimConfig, simulate
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("command", [sim, replay, play, evaluate, demo])
+def test_every_command_has_help(command, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        command.main(["--help"])
+    assert exit_info.value.code == 0
+    assert "usage: fastslam-" in capsys.readouterr().out
+
+
+def test_sim_replay_eval_chain(tmp_path, capsys):
+    bag = tmp_path / "loop"
+    assert sim.main(["--out", str(bag), "--duration", "30", "--seed", "4",
+                     "--storage", "sqlite3"]) == 0
+    assert (tmp_path / "loop.yaml").read_text().startswith("# Recommended")
+    assert "wrote" in capsys.readouterr().out
+    assert len(read_schema_bag(bag).scans.stamps) == 150
+
+    out = tmp_path / "out"
+    assert replay.main([str(bag), "--params", str(tmp_path / "loop.yaml"), "--seed", "3",
+                        "--set", "num_particles=20", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "received_landmarks 150" in printed and "dropped: none" in printed
+
+    metrics_path, plot_path = tmp_path / "metrics.json", tmp_path / "result.png"
+    assert evaluate.main([str(out), "--json", str(metrics_path), "--plot", str(plot_path)]) == 0
+    table = capsys.readouterr().out
+    assert "| estimate (at the time) |" in table and "| dead reckoning |" in table
+    metrics = json.loads(metrics_path.read_text())
+    assert metrics["estimate"]["samples"] == 150
+    assert metrics["landmarks"]["truth"] + metrics["landmarks_never_observed"] == 85
+    assert metrics["landmarks"]["match_method"] == "id"
+    assert metrics["association"]["checked"] > 0
+    assert metrics["runtime"]["bag_duration"] == pytest.approx(30.0)
+    assert metrics["params"]["num_particles"] == 20
+    # A working filter tracks a 30 s drive to well under a metre.
+    assert metrics["estimate"]["aligned"]["rmse"] < 1.0
+    assert metrics["final_path"]["aligned"]["rmse"] < 1.0
+    assert plot_path.read_bytes()[:8] == PNG_SIGNATURE
+
+    # The ground truth can also come from the input bag.
+    assert evaluate.main([str(out), "--ground-truth", str(bag)]) == 0
+    assert capsys.readouterr().out == table
+
+
+def test_commands_fail_cleanly_on_missing_input(tmp_path, capsys):
+    assert replay.main([str(tmp_path / "absent")]) == 1
+    assert "bag not found" in capsys.readouterr().err
+    assert evaluate.main([str(tmp_path / "absent")]) == 1
+    assert "absent" in capsys.readouterr().err
+    bag = tmp_path / "bag"
+    assert sim.main(["--out", str(bag), "--duration", "2"]) == 0
+    assert sim.main(["--out", str(bag), "--duration", "2"]) == 1  # exists, no --overwrite
+    assert "exists" in capsys.readouterr().err
+    assert evaluate.main([str(bag)]) == 1  # an input bag holds no estimate
+    assert "/fastslam/pose" in capsys.readouterr().err
+    assert replay.main([str(bag), "--set", "num_particles=0", "--no-record"]) == 1
+    assert "num_particles" in capsys.readouterr().err
+
+
+def test_demo_writes_every_artefact(tmp_path, capsys):
+    out_dir = tmp_path / "demo"
+    assert demo.main(["--out-dir", str(out_dir), "--particles", "10", "--duration", "15"]) == 0
+    printed = capsys.readouterr().out
+    assert "| best particle, final path |" in printed
+    for name in ("summary.md", "metrics.json", "result.png", "sim_loop", "sim_loop.yaml",
+                 "replay"):
+        assert (out_dir / name).exists(), name
+    assert (out_dir / "summary.md").read_text().strip() in printed
+    assert json.loads((out_dir / "metrics.json").read_text())["params"]["num_particles"] == 10
+
+
+def test_position_only_sparse_ground_truth_is_evaluated(tmp_path, capsys):
+    bag = simulate(SimConfig(duration=20.0, seed=6))
+    truth = bag.ground_truth
+    every_second = slice(0, None, 40)  # a 1 Hz GPS-like reference without heading
+    bag.ground_truth = PoseSeries(truth.stamps[every_second], truth.poses[every_second], "map",
+                                  position_only=True)
+    bag.landmarks_truth = None  # like Victoria Park: GPS only
+    write_schema_bag(tmp_path / "gps", bag)
+    assert replay.main([str(tmp_path / "gps"), "--seed", "1", "--set", "num_particles=10",
+                        "--out", str(tmp_path / "out")]) == 0
+    metrics_path = tmp_path / "metrics.json"
+    assert evaluate.main([str(tmp_path / "out"), "--json", str(metrics_path),
+                          "--plot", str(tmp_path / "gps.png")]) == 0
+    metrics = json.loads(metrics_path.read_text())
+    assert metrics["ground_truth_position_only"] is True
+    # 5 Hz estimates between 1 Hz fixes 1 s apart are all interpolated (20 s: 100 readings).
+    assert metrics["estimate"]["samples"] == 100
+    assert metrics["dead_reckoning"]["samples"] == 801
+    assert metrics["estimate"]["aligned"]["rmse"] < 1.0
+    assert "landmarks" not in metrics and metrics["landmarks_estimated"] > 0
+
+
+def test_landmarks_never_observed_are_not_counted_as_missed(tmp_path, capsys):
+    bag = simulate(SimConfig(duration=10.0, seed=2))
+    truth = bag.landmarks_truth
+    bag.landmarks_truth = LandmarkSet(np.vstack([truth.positions, [[500.0, 500.0]]]),
+                                      np.append(truth.ids, 999).astype(np.int32))
+    write_schema_bag(tmp_path / "bag", bag)
+    assert replay.main([str(tmp_path / "bag"), "--seed", "1", "--set", "num_particles=10",
+                        "--out", str(tmp_path / "out")]) == 0
+    metrics = evaluate.evaluate(tmp_path / "out")
+    seen = set(np.concatenate(bag.scans.ids).tolist())
+    assert metrics["landmarks_never_observed"] == len(truth.ids) + 1 - len(seen)
+    assert metrics["landmarks"]["truth"] == len(seen)
+    assert metrics["landmarks"]["missed"] == 0

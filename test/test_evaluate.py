@@ -1,0 +1,109 @@
+"""Metric functions against hand-computed cases."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries
+from fastslam_ros.tools.evaluate import (Transform2D, align_se2, error_stats, json_ready,
+                                         evaluate_trajectory, interpolate_positions,
+                                         landmark_metrics, match_landmarks, markdown_table, ospa)
+
+RNG = np.random.default_rng(7)
+
+
+def test_alignment_removes_a_known_rotation_and_translation_exactly():
+    reference = RNG.uniform(-50, 50, size=(40, 2))
+    moved = Transform2D(yaw=0.7, translation=np.array([3.0, -12.0]))
+    estimate = moved.apply(reference)
+    alignment = align_se2(estimate, reference)
+    np.testing.assert_allclose(alignment.apply(estimate), reference, atol=1e-10)
+    assert alignment.yaw == pytest.approx(-0.7, abs=1e-12)
+
+
+def test_alignment_is_the_least_squares_optimum_with_noise():
+    reference = RNG.uniform(-20, 20, size=(60, 2))
+    estimate = Transform2D(0.3, np.array([1.0, 2.0])).apply(reference) + RNG.normal(0, 0.2, (60, 2))
+    best = align_se2(estimate, reference)
+    cost = np.sum((best.apply(estimate) - reference) ** 2)
+    for dyaw, dx in ((1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)):
+        nudged = Transform2D(best.yaw + dyaw, best.translation + (dx, 0.0))
+        assert np.sum((nudged.apply(estimate) - reference) ** 2) > cost
+
+
+def test_ate_of_a_constant_offset():
+    stamps = np.arange(0.0, 10.0, 0.1)
+    truth = PoseSeries(stamps, np.stack([stamps, np.sin(stamps), np.zeros_like(stamps)], axis=1))
+    offset = np.array([3.0, 4.0])
+    result = evaluate_trajectory(stamps, truth.poses[:, :2] + offset, truth)
+    metrics = result.metrics()
+    assert metrics["raw"]["rmse"] == pytest.approx(5.0)
+    assert metrics["raw"]["max"] == pytest.approx(5.0)
+    assert metrics["raw"]["final"] == pytest.approx(5.0)
+    assert metrics["aligned"]["rmse"] == pytest.approx(0.0, abs=1e-9)
+    assert metrics["samples"] == len(stamps)
+
+
+def test_ground_truth_is_interpolated_but_not_across_gaps():
+    stamps = np.array([0.0, 1.0, 2.0, 10.0])
+    positions = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 4.0], [0.0, 0.0]])
+    query = np.array([-0.5, 0.25, 1.5, 2.0, 5.0, 10.0, 11.0])
+    values, valid = interpolate_positions(stamps, positions, query, max_gap=1.0)
+    np.testing.assert_array_equal(valid, [False, True, True, True, False, True, False])
+    np.testing.assert_allclose(values[valid], [[0.5, 0.0], [2.0, 2.0], [2.0, 4.0], [0.0, 0.0]])
+
+
+def test_error_stats_rmse_max_final():
+    stats = error_stats(np.array([3.0, 4.0, 0.0]))
+    assert stats == {"rmse": pytest.approx(math.sqrt(25.0 / 3.0)), "max": 4.0, "final": 0.0}
+    assert math.isnan(error_stats(np.zeros(0))["rmse"])
+
+
+def test_ospa_closed_forms():
+    points = RNG.uniform(-10, 10, size=(5, 2))
+    assert ospa(points, points[::-1]) == 0.0
+    assert ospa(np.zeros((0, 2)), np.zeros((0, 2))) == 0.0
+    assert ospa(points, np.zeros((0, 2)), cutoff=2.0) == 2.0
+    # One truth point missing from the estimate: sqrt(c^p * 1 / n).
+    assert ospa(points[:4], points, cutoff=2.0, order=2) == pytest.approx(2.0 / math.sqrt(5.0))
+    # Every point displaced by d < c: OSPA = d.
+    assert ospa(points + (0.3, 0.4), points, cutoff=2.0) == pytest.approx(0.5)
+    # Displacements beyond c cost c.
+    assert ospa(points + (30.0, 0.0), points, cutoff=2.0) == pytest.approx(2.0)
+
+
+def test_landmarks_matched_by_id_count_duplicates_and_far_ones():
+    truth = LandmarkSet(np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]), np.array([0, 1, 2]))
+    estimate = np.array([[0.1, 0.0], [10.0, 0.2], [10.5, 0.0], [25.0, 0.0], [40.0, 0.0]])
+    ids = np.array([0, 1, 1, 2, -1])
+    metrics = landmark_metrics(estimate, ids, truth, cutoff=2.0)
+    assert metrics["match_method"] == "id"
+    assert (metrics["matched"], metrics["missed"], metrics["spurious"]) == (2, 1, 3)
+    assert metrics["rmse"] == pytest.approx(math.sqrt((0.01 + 0.04) / 2))
+
+
+def test_landmarks_without_ids_use_optimal_assignment():
+    truth = np.array([[0.0, 0.0], [1.0, 0.0]])
+    # Greedy nearest-first pairs (0.6, 0) with (1, 0), leaving (1.9, 0) 1.9 m from (0, 0).
+    estimate = np.array([[0.6, 0.0], [1.9, 0.0]])
+    rows, cols, method = match_landmarks(estimate, np.full(2, -1), truth, np.full(2, -1), 2.0)
+    assert method == "assignment"
+    assert sorted(zip(rows.tolist(), cols.tolist())) == [(0, 0), (1, 1)]
+
+
+def test_markdown_table_lists_every_trajectory():
+    stamps = np.arange(5.0)
+    truth = PoseSeries(stamps, np.zeros((5, 3)))
+    result = evaluate_trajectory(stamps, np.ones((5, 2)), truth).metrics()
+    table = markdown_table({"estimate": result, "dead_reckoning": result,
+                            "association": {"checked": 10, "correct": 9, "accuracy": 0.9}})
+    assert "| estimate (at the time) | 1.414 |" in table
+    assert "| dead reckoning |" in table
+    assert "90.00 % correct (9 of 10)" in table
+
+
+def test_json_ready_replaces_nan_and_infinity():
+    assert json_ready({"a": [1.0, math.nan], "b": {"c": math.inf}, "d": "x"}) == \
+        {"a": [1.0, None], "b": {"c": None}, "d": "x"}

@@ -1,0 +1,100 @@
+"""Replay through the real node: recorded outputs, determinism, errors, parameter files."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fastslam_ros.tools.bag_schema import (LandmarkScans, PoseSeries, SchemaBag, SchemaError,
+                                           read_last, read_topic, read_topics, write_schema_bag)
+from fastslam_ros.tools.replay import (INFO_TOPIC, load_params_file, node_parameters,
+                                       parse_assignment, replay_bag)
+from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
+
+PARAMS = dict(recommended_params(SimConfig()), num_particles=20)
+
+
+@pytest.fixture(scope="module")
+def short_bag(tmp_path_factory):
+    path = tmp_path_factory.mktemp("replay") / "short"
+    return write_schema_bag(path, simulate(SimConfig(duration=20.0, seed=2)))
+
+
+def test_replay_records_outputs_at_bag_time(tmp_path, short_bag):
+    result = replay_bag(short_bag, dict(PARAMS, seed=4), out_path=tmp_path / "out")
+    assert result.stats["received_odom"] == 801
+    assert result.stats["used_landmarks"] == result.stats["received_landmarks"] == 100
+    assert result.bag_duration == pytest.approx(20.0)
+    assert result.params["num_particles"] == 20
+
+    data = read_topics(tmp_path / "out", ["/fastslam/pose", "/ground_truth/pose", "/odom"])
+    log_stamps, poses = data["/fastslam/pose"]
+    _, scans = read_topic(short_bag, "/landmarks")
+    scan_stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in scans]
+    pose_stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in poses]
+    np.testing.assert_allclose(pose_stamps, scan_stamps, atol=1e-9)  # one pose per reading
+    assert np.all(log_stamps >= np.array(pose_stamps) - 1e-9)  # logged when it was computed
+    assert len(data["/ground_truth/pose"][1]) == 801 and len(data["/odom"][1]) == 801
+    last = read_last(tmp_path / "out", ["/fastslam/map_cloud", "/diagnostics", INFO_TOPIC])
+    assert last["/fastslam/map_cloud"][1].width > 0
+    info = json.loads(last[INFO_TOPIC][1].data)
+    assert info["stats"] == result.stats and info["real_time_factor"] > 0
+    values = {kv.key: kv.value for status in last["/diagnostics"][1].status for kv in status.values}
+    assert int(values["associations_checked"]) > 0
+
+
+def test_same_bag_params_and_seed_give_identical_estimates(tmp_path, short_bag):
+    for name in ("a", "b"):
+        replay_bag(short_bag, dict(PARAMS, seed=11), out_path=tmp_path / name)
+    first = read_topic(tmp_path / "a", "/fastslam/pose")[1]
+    second = read_topic(tmp_path / "b", "/fastslam/pose")[1]
+    assert len(first) == len(second) == 100
+    for a, b in zip(first, second):
+        assert (a.pose.pose.position.x, a.pose.pose.position.y) == \
+               (b.pose.pose.position.x, b.pose.pose.position.y)
+        np.testing.assert_array_equal(a.pose.covariance, b.pose.covariance)
+    cloud_a = read_last(tmp_path / "a", ["/fastslam/map_cloud"])["/fastslam/map_cloud"][1]
+    cloud_b = read_last(tmp_path / "b", ["/fastslam/map_cloud"])["/fastslam/map_cloud"][1]
+    np.testing.assert_array_equal(cloud_a.data, cloud_b.data)
+
+
+def test_missing_topics_and_unreadable_bags_are_reported(tmp_path):
+    stamps = np.array([0.0, 1.0])
+    odom_only = write_schema_bag(tmp_path / "odom_only",
+                                 SchemaBag(PoseSeries(stamps, np.zeros((2, 3))),
+                                           LandmarkScans(np.zeros(0), [], [])))
+    with pytest.raises(SchemaError, match="/landmarks"):
+        replay_bag(odom_only, PARAMS)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "metadata.yaml").write_text("not: [a bag")
+    with pytest.raises(SchemaError, match="cannot read"):
+        replay_bag(broken, PARAMS, out_path=tmp_path / "never")
+    assert not (tmp_path / "never").exists()
+    with pytest.raises(FileNotFoundError):
+        replay_bag(tmp_path / "absent", PARAMS)
+
+
+def test_bad_and_unknown_parameters_are_named(short_bag):
+    with pytest.raises(ValueError, match="num_particles"):
+        replay_bag(short_bag, {"num_particles": 0})
+    with pytest.raises(ValueError, match="no_such_parameter"):
+        replay_bag(short_bag, {"no_such_parameter": 1.0})
+
+
+def test_parameter_file_sections_merge_and_integers_widen(tmp_path):
+    path = tmp_path / "params.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    sigma_range: 1\n    num_particles: 7\n"
+                    "fastslam:\n  ros__parameters:\n    num_particles: 9\n    association: known\n")
+    params = load_params_file(path)
+    assert params == {"sigma_range": 1, "num_particles": 9, "association": "known"}
+    overrides = {p.name: p.value for p in node_parameters(params)}
+    assert overrides["sigma_range"] == 1.0 and isinstance(overrides["sigma_range"], float)
+    assert overrides["num_particles"] == 9 and overrides["use_sim_time"] is True
+    assert parse_assignment("alpha1=0.5") == ("alpha1", 0.5)
+    assert parse_assignment("alpha2=2e-4") == ("alpha2", 2e-4)
+    assert parse_assignment("num_particles=30") == ("num_particles", 30)
+    assert parse_assignment("association=ml") == ("association", "ml")
+    with pytest.raises(ValueError):
+        parse_assignment("alpha1")
