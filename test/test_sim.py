@@ -85,7 +85,8 @@ def test_recommended_params_are_valid_core_settings():
     for scenario in ("loop", "large", "clutter"):
         params = recommended_params(SimConfig(scenario=scenario))
         FastSLAMConfig(**{k: v for k, v in params.items() if k in core_fields}).validate()
-        assert set(params) - core_fields == {"pose_estimate"}
+        assert set(params) - core_fields == {"pose_estimate", "markers_rate", "path_rate",
+                                             "particles_rate"}
         assert params["sigma_bearing"] == pytest.approx(math.radians(1.0))
 
 
