@@ -26,24 +26,11 @@ LABEL, KEY = 0, 1
 STATE_WIDTH = 6
 
 
-@dataclass
-class WorkingSet:
-    """Landmarks of every particle near the robot as dense (M, K) arrays.
+class RecordViews:
+    """Named views into packed landmark records (``state`` floats, ``ident`` integers)."""
 
-    The last ``num_new_slots`` columns are empty slots where the filter places new landmarks.
-    ``mean``, ``cov``, ... are views into the packed ``state`` / ``ident`` records, so writing
-    through them (also with fancy indices) updates the working set.
-    """
-
-    row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
-    slot: np.ndarray      # (M, K) slot within the row
-    column: np.ndarray    # (M, K) cell column of the entry, -1 for a new slot
-    state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
-    ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
-    valid: np.ndarray     # (M, K) entry holds a live landmark
-    dirty: np.ndarray     # (M, K) existing entry changed (updated, evidence, removed)
-    is_new: np.ndarray    # (M, K) created during this update
-    num_new_slots: int
+    state: np.ndarray
+    ident: np.ndarray
 
     @property
     def mean(self) -> np.ndarray:
@@ -65,12 +52,32 @@ class WorkingSet:
     def key(self) -> np.ndarray:
         return self.ident[..., KEY]
 
+
+@dataclass
+class WorkingSet(RecordViews):
+    """Landmarks of every particle near the robot as dense (M, K) arrays.
+
+    The last ``num_new_slots`` columns are empty slots where the filter places new landmarks.
+    ``mean``, ``cov``, ... are views into the packed ``state`` / ``ident`` records, so writing
+    through them (also with fancy indices) updates the working set.
+    """
+
+    row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
+    slot: np.ndarray      # (M, K) slot within the row
+    column: np.ndarray    # (M, K) cell column of the entry, -1 for a new slot
+    state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
+    ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
+    valid: np.ndarray     # (M, K) entry holds a live landmark
+    dirty: np.ndarray     # (M, K) existing entry changed (updated, evidence, removed)
+    is_new: np.ndarray    # (M, K) created during this update
+    num_new_slots: int
+
     @property
     def first_new_slot(self) -> int:
         return self.valid.shape[1] - self.num_new_slots
 
 
-class LandmarkStore:
+class LandmarkStore(RecordViews):
     """Per-particle landmark maps with structural sharing (see module docstring)."""
 
     def __init__(self, num_particles: int, cell_size: float, capacity: int = 8,
@@ -92,27 +99,7 @@ class LandmarkStore:
         self._label_index: dict[int, int] = {}
         self.label_column = np.full((num_particles, 8), -1, dtype=np.int32)
 
-    # ------------------------------------------------------------------ views and memory
-    @property
-    def mean(self) -> np.ndarray:
-        return self.state[..., MEAN]
-
-    @property
-    def cov(self) -> np.ndarray:
-        return self.state[..., COV]
-
-    @property
-    def logodds(self) -> np.ndarray:
-        return self.state[..., LOGODDS]
-
-    @property
-    def label(self) -> np.ndarray:
-        return self.ident[..., LABEL]
-
-    @property
-    def key(self) -> np.ndarray:
-        return self.ident[..., KEY]
-
+    # ------------------------------------------------------------------ memory
     @property
     def num_rows(self) -> int:
         return self.refcount.shape[0]
