@@ -33,7 +33,7 @@ from .path_history import PathHistory
 from .proposal import refine_proposal, sample_pose
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
-MAX_CANDIDATES = 8
+MAX_CANDIDATES = 4
 """Landmarks scored per observation and particle: the nearest ones to the observed point."""
 
 
