@@ -128,14 +128,15 @@ def memory(particles: int, seed: int, sizes=(10000, 50000), steps: int = 100) ->
 
 
 def markdown(title: str, rows: list[dict]) -> str:
+    """A Markdown table of result rows under a heading."""
     if not rows:
         return ""
     keys = list(rows[0])
-    fmt = [(lambda v: f"{v:.3g}" if isinstance(v, float) else str(v))]
-    lines = [f"### {title}", "", "| " + " | ".join(keys) + " |",
-             "|" + "---|" * len(keys)]
-    for row in rows:
-        lines.append("| " + " | ".join(fmt[0](row[k]) for k in keys) + " |")
+
+    def cell(value) -> str:
+        return f"{value:.4g}" if isinstance(value, float) else str(value)
+    lines = [f"### {title}", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(cell(row[k]) for k in keys) + " |" for row in rows]
     return "\n".join(lines) + "\n"
 
 
