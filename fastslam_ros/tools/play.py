@@ -79,10 +79,17 @@ def play_bag(bag_path: str | Path, rate: float = 1.0, loop: bool = False,
         node.destroy_node()
 
 
+DISCOVERY_SETTLE = 1.0
+"""Seconds to wait after the publishers see their subscribers: discovery is two-sided, and a
+reader that has not matched the writer yet drops what it sends (seen as lost first messages)."""
+
+
 def _wait_for_subscribers(node, publishers: list, timeout: float) -> None:
+    """Wait until every publisher has a subscriber (and discovery has settled), or time out."""
     deadline = time.monotonic() + timeout
     while timeout > 0.0 and time.monotonic() < deadline:
         if all(publisher.get_subscription_count() > 0 for publisher in publishers):
+            time.sleep(DISCOVERY_SETTLE)
             return
         time.sleep(0.05)
     if timeout > 0.0:
