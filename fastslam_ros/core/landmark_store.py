@@ -164,9 +164,16 @@ class LandmarkStore(RecordViews):
     # ------------------------------------------------------------------ labels (known ids)
     def label_columns(self, labels: np.ndarray) -> np.ndarray:
         """(M, len(labels)) column of each particle's landmark with that label, -1 if none."""
-        index = np.array([self._label_index.get(int(v), -1) for v in labels], dtype=np.int64)
+        index = self._label_indices(labels, create=False)
         columns = self.label_column[:, np.maximum(index, 0)]
         return np.where(index[None, :] >= 0, columns, -1)
+
+    def _label_indices(self, labels: np.ndarray, create: bool) -> np.ndarray:
+        """Dense index of each label (-1 if unknown and not ``create``); one dict look-up per
+        distinct label, not per particle."""
+        distinct, inverse = np.unique(labels, return_inverse=True)
+        lookup = self._label_slot if create else (lambda v: self._label_index.get(v, -1))
+        return np.array([lookup(int(v)) for v in distinct], np.int64)[inverse.reshape(-1)]
 
     def _label_slot(self, label: int) -> int:
         index = self._label_index.get(label)
@@ -270,7 +277,7 @@ class LandmarkStore(RecordViews):
         if track_labels and not np.all(keep):
             gone = ~keep
             labels = ws.label[owner[gone], entry[gone]]
-            index = np.array([self._label_index.get(int(v), -1) for v in labels], np.int64)
+            index = self._label_indices(labels, create=False)
             known = index >= 0
             self.label_column[owner[gone][known], index[known]] = -1
 
@@ -304,7 +311,7 @@ class LandmarkStore(RecordViews):
             pending = pending[~fits]
             if len(pending):
                 # Full blocks: the cells get a fresh insertion column for everyone.
-                for cx, cy in {(int(ix[i]), int(iy[i])) for i in pending}:
+                for cx, cy in np.unique(np.stack([ix[pending], iy[pending]], 1), axis=0).tolist():
                     self._register_cell(cx, cy)
                 columns[pending] = self._columns_for_cells(ix[pending], iy[pending])
         count = len(owner)
@@ -315,7 +322,7 @@ class LandmarkStore(RecordViews):
         self.ident[placed_rows, placed_slots] = ws.ident[owner, entry]
         if track_labels:
             labels = ws.label[owner, entry]
-            index = np.array([self._label_slot(int(v)) for v in labels], np.int64)
+            index = self._label_indices(labels, create=True)
             self.label_column[owner, index] = columns
 
     # ------------------------------------------------------------------ resampling and queries
