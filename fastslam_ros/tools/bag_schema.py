@@ -134,12 +134,6 @@ def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
     return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
 
 
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap angles to (-pi, pi]."""
-    wrapped = np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
-    return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
-
-
 def odometry_to_pose(msg: Any) -> tuple[float, float, float]:
     """(x, y, theta) of a ``nav_msgs/Odometry`` (rosbags or rclpy message)."""
     position = msg.pose.pose.position

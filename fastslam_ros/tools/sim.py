@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
-                                           wrap_angle, write_schema_bag)
+                                           write_schema_bag)
 
 SCENARIOS = ("loop", "large", "clutter")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),

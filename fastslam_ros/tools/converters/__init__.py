@@ -12,11 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray:
-    """Wrap angles (rad) to (-pi, pi]."""
-    wrapped = np.mod(np.asarray(angle, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
+from fastslam_ros.core.geometry import wrap_angle
 
 
 def read_table(path: Path | str, columns: int) -> np.ndarray:

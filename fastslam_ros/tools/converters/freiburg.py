@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, polar_to_points, read_table,
-                                           robust_std, wrap_angle)
+                                           robust_std)
 
 STEP_DURATION = 1.0
 """Synthetic duration of one odometry step (s)."""

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
-                                           polar_to_points, read_table, robust_std, wrap_angle)
+                                           polar_to_points, read_table, robust_std)
 
 EPOCH_THRESHOLD = 1.0e8
 """Stamps above this (s) are Unix-epoch times of the distributed files."""

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
-                                           polar_to_points, read_table, wrap_angle)
+                                           polar_to_points, read_table)
 
 WHEELBASE = 2.83
 """L: distance between the axles (m)."""
