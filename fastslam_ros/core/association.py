@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import wrap_angle
+from .landmark_ekf import innovation_covariance
 
 NEW = -1
 """The observation starts a new landmark."""
@@ -115,19 +116,15 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
     """
     nu_r = z_range - t.range
     nu_b = wrap_angle(z_bearing - t.bearing)
-    g00, g01 = t.dx / t.range, t.dy / t.range
-    g10, g11 = -t.dy / t.q, t.dx / t.q
     sxx, sxy, syy = landmark_cov[..., 0], landmark_cov[..., 1], landmark_cov[..., 2]
     if pose_cov is not None:
         extra = (1,) * (t.dx.ndim - 1)
+
         def component(i, j):
             return np.ascontiguousarray(pose_cov[:, i, j]).reshape((-1,) + extra)
         sxx, sxy, syy = sxx + component(0, 0), sxy + component(0, 1), syy + component(1, 1)
-    a0, a1 = g00 * sxx + g01 * sxy, g00 * sxy + g01 * syy
-    b0, b1 = g10 * sxx + g11 * sxy, g10 * sxy + g11 * syy
-    cxx = a0 * g00 + a1 * g01 + noise_diag[0]
-    cxy = a0 * g10 + a1 * g11
-    cyy = b0 * g10 + b1 * g11 + noise_diag[1]
+    (g00, g01, g10, g11), _, (cxx, cxy, cyy) = innovation_covariance(t, sxx, sxy, syy,
+                                                                      noise_diag)
     if pose_cov is not None:
         w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
         w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0

@@ -45,15 +45,10 @@ def update_landmarks(poses: np.ndarray, mean: np.ndarray, cov_packed: np.ndarray
     K = Sigma G^T S^-1, S = G Sigma G^T + R; Sigma' = (I - K G) Sigma (I - K G)^T + K R K^T.
     """
     t = observation_terms(poses[:, 0], poses[:, 1], poses[:, 2], mean[:, 0], mean[:, 1], offset)
-    g00, g01 = t.dx / t.range, t.dy / t.range
-    g10, g11 = -t.dy / t.q, t.dx / t.q
     sxx, sxy, syy = cov_packed[:, 0], cov_packed[:, 1], cov_packed[:, 2]
     r0, r1 = noise_diag
-    a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01      # Sigma G^T, first column
-    b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11      # Sigma G^T, second column
-    s00 = g00 * a0 + g01 * a1 + r0
-    s01 = g10 * a0 + g11 * a1
-    s11 = g10 * b0 + g11 * b1 + r1
+    (g00, g01, g10, g11), (a0, a1, b0, b1), (s00, s01, s11) = innovation_covariance(
+        t, sxx, sxy, syy, noise_diag)
     det = s00 * s11 - s01 * s01
     i00, i01, i11 = s11 / det, -s01 / det, s00 / det
     k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
@@ -72,13 +67,26 @@ def update_landmarks(poses: np.ndarray, mean: np.ndarray, cov_packed: np.ndarray
     return new_mean, new_cov
 
 
+def innovation_covariance(t, sxx, sxy, syy, noise_diag: np.ndarray):
+    """G_m, Sigma G_m^T and S = G_m Sigma G_m^T + R, component by component (broadcasting).
+
+    ``t`` holds the observation terms of the pairs, (sxx, sxy, syy) the landmark covariance.
+    Returns (g00, g01, g10, g11), the columns (a0, a1), (b0, b1) of Sigma G_m^T, and
+    (s00, s01, s11). Shared by the EKF update, the proposal and association scoring.
+    """
+    g00, g01 = t.dx / t.range, t.dy / t.range
+    g10, g11 = -t.dy / t.q, t.dx / t.q
+    a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
+    b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
+    s00 = g00 * a0 + g01 * a1 + noise_diag[0]
+    s01 = g10 * a0 + g11 * a1
+    s11 = g10 * b0 + g11 * b1 + noise_diag[1]
+    return (g00, g01, g10, g11), (a0, a1, b0, b1), (s00, s01, s11)
+
+
 def landmark_covariance_in_measurement_space(t, cov_packed: np.ndarray,
                                              noise_diag: np.ndarray) -> np.ndarray:
     """Q = G_m Sigma G_m^T + R, packed (..., 3), for the pairs described by ``t``."""
-    g00, g01 = t.dx / t.range, t.dy / t.range
-    g10, g11 = -t.dy / t.q, t.dx / t.q
-    sxx, sxy, syy = cov_packed[..., 0], cov_packed[..., 1], cov_packed[..., 2]
-    a0, a1 = g00 * sxx + g01 * sxy, g00 * sxy + g01 * syy
-    b0, b1 = g10 * sxx + g11 * sxy, g10 * sxy + g11 * syy
-    return np.stack([a0 * g00 + a1 * g01 + noise_diag[0], a0 * g10 + a1 * g11,
-                     b0 * g10 + b1 * g11 + noise_diag[1]], -1)
+    _, _, q = innovation_covariance(t, cov_packed[..., 0], cov_packed[..., 1],
+                                    cov_packed[..., 2], noise_diag)
+    return np.stack(q, -1)
