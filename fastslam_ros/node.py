@@ -15,6 +15,7 @@ import dataclasses
 import inspect
 import math
 import sys
+from collections import deque
 from dataclasses import dataclass
 from typing import Callable
 
@@ -164,8 +165,8 @@ class OdometryHistory:
     def __init__(self) -> None:
         self.anchor_stamp: float | None = None
         self.anchor_pose: np.ndarray | None = None
-        self._stamps: list[float] = []
-        self._poses: list[np.ndarray] = []
+        self._stamps: deque[float] = deque()
+        self._poses: deque[np.ndarray] = deque()
 
     @property
     def latest_stamp(self) -> float | None:
@@ -189,7 +190,7 @@ class OdometryHistory:
         steps = []
         while self._stamps and self._stamps[0] <= stamp:
             steps.append((self.anchor_pose, self._poses[0]))
-            self.anchor_stamp, self.anchor_pose = self._stamps.pop(0), self._poses.pop(0)
+            self.anchor_stamp, self.anchor_pose = self._stamps.popleft(), self._poses.popleft()
         if self._stamps and stamp > self.anchor_stamp:
             pose = interpolate_pose(self.anchor_stamp, self.anchor_pose,
                                     self._stamps[0], self._poses[0], stamp)
