@@ -8,7 +8,9 @@ association, one uniform for systematic resampling). Each particle owns a deep c
 Semantics mirrored from the core (documented there): the association of every observation of a
 reading is decided at the pose before the reading is used (FastSLAM 1.0: the sampled pose;
 FastSLAM 2.0: the predicted mean, scored with L = G_s P G_s^T + Q); FastSLAM 2.0 then refines
-the proposal with each associated observation in turn and samples the pose once.
+the proposal with each associated observation in turn, every Jacobian taken at one linearisation
+point (the predicted mean, then the refined mean when ``proposal_iterations`` > 1), and samples
+the pose once.
 """
 from __future__ import annotations
 
@@ -177,22 +179,30 @@ class ReferenceFastSLAM:
 
         for m in range(self.M):
             if motion:
-                mean, cov = motion[m]
-                for j, z in enumerate(z_all):
-                    n = choice[j][m]
-                    if not isinstance(n, int):
-                        continue
-                    lm = self.maps[m][n]
-                    z_hat, g_s, g_m = measure(mean, lm["mean"], self.offset)
-                    q = g_m @ lm["cov"] @ g_m.T + self.R
-                    big_l = g_s @ cov @ g_s.T + q
-                    nu = z - z_hat
-                    nu[1] = wrap(nu[1])
-                    # Textbook information form (P invertible in these tests).
-                    sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
-                    mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
-                    cov = sigma
-                    factor[j][m] = log_gauss(nu, big_l)
+                prior_mean, prior_cov = motion[m]
+                point = prior_mean
+                for _ in range(c.proposal_iterations):
+                    # Sequential updates, every Jacobian taken at the same ``point``.
+                    mean, cov = prior_mean, prior_cov
+                    for j, z in enumerate(z_all):
+                        n = choice[j][m]
+                        if not isinstance(n, int):
+                            continue
+                        lm = self.maps[m][n]
+                        z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
+                        step = mean - point
+                        step[2] = wrap(step[2])
+                        q = g_m @ lm["cov"] @ g_m.T + self.R
+                        big_l = g_s @ cov @ g_s.T + q
+                        nu = z - (z_point + g_s @ step)
+                        nu[1] = wrap(nu[1])
+                        # Textbook information form (P invertible in these tests).
+                        sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
+                        mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
+                        cov = sigma
+                        factor[j][m] = log_gauss(nu, big_l)
+                    point = mean
+                mean[2] = wrap(mean[2])
                 motion[m] = (mean, cov)
             self.log_w[m] += sum(factor[j][m] for j in range(K))
         if motion and fast2:

@@ -10,8 +10,7 @@ from fastslam_ros.core.landmark_ekf import (initialize_landmarks, pack, unpack,
 from fastslam_ros.core.motion import (OdometryControl, apply_control, control_variances,
                                       motion_covariance, sample_motion)
 from fastslam_ros.core.observation import (SensorOffset, inverse_observe, jacobians, observe)
-from fastslam_ros.core.proposal import (information_form_proposal, refine_proposal,
-                                        sample_pose)
+from fastslam_ros.core.proposal import observation_proposal, sample_pose
 
 OFFSETS = [SensorOffset(), SensorOffset(0.4, -0.2, 0.3), SensorOffset(3.78, 0.5, -np.pi / 2)]
 
@@ -153,24 +152,71 @@ def test_landmark_ekf_is_consistent_nees_over_seeds():
     assert 1.7 < np.mean(nees) < 2.3
 
 
-def test_proposal_kalman_form_equals_information_form():
+def joint_kalman_proposal(mean, cov, landmarks, z, offset, noise, iterations):
+    """One particle's proposal from all its observations stacked into one measurement vector,
+    with np.linalg (the iterated-EKF form: Jacobians at ``point``, innovation about s_hat)."""
+    point = mean
+    for _ in range(iterations):
+        rows, predicted, blocks = [], [], []
+        for lm in landmarks:
+            g_s, g_m = jacobians(point, lm[:2], offset)
+            sigma_m = unpack(lm[2:])
+            step = point - mean
+            step[2] = wrap_angle(step[2])
+            rows.append(g_s)
+            predicted.append(observe(point, lm[:2], offset) - g_s @ step)
+            blocks.append(g_m @ sigma_m @ g_m.T + noise)
+        g = np.vstack(rows)
+        q = np.zeros((len(g), len(g)))
+        for k, block in enumerate(blocks):
+            q[2 * k:2 * k + 2, 2 * k:2 * k + 2] = block
+        nu = (z - np.array(predicted)).ravel()
+        nu[1::2] = wrap_angle(nu[1::2])
+        big_l = g @ cov @ g.T + q
+        gain = cov @ g.T @ np.linalg.inv(big_l)
+        point = mean + gain @ nu
+        new_cov = cov - gain @ big_l @ gain.T
+    log_w = (-0.5 * nu @ np.linalg.solve(big_l, nu) - 0.5 * np.log(np.linalg.det(big_l))
+             - 0.5 * len(nu) * np.log(2 * np.pi))
+    return point, new_cov, log_w
+
+
+@pytest.mark.parametrize("iterations", [1, 3])
+@pytest.mark.parametrize("offset", OFFSETS[:2])
+def test_proposal_equals_joint_kalman_update(offset, iterations):
+    """The information-sum proposal (no inverse of P, one pass over all pairs) equals the
+    Kalman update on all observations stacked, per particle; particles without pairs keep
+    their prior."""
     rng = np.random.default_rng(7)
-    n = 40
+    n = 12
     mean = rng.normal(size=(n, 3))
     a = rng.normal(size=(n, 3, 3))
-    cov = a @ a.transpose(0, 2, 1) * 0.01 + 1e-3 * np.eye(3)
-    g_s = rng.normal(size=(n, 2, 3))
-    b = rng.normal(size=(n, 2, 2))
-    q = b @ b.transpose(0, 2, 1) * 0.01 + 1e-3 * np.eye(2)
-    nu = rng.normal(size=(n, 2)) * 0.1
-    new_mean, new_cov, log_w = refine_proposal(mean, cov, g_s, nu, pack(q))
-    info_mean, info_cov = information_form_proposal(mean, cov, g_s, nu, q)
-    np.testing.assert_allclose(new_mean, info_mean, atol=1e-10)
-    np.testing.assert_allclose(new_cov, info_cov, atol=1e-10)
-    big_l = g_s @ cov @ g_s.transpose(0, 2, 1) + q
-    expected = [(-0.5 * v @ np.linalg.inv(l) @ v - np.log(2 * np.pi)
-                 - 0.5 * np.log(np.linalg.det(l))) for v, l in zip(nu, big_l)]
-    np.testing.assert_allclose(log_w, expected, atol=1e-10)
+    cov = a @ a.transpose(0, 2, 1) * 0.02 + 1e-4 * np.eye(3)
+    cov[3] = np.diag([1e-4, 0.0, 0.0])          # singular P: no information form possible
+    counts = rng.integers(0, 4, size=n)
+    counts[0] = 0
+    particle = np.repeat(np.arange(n), counts)
+    landmarks = np.column_stack([mean[particle, :2] + rng.uniform(2.0, 8.0, (len(particle), 2)),
+                                 pack(np.repeat(np.eye(2)[None] * 0.05, len(particle), 0))])
+    noise = np.diag([0.01, 0.001])
+    truth = [observe(mean[p] + rng.normal(size=3) * 0.05, lm[:2], offset)
+             for p, lm in zip(particle, landmarks)]
+    z = np.array(truth) + rng.normal(size=(len(particle), 2)) * [0.1, 0.03]
+    got_mean, got_cov, got_w = observation_proposal(mean, cov, particle, landmarks, z[:, 0],
+                                                    z[:, 1], offset, np.diag(noise), iterations)
+    for m in range(n):
+        mine = particle == m
+        if not mine.any():
+            np.testing.assert_allclose(got_mean[m], mean[m], atol=1e-12)
+            np.testing.assert_allclose(got_cov[m], cov[m], atol=1e-12)
+            assert got_w[m] == 0.0
+            continue
+        want_mean, want_cov, want_w = joint_kalman_proposal(mean[m], cov[m], landmarks[mine],
+                                                            z[mine], offset, noise, iterations)
+        want_mean[2] = wrap_angle(want_mean[2])
+        np.testing.assert_allclose(got_mean[m], want_mean, atol=1e-9)
+        np.testing.assert_allclose(got_cov[m], want_cov, atol=1e-9)
+        assert got_w[m] == pytest.approx(want_w, abs=1e-8)
 
 
 def test_sample_pose_has_the_requested_covariance_even_when_singular():

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import wrap_angle
 from .landmark_ekf import innovation_covariance
 
 NEW = -1
@@ -115,7 +114,7 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
     L = G_m (Sigma + P_xy) G_m^T - G_m c w^T - w c^T G_m^T + p_tt w w^T + R.
     """
     nu_r = z_range - t.range
-    nu_b = wrap_angle(z_bearing - t.bearing)
+    nu_b = t.bearing_innovation(z_bearing)
     sxx, sxy, syy = landmark_cov[..., 0], landmark_cov[..., 1], landmark_cov[..., 2]
     if pose_cov is not None:
         extra = (1,) * (t.dx.ndim - 1)

@@ -56,6 +56,9 @@ class FastSLAMConfig:
     """FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so
     the proposal sees all of its uncertainty; once its heading standard deviation exceeds this
     (rad) the particles are sampled from it, before linearisation fails."""
+    proposal_iterations: int = 1
+    """FastSLAM 2.0: linearisations of the proposal per reading. 1: Jacobians at the predicted
+    pose; more: re-taken at the refined mean (Gauss-Newton), for wide priors."""
     sigma_range: float = 0.1
     """Range measurement standard deviation (m)."""
     sigma_bearing: float = 0.0175
@@ -114,6 +117,8 @@ class FastSLAMConfig:
         need(self.max_pending_translation > 0.0, "max_pending_translation", "> 0")
         need(self.max_pending_rotation > 0.0, "max_pending_rotation", "> 0")
         need(self.max_prior_heading_sigma > 0.0, "max_prior_heading_sigma", "> 0")
+        need(isinstance(self.proposal_iterations, int) and 1 <= self.proposal_iterations <= 10,
+             "proposal_iterations", "an integer in [1, 10]")
         need(self.sigma_range > 0.0, "sigma_range", "> 0")
         need(self.sigma_bearing > 0.0, "sigma_bearing", "> 0")
         need(self.min_range >= 0.0, "min_range", ">= 0")

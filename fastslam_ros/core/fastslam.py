@@ -24,13 +24,12 @@ import numpy as np
 from . import association as assoc
 from .config import FastSLAMConfig
 from .geometry import compose, relative_pose, wrap_angle
-from .landmark_ekf import (initialize_landmarks, landmark_covariance_in_measurement_space, unpack,
-                           update_landmarks)
+from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
 from .landmark_store import COV, MEAN, LandmarkStore, WorkingSet
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
-from .observation import SensorOffset, inverse_observe, observation_terms, pose_jacobian
+from .observation import SensorOffset, inverse_observe, observation_terms
 from .path_history import PathHistory
-from .proposal import refine_proposal, sample_pose
+from .proposal import observation_proposal, sample_pose
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
 MAX_CANDIDATES = 4
@@ -172,14 +171,9 @@ class FastSLAM:
         choices, log_factors = self._associate(ws, proposal_mean, proposal_cov, ranges, bearings,
                                                labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
-        if fastslam2:
-            for j in range(len(ranges)):
-                log_factors[j], proposal_mean, proposal_cov = self._refine(
-                    ws, proposal_mean, proposal_cov, choices[j], log_factors[j], ranges[j],
-                    bearings[j])
-            if proposal_cov is not None:
-                self._prior = (proposal_mean, proposal_cov)
-                self.poses = self._sample_prior()
+        if fastslam2 and proposal_cov is not None:
+            log_factors = self._propose(ws, proposal_mean, proposal_cov, choices, log_factors,
+                                        ranges, bearings)
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
 
@@ -284,33 +278,25 @@ class FastSLAM:
         return (choice.reshape(count, self.num_particles),
                 log_factor.reshape(count, self.num_particles))
 
-    def _refine(self, ws: WorkingSet, mean: np.ndarray, cov, choice: np.ndarray,
-                log_factor: np.ndarray, z_range: float, z_bearing: float):
-        """FastSLAM 2.0: refine the proposal with one associated observation.
+    def _propose(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
+                 log_factors: np.ndarray, ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
+        """FastSLAM 2.0: sample every pose from the proposal given the associated observations.
 
-        Returns the observation's log weight factors N(z; z_hat, L) at the refined-so-far
-        proposal (p0 / 1 for new / ignored, unchanged), and the new proposal mean and cov.
+        Returns the log weight factors (K, M): the associated observations' factors are replaced
+        by their joint likelihood N(z; z_hat, L) (put on the first row), new / ignored ones
+        keep p0 / 1.
         """
-        associated = choice >= 0
-        if cov is None or not associated.any():
-            return log_factor, mean, cov
-        everyone = associated.all()
-        rows = slice(None) if everyone else np.flatnonzero(associated)
-        slot = choice[rows]
-        landmark = ws.state[np.arange(self.num_particles)[rows], slot]
-        sub_mean = mean[rows]
-        t = observation_terms(sub_mean[:, 0], sub_mean[:, 1], sub_mean[:, 2],
-                              landmark[:, 0], landmark[:, 1], self.offset)
-        landmark_term = landmark_covariance_in_measurement_space(t, landmark[:, COV],
-                                                                 self.noise_diag)
-        innovation = np.stack([z_range - t.range, wrap_angle(z_bearing - t.bearing)], -1)
-        refined = refine_proposal(sub_mean, cov[rows], pose_jacobian(t), innovation,
-                                  landmark_term)
-        if everyone:
-            return refined[2], refined[0], refined[1]
-        mean, cov, log_factor = mean.copy(), cov.copy(), log_factor.copy()
-        mean[rows], cov[rows], log_factor[rows] = refined
-        return log_factor, mean, cov
+        obs, particle = np.nonzero(choices >= 0)
+        if len(obs):
+            landmarks = ws.state[particle, choices[obs, particle], :5]
+            mean, cov, joint = observation_proposal(
+                mean, cov, particle, landmarks, ranges[obs], bearings[obs], self.offset,
+                self.noise_diag, self.config.proposal_iterations)
+            log_factors = np.where(choices >= 0, 0.0, log_factors)
+            log_factors[0] += joint
+        self._prior = (mean, cov)
+        self.poses = self._sample_prior()
+        return log_factors
 
     def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
                       ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> None:
@@ -371,9 +357,11 @@ class FastSLAM:
             return
         t = observation_terms(self.poses[:, 0:1], self.poses[:, 1:2], self.poses[:, 2:3],
                               ws.mean[..., 0], ws.mean[..., 1], self.offset)
-        inside = (ws.valid & ~observed & (t.range >= config.min_range)
-                  & (t.range <= config.max_range)
-                  & (np.abs(t.bearing) <= 0.5 * config.field_of_view))
+        inside = ws.valid & ~observed & (t.range >= config.min_range) & (t.range <= config.max_range)
+        if config.field_of_view < 2.0 * np.pi:
+            # |bearing| <= fov / 2  <=>  cos(bearing) >= cos(fov / 2), without an arctan.
+            along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
+            inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
         ws.logodds[inside] += config.logodds_missed
         ws.dirty |= inside
         ws.valid[inside & (ws.logodds < config.logodds_remove)] = False

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import wrap_angle
 from .observation import SensorOffset, inverse_observe, observation_terms
 
 
@@ -54,7 +53,7 @@ def update_landmarks(poses: np.ndarray, mean: np.ndarray, cov_packed: np.ndarray
     k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
     k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
     nu0 = ranges - t.range
-    nu1 = wrap_angle(bearings - t.bearing)
+    nu1 = t.bearing_innovation(bearings)
     new_mean = mean + np.stack([k00 * nu0 + k01 * nu1, k10 * nu0 + k11 * nu1], -1)
     # Joseph form: A = I - K G.
     a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)

@@ -64,7 +64,8 @@ class WorkingSet(RecordViews):
 
     row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
     slot: np.ndarray      # (M, K) slot within the row
-    column: np.ndarray    # (M, K) cell column of the entry, -1 for a new slot
+    block: np.ndarray     # (M, K) index into ``columns[m]`` of the entry, -1 for a new slot
+    columns: np.ndarray   # (M, B) cell columns that were gathered
     state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
     ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
     valid: np.ndarray     # (M, K) entry holds a live landmark
@@ -138,9 +139,11 @@ class LandmarkStore(RecordViews):
         A cell may own several columns (when its blocks fill up); new landmarks go to the
         newest one.
         """
-        pairs, inverse = np.unique(np.stack([ix, iy], 1), axis=0, return_inverse=True)
-        columns = np.empty(len(pairs), dtype=np.int64)
-        for i, (cx, cy) in enumerate(pairs.tolist()):
+        # One integer per cell (|iy| < 2^31 cells), so the 1-D unique applies.
+        keys, first, inverse = np.unique(ix * 2 ** 32 + iy, return_index=True,
+                                         return_inverse=True)
+        columns = np.empty(len(keys), dtype=np.int64)
+        for i, (cx, cy) in enumerate(zip(ix[first].tolist(), iy[first].tolist())):
             column = self._cell_columns.get((cx, cy))
             if column is None:
                 column = self._register_cell(cx, cy)
@@ -244,17 +247,20 @@ class LandmarkStore(RecordViews):
         # Empty slots get a unit covariance so that scoring them stays finite.
         state = np.zeros(shape + (STATE_WIDTH,))
         state[..., 2] = state[..., 4] = 1.0
+        ident = np.full(shape + (2,), -1, np.int64)
+        # Records move by one flat row index each (much cheaper than (row, slot) pairs).
+        source = src_row * self.capacity + slot
+        target = owner * total + rank
+        state.reshape(-1, STATE_WIDTH)[target] = self.state.reshape(-1, STATE_WIDTH)[source]
+        ident.reshape(-1, 2)[target] = self.ident.reshape(-1, 2)[source]
         ws = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
-                        column=np.full(shape, -1, np.int64), state=state,
-                        ident=np.full(shape + (2,), -1, np.int64),
-                        valid=np.zeros(shape, bool), dirty=np.zeros(shape, bool),
+                        block=np.full(shape, -1, np.int64), columns=columns, state=state,
+                        ident=ident, valid=np.zeros(shape, bool), dirty=np.zeros(shape, bool),
                         is_new=np.zeros(shape, bool), num_new_slots=num_new_slots)
-        ws.row[owner, rank] = src_row
-        ws.slot[owner, rank] = slot
-        ws.column[owner, rank] = columns[owner, block]
-        ws.state[owner, rank] = self.state[src_row, slot]
-        ws.ident[owner, rank] = self.ident[src_row, slot]
-        ws.valid[owner, rank] = True
+        ws.row.flat[target] = src_row
+        ws.slot.flat[target] = slot
+        ws.block.flat[target] = block
+        ws.valid.flat[target] = True
         return ws
 
     def scatter(self, ws: WorkingSet, track_labels: bool) -> None:
@@ -266,14 +272,19 @@ class LandmarkStore(RecordViews):
         owner, entry = np.nonzero(ws.dirty & (ws.row >= 0))
         if len(owner) == 0:
             return
-        columns = ws.column[owner, entry]
-        pairs, inverse = np.unique(owner * self.table.shape[1] + columns, return_inverse=True)
-        pair_particle, pair_column = np.divmod(pairs, self.table.shape[1])
-        rows = self._own_rows(pair_particle, pair_column)[inverse.reshape(-1)]
+        # Distinct (particle, gathered block) pairs, through a small dense marker.
+        block = ws.block[owner, entry]
+        marker = np.zeros(ws.columns.shape, bool)
+        marker[owner, block] = True
+        pair_particle, pair_block = np.nonzero(marker)
+        position = np.cumsum(marker.ravel()) - 1
+        rows = self._own_rows(pair_particle, ws.columns[pair_particle, pair_block])
+        rows = rows[position[owner * ws.columns.shape[1] + block]]
         slots = ws.slot[owner, entry]
         keep = ws.valid[owner, entry]
-        self.state[rows, slots] = ws.state[owner, entry]
-        self.occupied[rows, slots] = keep
+        target = rows * self.capacity + slots
+        self.state.reshape(-1, STATE_WIDTH)[target] = ws.state[owner, entry]
+        self.occupied.flat[target] = keep
         if track_labels and not np.all(keep):
             gone = ~keep
             labels = ws.label[owner[gone], entry[gone]]

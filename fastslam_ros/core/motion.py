@@ -6,6 +6,7 @@ with P_t = V M V^T, M the control noise and V = dh/du.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,12 +30,12 @@ class OdometryControl:
         so reversing does not look like a half turn to the noise model.
         """
         dx, dy, dtheta = (float(v) for v in delta)
-        trans = float(np.hypot(dx, dy))
-        rot1 = float(np.arctan2(dy, dx)) if trans > 1e-9 else 0.0
-        if abs(rot1) > np.pi / 2.0:
-            rot1 = float(wrap_angle(rot1 - np.pi))
+        trans = math.hypot(dx, dy)
+        rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
+        if abs(rot1) > math.pi / 2.0:
+            rot1 = wrap_angle(rot1 - math.pi)
             trans = -trans
-        return cls(rot1, trans, float(wrap_angle(dtheta - rot1)))
+        return cls(rot1, trans, wrap_angle(dtheta - rot1))
 
 
 def control_variances(u: OdometryControl, alphas, min_translation_sigma: float,
@@ -66,14 +67,22 @@ def sample_motion(poses: np.ndarray, u: OdometryControl, variances: np.ndarray,
 
 def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u: OdometryControl,
                        variances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """EKF prediction of N(mean, cov) through h: (h(mean, u), F cov F^T + V M V^T)."""
+    """EKF prediction of N(mean, cov) through h: (h(mean, u), F cov F^T + V M V^T).
+
+    F = dh/ds is the identity but for its heading column: F = I + f e^T, e = (0, 0, 1),
+    f = (-trans sin(heading), trans cos(heading), 0). So F cov F^T = cov + f c^T + c f^T
+    + cov_tt f f^T with c = cov e, written out instead of two stacked matmuls.
+    """
     heading = mean[:, 2] + u.rot1
-    jac = np.zeros((mean.shape[0], 3, 3))
-    jac[:, 0, 0] = jac[:, 1, 1] = jac[:, 2, 2] = 1.0
-    jac[:, 0, 2] = -u.trans * np.sin(heading)
-    jac[:, 1, 2] = u.trans * np.cos(heading)
-    predicted = jac @ cov @ jac.transpose(0, 2, 1) + motion_covariance(mean, u, variances)
-    return apply_control(mean, u.rot1, u.trans, u.rot2), predicted
+    f = np.zeros((mean.shape[0], 3))
+    f[:, 0] = -u.trans * np.sin(heading)
+    f[:, 1] = u.trans * np.cos(heading)
+    c = cov[:, :, 2]
+    outer = f[:, :, None] * c[:, None, :]
+    predicted = (cov + outer + outer.transpose(0, 2, 1)
+                 + cov[:, 2, 2, None, None] * f[:, :, None] * f[:, None, :])
+    return (apply_control(mean, u.rot1, u.trans, u.rot2),
+            predicted + motion_covariance(mean, u, variances))
 
 
 def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:

@@ -23,7 +23,11 @@ class SensorOffset:
 
 @dataclass
 class ObservationTerms:
-    """Intermediate quantities of h(s, m) reused by the Jacobians."""
+    """Intermediate quantities of h(s, m) reused by the Jacobians.
+
+    The bearing is computed on demand: the filter mostly needs the innovation
+    ``bearing_innovation``, whose single wrap also covers the predicted bearing's.
+    """
 
     dx: np.ndarray
     dy: np.ndarray
@@ -31,19 +35,30 @@ class ObservationTerms:
     lever_x: np.ndarray
     lever_y: np.ndarray
     range: np.ndarray
-    bearing: np.ndarray
+    heading: np.ndarray
+    """Sensor heading in the world, theta + sensor yaw."""
+
+    @property
+    def bearing(self) -> np.ndarray:
+        return wrap_angle(np.arctan2(self.dy, self.dx) - self.heading)
+
+    def bearing_innovation(self, z_bearing) -> np.ndarray:
+        """z_bearing minus the predicted bearing, wrapped."""
+        return wrap_angle(z_bearing + self.heading - np.arctan2(self.dy, self.dx))
 
 
 def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> ObservationTerms:
-    """Predicted range and bearing with the terms the Jacobians need (broadcasting)."""
-    c, s = np.cos(ptheta), np.sin(ptheta)
-    lever_x = c * offset.x - s * offset.y
-    lever_y = s * offset.x + c * offset.y
+    """Predicted range with the terms the Jacobians and the bearing need (broadcasting)."""
+    if offset.x == 0.0 and offset.y == 0.0:
+        lever_x = lever_y = np.zeros(np.shape(ptheta))
+    else:
+        c, s = np.cos(ptheta), np.sin(ptheta)
+        lever_x = c * offset.x - s * offset.y
+        lever_y = s * offset.x + c * offset.y
     dx = mx - (px + lever_x)
     dy = my - (py + lever_y)
     q = dx * dx + dy * dy
-    return ObservationTerms(dx, dy, q, lever_x, lever_y, np.sqrt(q),
-                            wrap_angle(np.arctan2(dy, dx) - ptheta - offset.yaw))
+    return ObservationTerms(dx, dy, q, lever_x, lever_y, np.sqrt(q), ptheta + offset.yaw)
 
 
 def observe(pose, landmark, offset: SensorOffset = SensorOffset()) -> np.ndarray:

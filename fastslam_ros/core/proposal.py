@@ -1,68 +1,130 @@
-"""FastSLAM 2.0: the pose proposal that uses the current observation, and its weight.
+"""FastSLAM 2.0: the pose proposal that uses the current observations, and its weight.
 
-With the motion model linearised as s_t ~ N(s_hat, P) and the observation linearised in the pose
-(G_s) and the landmark (G_m), the textbook proposal is
+With the motion model linearised as s_t ~ N(s_hat, P) and observation k linearised in the pose
+(G_k) and its landmark, the textbook proposal for one observation is
 
-    Sigma_s = (G_s^T Q^-1 G_s + P^-1)^-1
-    mu_s    = Sigma_s G_s^T Q^-1 (z - z_hat) + s_hat,     Q = G_m Sigma_m G_m^T + R,
+    Sigma_s = (G^T Q^-1 G + P^-1)^-1
+    mu_s    = Sigma_s G^T Q^-1 (z - z_hat) + s_hat,     Q = G_m Sigma_m G_m^T + R,
 
-and the importance weight is N(z; z_hat, L) with L = G_s P G_s^T + Q. By the matrix inversion
-lemma this is a Kalman update of the pose with gain K = P G_s^T L^-1:
+with importance weight N(z; z_hat, L), L = G P G^T + Q. Several observations of one reading
+refine the proposal one after another and their weights multiply. With every Jacobian taken at
+the same linearisation point, those sequential updates sum to one information update
 
-    mu_s = s_hat + K (z - z_hat),    Sigma_s = P - K L K^T,
+    J = sum_k G_k^T Q_k^-1 G_k,   b = sum_k G_k^T Q_k^-1 nu_k,
+    Sigma_s = (I + P J)^-1 P,     mu_s = s_hat + Sigma_s b,
 
-which needs no inverse of P (P is singular when the robot does not translate). Several
-observations in one step apply this update one after another, each starting from the previous
-(mu_s, Sigma_s), and their weights multiply. ``information_form_proposal`` is the textbook form,
-kept for the tests that prove the two agree.
+(= (P^-1 + J)^-1 without inverting P, which is singular when the robot stands still), and the
+product of the sequential weights is the joint likelihood of all innovations, which the matrix
+inversion and determinant lemmas give from the same 3x3 quantities:
 
-All functions work on every particle at once (leading dimension n) and spell the 2x3 / 3x3
-products out component by component: numpy's stacked matmul and inv cost ~100x more per tiny
-matrix than a few elementwise operations.
+    nu^T L^-1 nu = sum_k nu_k^T Q_k^-1 nu_k - b^T Sigma_s b,
+    det L        = prod_k det Q_k * det(I + P J).
+
+So the whole reading costs a fixed number of array operations over (particles, observations),
+not a loop over observations. The linearisation point starts at s_hat; with ``iterations`` > 1
+the Jacobians are re-taken at the refined mean (Gauss-Newton, as in an iterated EKF), which
+matters when P is wide (the innovation is then z - h(s_i) - G_k (s_hat - s_i)).
+
+The per-observation products are written out component by component: numpy's stacked matmul,
+inv and det cost ~30x more per tiny matrix than a few elementwise operations.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .geometry import wrap_angle
+from .landmark_ekf import innovation_covariance
+from .observation import SensorOffset, observation_terms
+
 POSE_JITTER = 1e-12
 """Variance added to the proposal diagonal before factorising it (sigma 1e-6 m, rad)."""
 
+LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
-def refine_proposal(mean: np.ndarray, cov: np.ndarray, pose_jacobian: np.ndarray,
-                    innovation: np.ndarray, landmark_term: np.ndarray):
-    """One observation's update of the pose proposal for n particles.
 
-    mean (n, 3), cov (n, 3, 3), pose_jacobian G_s (n, 2, 3), innovation z - z_hat (n, 2) with
-    the bearing wrapped, landmark_term Q = G_m Sigma_m G_m^T + R packed as (xx, xy, yy) (n, 3).
-    Returns (mean, cov, log N(innovation; 0, L)) with L = G_s P G_s^T + Q.
+def observation_proposal(mean: np.ndarray, cov: np.ndarray, particle: np.ndarray,
+                         landmarks: np.ndarray, ranges: np.ndarray, bearings: np.ndarray,
+                         offset: SensorOffset, noise_diag: np.ndarray, iterations: int = 1):
+    """The proposal N(mu_s, Sigma_s) and log weight for n particles.
+
+    mean (n, 3) and cov (n, 3, 3): the motion prior N(s_hat, P). The observations come as U
+    (particle, landmark, measurement) pairs: ``particle`` (U,) the particle index, ``landmarks``
+    (U, 5) its landmark (x, y, packed covariance xx, xy, yy), ``ranges``, ``bearings`` (U,).
+    Returns (mu_s (n, 3), Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without pairs
+    keeps its prior and gets log weight 0.
     """
-    g, h = pose_jacobian[:, 0, :], pose_jacobian[:, 1, :]
-    p_g = np.einsum("nij,nj->ni", cov, g)                      # P g   (n, 3)
-    p_h = np.einsum("nij,nj->ni", cov, h)                      # P h   (n, 3)
-    l00 = np.einsum("ni,ni->n", g, p_g) + landmark_term[:, 0]
-    l01 = np.einsum("ni,ni->n", g, p_h) + landmark_term[:, 1]
-    l11 = np.einsum("ni,ni->n", h, p_h) + landmark_term[:, 2]
-    det = l00 * l11 - l01 * l01
-    i00, i01, i11 = l11 / det, -l01 / det, l00 / det            # L^-1
-    gain0 = p_g * i00[:, None] + p_h * i01[:, None]             # K[:, :, 0]
-    gain1 = p_g * i01[:, None] + p_h * i11[:, None]             # K[:, :, 1]
-    nu0, nu1 = innovation[:, 0], innovation[:, 1]
-    new_mean = mean + gain0 * nu0[:, None] + gain1 * nu1[:, None]
-    # P - K L K^T = P - [Pg Ph] L^-1 [Pg Ph]^T, symmetric by construction.
-    new_cov = cov - (p_g[:, :, None] * gain0[:, None, :] + p_h[:, :, None] * gain1[:, None, :])
-    mahalanobis = i00 * nu0 * nu0 + 2.0 * i01 * nu0 * nu1 + i11 * nu1 * nu1
-    log_weight = -0.5 * mahalanobis - np.log(2.0 * np.pi) - 0.5 * np.log(det)
-    return new_mean, new_cov, log_weight
+    point = mean
+    for _ in range(max(int(iterations), 1)):
+        terms = _information(point, mean, particle, landmarks, ranges, bearings, offset,
+                             noise_diag)
+        sigma, log_weight = _combine(cov, *terms)
+        point = mean + np.einsum("nij,nj->ni", sigma, terms[1])
+    point[:, 2] = wrap_angle(point[:, 2])
+    return point, sigma, log_weight
 
 
-def information_form_proposal(mean: np.ndarray, cov: np.ndarray, pose_jacobian: np.ndarray,
-                              innovation: np.ndarray, landmark_term: np.ndarray):
-    """The textbook (information) form of the same proposal, for invertible P (tests, docs)."""
-    q_inv = np.linalg.inv(landmark_term)
-    gt_q_inv = pose_jacobian.transpose(0, 2, 1) @ q_inv
-    sigma = np.linalg.inv(gt_q_inv @ pose_jacobian + np.linalg.inv(cov))
-    new_mean = mean + (sigma @ gt_q_inv @ innovation[:, :, None])[:, :, 0]
-    return new_mean, sigma
+_UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
+"""Row and column of the six distinct entries of a symmetric 3x3 matrix."""
+_FULL = np.array([0, 1, 2, 1, 3, 4, 2, 4, 5])
+"""Those six entries laid out as the nine of the full matrix (row-major)."""
+# Cofactor C_ij = a[p] a[q] - a[r] a[s] of a row-major 3x3 matrix, in row-major (i, j) order.
+_COF_P, _COF_Q = np.array([4, 5, 3, 2, 0, 1, 1, 2, 0]), np.array([8, 6, 7, 7, 8, 6, 5, 3, 4])
+_COF_R, _COF_S = np.array([5, 3, 4, 1, 2, 0, 2, 0, 1]), np.array([7, 8, 6, 8, 6, 7, 4, 5, 3])
+
+
+def _information(point, mean, particle, landmarks, ranges, bearings, offset, noise_diag):
+    """Sums over each particle's pairs, linearised at ``point`` (n, 3): J (n, 3, 3),
+    b (n, 3), nu^T Q^-1 nu and log det Q (n,), and the number of pairs (n,).
+
+    The per-pair terms are stacked into one (11, U) array and summed per particle with a single
+    ``bincount``.
+    """
+    count = point.shape[0]
+    pose = point[particle]
+    t = observation_terms(pose[:, 0], pose[:, 1], pose[:, 2], landmarks[:, 0], landmarks[:, 1],
+                          offset)
+    (g00, g01, g10, g11), _, (q00, q01, q11) = innovation_covariance(
+        t, landmarks[:, 2], landmarks[:, 3], landmarks[:, 4], noise_diag)
+    # G_s (2, 3, U): range row (-g00, -g01, w0), bearing row (-g10, -g11, w1).
+    w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
+    w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
+    g_s = np.stack([-g00, -g01, w0, -g10, -g11, w1]).reshape(2, 3, -1)
+    nu = np.stack([ranges - t.range, t.bearing_innovation(bearings)])
+    if point is not mean:
+        # Linearised about ``point``: h(s_hat) ~ h(point) + G_s (s_hat - point).
+        d = (mean - point)[particle].T
+        d[2] = wrap_angle(d[2])
+        nu -= (g_s * d).sum(axis=1)
+    det = q00 * q11 - q01 * q01
+    q_inv = np.stack([q11, -q01, q00]) / det                          # (xx, xy, yy)
+    u = np.stack([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, U)
+                  q_inv[1] * g_s[0] + q_inv[2] * g_s[1]])
+    row, col = _UPPER
+    info = g_s[0, row] * u[0, col] + g_s[1, row] * u[1, col]         # (6, U)
+    b = u[0] * nu[0] + u[1] * nu[1]                                    # (3, U)
+    quadratic = nu[0] * (q_inv[0] * nu[0] + 2.0 * q_inv[1] * nu[1]) + q_inv[2] * nu[1] * nu[1]
+    terms = np.concatenate([info, b, quadratic[None], np.log(det)[None]])
+    index = particle + count * np.arange(len(terms))[:, None]
+    sums = np.bincount(index.ravel(), terms.ravel(), count * len(terms)).reshape(-1, count)
+    pairs = np.bincount(particle, minlength=count)
+    return sums[_FULL].T.reshape(count, 3, 3), sums[6:9].T, sums[9], sums[10], pairs
+
+
+def _combine(cov, info, b, quadratic, log_det_q, pairs):
+    """Sigma_s = (I + P J)^-1 P and the joint log likelihood of the innovations.
+
+    The 3x3 inverse is the adjugate over the determinant, all cofactors in one expression.
+    """
+    a = (cov @ info).reshape(-1, 9).T                                 # rows of I + P J
+    a[[0, 4, 8]] += 1.0
+    cofactor = a[_COF_P] * a[_COF_Q] - a[_COF_R] * a[_COF_S]           # (9, n)
+    det = (a[:3] * cofactor[:3]).sum(axis=0)
+    inverse = (cofactor.reshape(3, 3, -1).transpose(2, 1, 0)) / det[:, None, None]
+    sigma = inverse @ cov
+    sigma = 0.5 * (sigma + sigma.transpose(0, 2, 1))
+    mahalanobis = quadratic - np.einsum("ni,nij,nj->n", b, sigma, b)
+    log_weight = -0.5 * (mahalanobis + log_det_q + np.log(det)) - pairs * LOG_TWO_PI
+    return sigma, log_weight
 
 
 def sample_pose(mean: np.ndarray, cov: np.ndarray, standard_normals: np.ndarray) -> np.ndarray:
