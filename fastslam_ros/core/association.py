@@ -58,7 +58,8 @@ def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray,
         rows = np.flatnonzero(pick >= 0)
         landmark = candidate_columns[rows, pick[rows]]
         key = particle[rows] * (int(landmark.max(initial=0)) + 1) + landmark
-        order = np.lexsort((rows, -log_factor[rows], key))
+        # Stable sort: among equal likelihoods the earlier observation comes first.
+        order = np.lexsort((-log_factor[rows], key))
         sorted_key = key[order]
         losers = rows[order[1:][sorted_key[1:] == sorted_key[:-1]]]
         if len(losers) == 0:
@@ -107,27 +108,23 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
           pose_cov: np.ndarray | None = None):
     """log N(z; z_hat, S) and the squared Mahalanobis distance for broadcast pairs.
 
-    ``t`` holds the observation terms of the pairs, ``landmark_cov`` their packed covariances.
-    S = Q = G_m Sigma G_m^T + R (FastSLAM 1.0) or, with the pose covariance P ((n, 3, 3), its
-    particle axis first), S = L = G_s P G_s^T + Q (FastSLAM 2.0). The position columns of G_s
-    are -G_m, so with P = [[P_xy, c], [c^T, p_tt]] and w the heading column of G_s,
-    L = G_m (Sigma + P_xy) G_m^T - G_m c w^T - w c^T G_m^T + p_tt w w^T + R.
+    ``t`` holds the observation terms of the pairs, ``landmark_cov`` their packed covariances
+    (..., 3). S = Q = G_m Sigma G_m^T + R (FastSLAM 1.0) or, with the pose covariance P
+    (..., 3, 3) broadcasting like the pairs, S = L = G_s P G_s^T + Q (FastSLAM 2.0). The
+    position columns of G_s are -G_m, so with P = [[P_xy, c], [c^T, p_tt]] and w the heading
+    column of G_s, L = G_m (Sigma + P_xy) G_m^T - G_m c w^T - w c^T G_m^T + p_tt w w^T + R.
     """
     nu_r = z_range - t.range
     nu_b = t.bearing_innovation(z_bearing)
     sxx, sxy, syy = landmark_cov[..., 0], landmark_cov[..., 1], landmark_cov[..., 2]
     if pose_cov is not None:
-        extra = (1,) * (t.dx.ndim - 1)
-
-        def component(i, j):
-            return np.ascontiguousarray(pose_cov[:, i, j]).reshape((-1,) + extra)
-        sxx, sxy, syy = sxx + component(0, 0), sxy + component(0, 1), syy + component(1, 1)
+        sxx, sxy, syy = sxx + pose_cov[..., 0, 0], sxy + pose_cov[..., 0, 1], syy + pose_cov[..., 1, 1]
     (g00, g01, g10, g11), _, (cxx, cxy, cyy) = innovation_covariance(t, sxx, sxy, syy,
                                                                       noise_diag)
     if pose_cov is not None:
         w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
         w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
-        c0, c1, p_tt = component(0, 2), component(1, 2), component(2, 2)
+        c0, c1, p_tt = pose_cov[..., 0, 2], pose_cov[..., 1, 2], pose_cov[..., 2, 2]
         e0, e1 = g00 * c0 + g01 * c1, g10 * c0 + g11 * c1         # G_m c
         cxx = cxx + (p_tt * w0 - 2.0 * e0) * w0
         cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0

@@ -204,7 +204,7 @@ class FastSLAM:
 
     def _candidates(self, ws: WorkingSet, mean: np.ndarray, ranges: np.ndarray,
                     bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
-        """(M, K, C) working-set columns that observation k may be associated with (-1: none).
+        """(K, M, C) working-set columns that observation k may be associated with (-1: none).
 
         Known ids: the landmark carrying the id. Otherwise spatial gating: the
         ``MAX_CANDIDATES`` landmarks nearest (Euclidean) to where the particle places the
@@ -213,21 +213,23 @@ class FastSLAM:
         existing = ws.first_new_slot
         count = len(ranges)
         if existing == 0 or count == 0:
-            return np.full((self.num_particles, count, 0), -1, np.int64)
+            return np.full((count, self.num_particles, 0), -1, np.int64)
         if self.config.association == "known":
-            match = ws.valid[:, None, :existing] & (ws.label[:, None, :existing]
-                                                     == labels[None, :, None])
+            match = ws.valid[None, :, :existing] & (ws.label[None, :, :existing]
+                                                     == labels[:, None, None])
             return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
-        points = inverse_observe(mean[:, None, :], ranges[None, :], bearings[None, :],
-                                 self.offset)                             # (M, K, 2)
-        dx = points[:, :, 0, None] - ws.mean[:, None, :existing, 0]       # (M, K, N)
-        dy = points[:, :, 1, None] - ws.mean[:, None, :existing, 1]
-        distance = np.where(ws.valid[:, None, :existing], dx * dx + dy * dy, np.inf)
+        points = inverse_observe(mean[None], ranges[:, None], bearings[:, None],
+                                 self.offset)                             # (K, M, 2)
+        # Squared distances (K, M, N); empty entries are infinitely far.
+        far = np.where(ws.valid[:, :existing], 0.0, np.inf)
+        dx = points[..., 0, None] - ws.mean[None, :, :existing, 0]
+        dy = points[..., 1, None] - ws.mean[None, :, :existing, 1]
+        distance = dx * dx + dy * dy + far
         if existing > MAX_CANDIDATES:
             nearest = np.argpartition(distance, MAX_CANDIDATES - 1, axis=2)[..., :MAX_CANDIDATES]
         else:
             nearest = np.broadcast_to(np.arange(existing), distance.shape)
-        live = np.isfinite(np.take_along_axis(distance, nearest, axis=2))
+        live = np.take_along_axis(distance, nearest, axis=2) < np.inf
         return np.where(live, nearest, -1)
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
@@ -241,23 +243,21 @@ class FastSLAM:
         """
         config = self.config
         count = len(ranges)
-        candidates = self._candidates(ws, mean, ranges, bearings, labels)   # (M, K, C)
-        particle = np.arange(self.num_particles)[:, None, None]
-        column = np.maximum(candidates, 0)
-        valid = candidates >= 0
-        landmark = ws.mean[particle, column]
-        t = observation_terms(mean[:, 0, None, None], mean[:, 1, None, None],
-                              mean[:, 2, None, None], landmark[..., 0], landmark[..., 1],
-                              self.offset)
+        candidates = self._candidates(ws, mean, ranges, bearings, labels)   # (K, M, C)
+        width = ws.valid.shape[1]
+        flat = np.maximum(candidates, 0) + width * np.arange(self.num_particles)[:, None]
+        landmark = ws.state.reshape(-1, ws.state.shape[-1])[flat]          # (K, M, C, 6)
+        t = observation_terms(mean[:, 0, None], mean[:, 1, None], mean[:, 2, None],
+                              landmark[..., 0], landmark[..., 1], self.offset)
         log_lik, mahalanobis = assoc.score(
-            t, ws.cov[particle, column], ranges[None, :, None], bearings[None, :, None],
-            self.noise_diag, cov)
+            t, landmark[..., COV], ranges[:, None, None], bearings[:, None, None],
+            self.noise_diag, None if cov is None else cov[:, None])
         # Rows of the association rules: observation-major, (K * M, C).
         shape = (count * self.num_particles, candidates.shape[2])
-        log_lik = np.where(valid, log_lik, -np.inf).transpose(1, 0, 2).reshape(shape)
-        mahalanobis = np.where(valid, mahalanobis, np.inf).transpose(1, 0, 2).reshape(shape)
+        valid = candidates >= 0
+        log_lik = np.where(valid, log_lik, -np.inf).reshape(shape)
+        candidates = candidates.reshape(shape)
         mode = config.association
-        candidates = candidates.transpose(1, 0, 2).reshape(shape)
         if mode == "known":
             # The only candidate is the landmark carrying the id, if the particle has one.
             pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
@@ -267,6 +267,7 @@ class FastSLAM:
         elif mode == "monte_carlo":
             pick, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
         else:
+            mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
             pick, log_factor = assoc.associate_two_gates(
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
@@ -334,7 +335,8 @@ class FastSLAM:
         pair = particle * ws.valid.shape[1] + slot
         order = np.lexsort((obs, pair))
         obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
-        first = np.r_[True, pair[1:] != pair[:-1]]
+        first = np.ones(len(pair), bool)
+        first[1:] = pair[1:] != pair[:-1]
         repeat = np.arange(len(pair)) - np.maximum.accumulate(
             np.where(first, np.arange(len(pair)), 0))
         for rank in range(int(repeat.max()) + 1):
@@ -345,8 +347,9 @@ class FastSLAM:
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self.noise_diag)
             ws.state[p, s] = state
-        np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
-        ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot], config.logodds_max)
+        hits = np.bincount(pair, minlength=ws.valid.size).reshape(ws.valid.shape)
+        ws.logodds[:] = np.minimum(ws.logodds + hits * config.logodds_observed,
+                                   np.maximum(ws.logodds, config.logodds_max))
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
 
