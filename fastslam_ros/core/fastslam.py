@@ -1,15 +1,15 @@
 """FastSLAM 1.0 and 2.0 over stacked particle arrays (Montemerlo and Thrun).
 
 One ``update`` processes one sensor reading (any number of observations) for all M particles at
-once; the only Python loop is over the observations of the reading. Per step:
+once, with no Python loop over particles, landmarks or observations. Per step:
 
 1. Motion. Odometry given to ``predict`` is accumulated and applied at the next update. FastSLAM
    1.0 samples the odometry motion model; FastSLAM 2.0 keeps its Gaussian form N(s_hat, P).
 2. Association, per particle and observation, against the particle's landmarks near the robot
    (``LandmarkStore.gather``): likelihood N(z; z_hat, Q), Q = G_m Sigma G_m^T + R (1.0) or
    N(z; z_hat, L), L = G_s P G_s^T + Q (2.0), p0 for a new landmark.
-3. FastSLAM 2.0 only: each associated observation refines the pose proposal
-   (``proposal.refine_proposal``); then the pose is sampled from it.
+3. FastSLAM 2.0 only: the associated observations refine the pose proposal, all at once
+   (``proposal.observation_proposal``); then the pose is sampled from it.
 4. Map: EKF update (Joseph form) of each observed landmark, inverse-model initialisation of new
    ones, log-odds of existence raised for observed landmarks and lowered for landmarks inside
    the perceptual range that were not observed; landmarks below the bound are removed.

@@ -1,6 +1,8 @@
 """Small SE(2) helpers shared by the models (angles in radians, wrapped to (-pi, pi])."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -15,6 +17,13 @@ def wrap_angle(angle):
 
 def relative_pose(pose_from, pose_to) -> np.ndarray:
     """Pose of ``pose_to`` expressed in the frame of ``pose_from`` (both (..., 3))."""
+    if np.ndim(pose_from) == 1 and np.ndim(pose_to) == 1:
+        # One pose each (every odometry message): plain floats are ~10x faster.
+        x0, y0, t0 = (float(v) for v in pose_from)
+        x1, y1, t1 = (float(v) for v in pose_to)
+        c, s = math.cos(t0), math.sin(t0)
+        dx, dy = x1 - x0, y1 - y0
+        return np.array([c * dx + s * dy, -s * dx + c * dy, _wrap_scalar(t1 - t0)])
     pose_from = np.asarray(pose_from, dtype=float)
     pose_to = np.asarray(pose_to, dtype=float)
     dx = pose_to[..., 0] - pose_from[..., 0]
@@ -26,9 +35,19 @@ def relative_pose(pose_from, pose_to) -> np.ndarray:
 
 def compose(pose, delta) -> np.ndarray:
     """Pose ``delta`` (given in the frame of ``pose``) composed onto ``pose`` (both (..., 3))."""
+    if np.ndim(pose) == 1 and np.ndim(delta) == 1:
+        x, y, t = (float(v) for v in pose)
+        dx, dy, dt = (float(v) for v in delta)
+        c, s = math.cos(t), math.sin(t)
+        return np.array([x + c * dx - s * dy, y + s * dx + c * dy, _wrap_scalar(t + dt)])
     pose = np.asarray(pose, dtype=float)
     delta = np.asarray(delta, dtype=float)
     c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
     return np.stack([pose[..., 0] + c * delta[..., 0] - s * delta[..., 1],
                      pose[..., 1] + s * delta[..., 0] + c * delta[..., 1],
                      wrap_angle(pose[..., 2] + delta[..., 2])], axis=-1)
+
+
+def _wrap_scalar(angle: float) -> float:
+    """``wrap_angle`` for one float, same formula."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
