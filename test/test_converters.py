@@ -147,7 +147,10 @@ def test_victoria_park(dataset_dir):
     assert len(recording.odometry_stamps) == 61945
     assert len(recording.scan_stamps) == 7230
     assert sum(len(p) for p in recording.scan_points) == 52974
-    assert len(recording.ground_truth_stamps) == 4466 and recording.ground_truth_position_only
+    # 4,466 GPS fixes, one of them an isolated jump 141 m off (1223.3 s) that is dropped.
+    assert len(recording.ground_truth_stamps) == 4465 and recording.ground_truth_position_only
+    assert recording.counts["gps_dropped_glitches"] == 1
+    assert not np.any(np.isclose(recording.ground_truth_stamps, 1223.284, atol=1e-3))
     assert np.all(np.concatenate(recording.scan_ids) == -1)
     np.testing.assert_array_equal(recording.odometry_poses[0], [0.0, 0.0, 0.0])
 

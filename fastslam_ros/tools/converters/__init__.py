@@ -63,6 +63,17 @@ def polar_to_points(ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
     return np.column_stack((ranges * np.cos(bearings), ranges * np.sin(bearings)))
 
 
+def isolated_jumps(positions: np.ndarray, window: int, bound: float) -> np.ndarray:
+    """Mask of the samples (N, 2) farther than ``bound`` from the running median of ``window``
+    samples around them: a real motion moves the median with it, an isolated jump does not."""
+    from scipy.ndimage import median_filter
+
+    size = min(window, len(positions)) | 1
+    median_x = median_filter(positions[:, 0], size=size, mode="nearest")
+    median_y = median_filter(positions[:, 1], size=size, mode="nearest")
+    return np.hypot(positions[:, 0] - median_x, positions[:, 1] - median_y) > bound
+
+
 def robust_std(values: np.ndarray) -> float:
     """Standard deviation estimated from the median absolute deviation (outlier tolerant)."""
     values = np.asarray(values, dtype=float)

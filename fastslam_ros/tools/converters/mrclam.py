@@ -19,7 +19,8 @@ import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
-                                           polar_to_points, read_table, robust_std)
+                                           isolated_jumps, polar_to_points, read_table,
+                                           robust_std)
 
 EPOCH_THRESHOLD = 1.0e8
 """Stamps above this (s) are Unix-epoch times of the distributed files."""
@@ -66,13 +67,11 @@ def remove_vicon_glitches(poses: np.ndarray) -> np.ndarray:
     from scipy.ndimage import median_filter
 
     size = min(GLITCH_WINDOW, len(poses)) | 1
-    median_x = median_filter(poses[:, 0], size=size, mode="nearest")
-    median_y = median_filter(poses[:, 1], size=size, mode="nearest")
     cos_median = median_filter(np.cos(poses[:, 2]), size=size, mode="nearest")
     sin_median = median_filter(np.sin(poses[:, 2]), size=size, mode="nearest")
-    position_error = np.hypot(poses[:, 0] - median_x, poses[:, 1] - median_y)
     heading_error = np.abs(wrap_angle(poses[:, 2] - np.arctan2(sin_median, cos_median)))
-    return (position_error <= GLITCH_POSITION) & (heading_error <= GLITCH_HEADING)
+    return (~isolated_jumps(poses[:, :2], GLITCH_WINDOW, GLITCH_POSITION)
+            & (heading_error <= GLITCH_HEADING))
 
 
 def load_ground_truth(folder: Path | str, robot: int) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
