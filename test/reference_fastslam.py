@@ -151,58 +151,21 @@ class ReferenceFastSLAM:
         K = len(z_all)
         self._advance()
         motion = self.prior
-        uniforms = (self.rng.random(K * self.M).reshape(K, self.M)
-                    if c.association == "monte_carlo" and K else None)
-
         # Association of every observation, every particle, at the pre-update pose.
-        choice = [[None] * self.M for _ in range(K)]
-        factor = [[0.0] * self.M for _ in range(K)]
-        all_scores = [[None] * self.M for _ in range(K)]
-        for m in range(self.M):
-            pose = motion[m][0] if motion else self.poses[m]
-            pose_cov = motion[m][1] if motion else None
-            for j, z in enumerate(z_all):
-                scores = []
-                for n, lm in enumerate(self.maps[m]):
-                    z_hat, g_s, g_m = measure(pose, lm["mean"], self.offset)
-                    s_cov = g_m @ lm["cov"] @ g_m.T + self.R
-                    if pose_cov is not None:
-                        s_cov = s_cov + g_s @ pose_cov @ g_s.T
-                    nu = z - z_hat
-                    nu[1] = wrap(nu[1])
-                    maha = float(nu @ np.linalg.inv(s_cov) @ nu)
-                    scores.append((n, log_gauss(nu, s_cov), maha))
-                all_scores[j][m] = scores
-                choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
-            if c.association == "ml":
-                self._exclusive(all_scores, choice, factor, m, K)
-
+        points = [motion[m][0] if motion else self.poses[m] for m in range(self.M)]
+        covs = [motion[m][1] if motion else None for m in range(self.M)]
+        choice, factor = self._associate(points, covs, z_all, labels)
+        if motion:
+            proposals = [self._proposal(motion[m], choice, z_all, m) for m in range(self.M)]
+            for _ in range(c.association_passes - 1):
+                # Again at the proposal means, with the prior covariances.
+                choice, factor = self._associate([p[0] for p in proposals], covs, z_all, labels)
+                proposals = [self._proposal(motion[m], choice, z_all, m) for m in range(self.M)]
         for m in range(self.M):
             if motion:
-                prior_mean, prior_cov = motion[m]
-                point = prior_mean
-                for _ in range(c.proposal_iterations):
-                    # Sequential updates, every Jacobian taken at the same ``point``.
-                    mean, cov = prior_mean, prior_cov
-                    for j, z in enumerate(z_all):
-                        n = choice[j][m]
-                        if not isinstance(n, int):
-                            continue
-                        lm = self.maps[m][n]
-                        z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
-                        step = mean - point
-                        step[2] = wrap(step[2])
-                        q = g_m @ lm["cov"] @ g_m.T + self.R
-                        big_l = g_s @ cov @ g_s.T + q
-                        nu = z - (z_point + g_s @ step)
-                        nu[1] = wrap(nu[1])
-                        # Textbook information form (P invertible in these tests).
-                        sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
-                        mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
-                        cov = sigma
-                        factor[j][m] = log_gauss(nu, big_l)
-                    point = mean
-                mean[2] = wrap(mean[2])
+                mean, cov, factors = proposals[m]
+                for j, value in factors.items():
+                    factor[j][m] = value
                 motion[m] = (mean, cov)
             self.log_w[m] += sum(factor[j][m] for j in range(K))
         if motion and fast2:
@@ -269,6 +232,65 @@ class ReferenceFastSLAM:
             self.poses = [self.poses[i].copy() for i in indices]
             self.maps = [copy.deepcopy(self.maps[i]) for i in indices]
             self.log_w = [-math.log(self.M)] * self.M
+
+    def _associate(self, points, covs, z_all, labels):
+        """choice[j][m], factor[j][m] of every observation j and particle m at ``points``."""
+        c = self.c
+        K = len(z_all)
+        uniforms = (self.rng.random(K * self.M).reshape(K, self.M)
+                    if c.association == "monte_carlo" and K else None)
+        choice = [[None] * self.M for _ in range(K)]
+        factor = [[0.0] * self.M for _ in range(K)]
+        all_scores = [[None] * self.M for _ in range(K)]
+        for m in range(self.M):
+            pose, pose_cov = points[m], covs[m]
+            for j, z in enumerate(z_all):
+                scores = []
+                for n, lm in enumerate(self.maps[m]):
+                    z_hat, g_s, g_m = measure(pose, lm["mean"], self.offset)
+                    s_cov = g_m @ lm["cov"] @ g_m.T + self.R
+                    if pose_cov is not None:
+                        s_cov = s_cov + g_s @ pose_cov @ g_s.T
+                    nu = z - z_hat
+                    nu[1] = wrap(nu[1])
+                    maha = float(nu @ np.linalg.inv(s_cov) @ nu)
+                    scores.append((n, log_gauss(nu, s_cov), maha))
+                all_scores[j][m] = scores
+                choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
+            if c.association == "ml":
+                self._exclusive(all_scores, choice, factor, m, K)
+        return choice, factor
+
+    def _proposal(self, prior, choice, z_all, m):
+        """Particle m's proposal (mean, cov) from its prior and associated observations, and
+        the weight factor of each of them {j: log N(nu; 0, L)}."""
+        prior_mean, prior_cov = prior
+        point = prior_mean
+        factors = {}
+        for _ in range(self.c.proposal_iterations):
+            # Sequential updates, every Jacobian taken at the same ``point``.
+            mean, cov = prior_mean, prior_cov
+            for j, z in enumerate(z_all):
+                n = choice[j][m]
+                if not isinstance(n, int):
+                    continue
+                lm = self.maps[m][n]
+                z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
+                step = mean - point
+                step[2] = wrap(step[2])
+                q = g_m @ lm["cov"] @ g_m.T + self.R
+                big_l = g_s @ cov @ g_s.T + q
+                nu = z - (z_point + g_s @ step)
+                nu[1] = wrap(nu[1])
+                # Textbook information form (P invertible in these tests).
+                sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
+                mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
+                cov = sigma
+                factors[j] = log_gauss(nu, big_l)
+            point = mean
+        mean = mean.copy()
+        mean[2] = wrap(mean[2])
+        return mean, cov, factors
 
     def _exclusive(self, all_scores, choice, factor, m, K):
         """One landmark per reading: the most likely observation keeps it, the rest re-pick."""

@@ -10,18 +10,21 @@ from fastslam_ros.tools.synthetic import make_world
 from reference_fastslam import ReferenceFastSLAM
 
 CASES = [
-    ("fastslam2", "ml", 0.3, 1),  # odometry flushed between readings: the 2.0 Gaussian prior
-    ("fastslam1", "known", 5.0, 1), ("fastslam1", "ml", 0.3, 1),
-    ("fastslam1", "monte_carlo", 5.0, 1), ("fastslam1", "two_gate", 5.0, 1),
-    ("fastslam2", "known", 5.0, 1), ("fastslam2", "ml", 5.0, 1),
-    ("fastslam2", "monte_carlo", 5.0, 1), ("fastslam2", "two_gate", 5.0, 1),
+    # (algorithm, association, flush distance, proposal_iterations, association_passes)
+    ("fastslam2", "ml", 0.3, 1, 1),  # odometry flushed between readings: the 2.0 prior
+    ("fastslam1", "known", 5.0, 1, 1), ("fastslam1", "ml", 0.3, 1, 1),
+    ("fastslam1", "monte_carlo", 5.0, 1, 1), ("fastslam1", "two_gate", 5.0, 1, 1),
+    ("fastslam2", "known", 5.0, 1, 1), ("fastslam2", "ml", 5.0, 1, 1),
+    ("fastslam2", "monte_carlo", 5.0, 1, 1), ("fastslam2", "two_gate", 5.0, 1, 1),
     # Proposal re-linearised at the refined mean (Gauss-Newton iterations).
-    ("fastslam2", "ml", 0.3, 3), ("fastslam2", "known", 5.0, 2),
+    ("fastslam2", "ml", 0.3, 3, 1), ("fastslam2", "known", 5.0, 2, 1),
+    # Association repeated at the proposal mean.
+    ("fastslam2", "ml", 0.3, 1, 2), ("fastslam2", "monte_carlo", 5.0, 2, 3),
 ]
 
 
-def small_config(algorithm: str, association: str, flush: float,
-                 iterations: int = 1) -> FastSLAMConfig:
+def small_config(algorithm: str, association: str, flush: float, iterations: int = 1,
+                 passes: int = 1) -> FastSLAMConfig:
     return FastSLAMConfig(
         num_particles=12, algorithm=algorithm, association=association,
         new_landmark_likelihood=0.05, association_gate=6.0, new_landmark_gate=16.0,
@@ -31,7 +34,8 @@ def small_config(algorithm: str, association: str, flush: float,
         max_range=9.0, field_of_view=np.deg2rad(200.0),
         logodds_observed=0.8, logodds_missed=-0.9, logodds_remove=-0.5,
         resample_threshold=0.7, cell_size=4.0, max_pending_translation=flush,
-        max_prior_heading_sigma=0.06, proposal_iterations=iterations)
+        max_prior_heading_sigma=0.06, proposal_iterations=iterations,
+        association_passes=passes)
 
 
 def sorted_map(means, covs, logodds, labels):
@@ -39,15 +43,15 @@ def sorted_map(means, covs, logodds, labels):
     return means[order], covs[order], logodds[order], labels[order]
 
 
-@pytest.mark.parametrize("algorithm,association,flush,iterations", CASES)
+@pytest.mark.parametrize("algorithm,association,flush,iterations,passes", CASES)
 def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush,
-                                             iterations):
+                                             iterations, passes):
     # Score every landmark, as the reference does (the small world never reaches the cap).
     monkeypatch.setattr(fastslam_module, "MAX_CANDIDATES", 1000)
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
-    config = small_config(algorithm, association, flush, iterations)
+    config = small_config(algorithm, association, flush, iterations, passes)
     start = world.steps[0].truth
     fast = FastSLAM(config, rng=np.random.default_rng(11), initial_pose=start)
     slow = ReferenceFastSLAM(config, np.random.default_rng(11), start)

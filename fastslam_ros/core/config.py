@@ -59,6 +59,10 @@ class FastSLAMConfig:
     proposal_iterations: int = 1
     """FastSLAM 2.0: linearisations of the proposal per reading. 1: Jacobians at the predicted
     pose; more: re-taken at the refined mean (Gauss-Newton), for wide priors."""
+    association_passes: int = 1
+    """FastSLAM 2.0: 1 associates every observation at the predicted pose; 2 associates again
+    at the mean of the proposal that the first associations give (the robot's pose corrected
+    by this reading's confident matches), then recomputes the proposal."""
     sigma_range: float = 0.1
     """Range measurement standard deviation (m)."""
     sigma_bearing: float = 0.0175
@@ -119,6 +123,8 @@ class FastSLAMConfig:
         need(self.max_prior_heading_sigma > 0.0, "max_prior_heading_sigma", "> 0")
         need(isinstance(self.proposal_iterations, int) and 1 <= self.proposal_iterations <= 10,
              "proposal_iterations", "an integer in [1, 10]")
+        need(isinstance(self.association_passes, int) and 1 <= self.association_passes <= 5,
+             "association_passes", "an integer in [1, 5]")
         need(self.sigma_range > 0.0, "sigma_range", "> 0")
         need(self.sigma_bearing > 0.0, "sigma_bearing", "> 0")
         need(self.min_range >= 0.0, "min_range", ">= 0")

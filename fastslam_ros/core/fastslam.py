@@ -172,8 +172,15 @@ class FastSLAM:
                                                labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if fastslam2 and proposal_cov is not None:
-            log_factors = self._propose(ws, proposal_mean, proposal_cov, choices, log_factors,
-                                        ranges, bearings)
+            proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
+            for _ in range(self.config.association_passes - 1):
+                # Associate again where this reading's observations put the robot; the
+                # prior covariance is kept (the refined one already holds these observations).
+                choices, log_factors = self._associate(ws, proposal[0], proposal_cov, ranges,
+                                                       bearings, labels)
+                proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges,
+                                          bearings)
+            log_factors = self._sample_proposal(proposal, choices, log_factors)
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
 
@@ -279,24 +286,32 @@ class FastSLAM:
         return (choice.reshape(count, self.num_particles),
                 log_factor.reshape(count, self.num_particles))
 
-    def _propose(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
-                 log_factors: np.ndarray, ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
-        """FastSLAM 2.0: sample every pose from the proposal given the associated observations.
-
-        Returns the log weight factors (K, M): the associated observations' factors are replaced
-        by their joint likelihood N(z; z_hat, L) (put on the first row), new / ignored ones
-        keep p0 / 1.
-        """
+    def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
+                  ranges: np.ndarray, bearings: np.ndarray):
+        """FastSLAM 2.0: (mu_s, Sigma_s, joint log likelihood (M,)) of the proposal given the
+        observations associated to existing landmarks (``choices`` (K, M))."""
         obs, particle = np.nonzero(choices >= 0)
-        if len(obs):
-            landmarks = ws.state[particle, choices[obs, particle], :5]
-            mean, cov, joint = observation_proposal(
-                mean, cov, particle, landmarks, ranges[obs], bearings[obs], self.offset,
-                self.noise_diag, self.config.proposal_iterations)
-            log_factors = np.where(choices >= 0, 0.0, log_factors)
-            log_factors[0] += joint
+        if len(obs) == 0:
+            return mean, cov, np.zeros(self.num_particles)
+        landmarks = ws.state[particle, choices[obs, particle], :5]
+        return observation_proposal(mean, cov, particle, landmarks, ranges[obs], bearings[obs],
+                                    self.offset, self.noise_diag,
+                                    self.config.proposal_iterations)
+
+    def _sample_proposal(self, proposal, choices: np.ndarray,
+                         log_factors: np.ndarray) -> np.ndarray:
+        """Draw every pose from the proposal; return the log weight factors (K, M).
+
+        The associated observations' factors are replaced by their joint likelihood
+        N(z; z_hat, L) (put on the first row); new / ignored ones keep p0 / 1.
+        """
+        mean, cov, joint = proposal
         self._prior = (mean, cov)
         self.poses = self._sample_prior()
+        if len(log_factors) == 0:
+            return log_factors
+        log_factors = np.where(choices >= 0, 0.0, log_factors)
+        log_factors[0] += joint
         return log_factors
 
     def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
