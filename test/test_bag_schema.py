@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC, TYPESTORE,
+from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC, TF_STATIC_TOPIC,
+                                           TYPESTORE,
                                            LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            SchemaError, bag_topics, landmark_cloud_arrays,
                                            ns_to_stamp, read_last, read_schema_bag, read_topic,
@@ -71,6 +72,28 @@ def test_position_only_ground_truth_is_flagged_and_has_no_heading(tmp_path):
     assert np.all(np.isnan(back.ground_truth.poses[:, 2]))
     assert back.landmarks_truth is None
     assert all(len(points) == 0 for points in back.scans.points)
+
+
+def test_reference_point_of_the_ground_truth_round_trips_as_a_static_transform(tmp_path):
+    stamps = np.array([0.0, 0.5, 1.0])
+    poses = np.array([[0.0, 0.0, 0.3], [1.0, 0.5, 0.3], [2.0, 1.0, 0.3]])
+    truth = PoseSeries(stamps, poses, "map", "gps_antenna", position_only=True,
+                       reference_offset=np.array([3.7, 1.0]))
+    bag = SchemaBag(PoseSeries(stamps, poses), LandmarkScans(stamps, [np.zeros((0, 2))] * 3,
+                                                              [np.zeros(0, np.int32)] * 3),
+                    ground_truth=truth)
+    path = write_schema_bag(tmp_path / "antenna", bag)
+    _, messages = read_topic(path, TF_STATIC_TOPIC)
+    transform = messages[0].transforms[0]
+    assert (transform.header.frame_id, transform.child_frame_id) == ("base_link", "gps_antenna")
+    assert (transform.transform.translation.x, transform.transform.translation.y) == (3.7, 1.0)
+    back = read_schema_bag(path)
+    assert back.ground_truth.child_frame_id == "gps_antenna"
+    np.testing.assert_array_equal(back.ground_truth.reference_offset, [3.7, 1.0])
+    # Without an offset there is no /tf_static and the reference is the base.
+    bag.ground_truth = PoseSeries(stamps, poses, "map", position_only=True)
+    back = read_schema_bag(write_schema_bag(tmp_path / "base", bag))
+    assert back.ground_truth.reference_offset is None
 
 
 def test_missing_input_topic_is_named(tmp_path):

@@ -151,6 +151,9 @@ def test_victoria_park(dataset_dir):
     assert len(recording.ground_truth_stamps) == 4465 and recording.ground_truth_position_only
     assert recording.counts["gps_dropped_glitches"] == 1
     assert not np.any(np.isclose(recording.ground_truth_stamps, 1223.284, atol=1e-3))
+    # GPS measures its antenna, at the front of the car, and the bag says so.
+    assert recording.ground_truth_frame == "gps_antenna"
+    assert recording.ground_truth_offset == victoria_park.GPS_ANTENNA
     assert np.all(np.concatenate(recording.scan_ids) == -1)
     np.testing.assert_array_equal(recording.odometry_poses[0], [0.0, 0.0, 0.0])
 
@@ -183,6 +186,13 @@ def _aligned_errors(estimate: np.ndarray, reference: np.ndarray) -> np.ndarray:
         rotation = (u @ vt).T
     aligned = estimate_centred @ rotation.T + reference.mean(axis=0)
     return np.hypot(*(aligned - reference).T)
+
+
+def test_victoria_park_gps_antenna_calibration_reproduces_the_shipped_value(dataset_dir):
+    fit = victoria_park.calibrate(dataset_dir("VictoriaPark"))
+    assert fit["windows"] >= 20
+    assert fit["gps_antenna_x"] == pytest.approx(victoria_park.GPS_ANTENNA[0], abs=0.1)
+    assert fit["gps_antenna_y"] == pytest.approx(victoria_park.GPS_ANTENNA[1], abs=0.1)
 
 
 def test_victoria_park_gps_is_time_aligned(dataset_dir):

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries
-from fastslam_ros.tools.evaluate import (Transform2D, align_se2, error_stats, json_ready,
-                                         evaluate_trajectory, interpolate_positions,
-                                         landmark_metrics, match_landmarks, markdown_table, ospa)
+from fastslam_ros.tools.evaluate import (RunData, Transform2D, align_se2, error_stats,
+                                         evaluate_run, evaluate_trajectory,
+                                         interpolate_positions, json_ready, landmark_metrics,
+                                         match_landmarks, markdown_table, ospa)
 
 RNG = np.random.default_rng(7)
 
@@ -91,6 +92,24 @@ def test_landmarks_without_ids_use_optimal_assignment():
     rows, cols, method = match_landmarks(estimate, np.full(2, -1), truth, np.full(2, -1), 2.0)
     assert method == "assignment"
     assert sorted(zip(rows.tolist(), cols.tolist())) == [(0, 0), (1, 1)]
+
+
+def test_a_reference_point_off_the_base_is_compared_at_that_point():
+    # The base weaves left and right; the GPS antenna sits 3 m ahead and 1 m left of it.
+    stamps = np.arange(50.0)
+    theta = 1.5 * np.sin(np.linspace(0.0, 2.0 * np.pi, 50))
+    base = np.column_stack([np.cumsum(np.cos(theta)), np.cumsum(np.sin(theta)), theta])
+    antenna = base[:, :2] + np.column_stack([3.0 * np.cos(theta) - np.sin(theta),
+                                             3.0 * np.sin(theta) + np.cos(theta)])
+    gps = np.column_stack([antenna, np.full(50, np.nan)])
+
+    def aligned_rmse(offset):
+        truth = PoseSeries(stamps, gps, "map", "gps_antenna", True, offset)
+        run = RunData(PoseSeries(stamps, base), None, None, truth, None, None, {}, {})
+        return evaluate_run(run).metrics["estimate"]["aligned"]["rmse"]
+
+    assert aligned_rmse(np.array([3.0, 1.0])) == pytest.approx(0.0, abs=1e-9)
+    assert aligned_rmse(None) > 0.5     # the base is not where the GPS is
 
 
 def test_markdown_table_lists_every_trajectory():

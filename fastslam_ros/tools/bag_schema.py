@@ -8,7 +8,10 @@
 | ``/ground_truth/landmarks`` | ``sensor_msgs/PointCloud2`` | ``map`` | x y z id, one message |
 
 A position-only reference (GPS) has an identity orientation and a yaw variance
-(``pose.covariance[35]``) of -1. Bags are MCAP by default, sqlite3 on request; both are read.
+(``pose.covariance[35]``) of -1. When the reference measures another point of the robot than the
+base (a GPS antenna), its ``child_frame_id`` names that point and ``/tf_static``
+(``tf2_msgs/TFMessage``) holds the static transform base frame -> that point; the evaluation
+then compares the estimated position of that point. Bags are MCAP by default, sqlite3 on request; both are read.
 Stamps are float seconds in Python and ``builtin_interfaces/Time`` in the bag; every message is
 logged at its header stamp.
 """
@@ -29,8 +32,10 @@ ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
 GROUND_TRUTH_POSE_TOPIC = "/ground_truth/pose"
 GROUND_TRUTH_LANDMARKS_TOPIC = "/ground_truth/landmarks"
+TF_STATIC_TOPIC = "/tf_static"
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 CLOUD_TYPE = "sensor_msgs/msg/PointCloud2"
+TF_TYPE = "tf2_msgs/msg/TFMessage"
 STORAGE_PLUGINS = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
 POSITION_ONLY_YAW_VARIANCE = -1.0
 """``pose.covariance[35]`` of a position-only reference: its orientation carries no information."""
@@ -58,6 +63,9 @@ class PoseSeries:
     frame_id: str = "odom"
     child_frame_id: str = "base_link"
     position_only: bool = False
+    reference_offset: np.ndarray | None = None
+    """Ground truth only: (x, y) of the measured point (``child_frame_id``) in the robot's base
+    frame when it is not the base itself, e.g. a GPS antenna; None: the base."""
 
 
 @dataclass
@@ -229,6 +237,19 @@ def _landmark_cloud_message(stamp_ns: int, points: np.ndarray, ids: np.ndarray,
         data=records.view(np.uint8), is_dense=True)
 
 
+def _static_transform_message(stamp_ns: int, parent: str, child: str, offset) -> Any:
+    """``/tf_static`` with the one transform parent -> child, a planar translation."""
+    types = TYPESTORE.types
+    transform = types["geometry_msgs/msg/TransformStamped"](
+        header=types["std_msgs/msg/Header"](stamp=_time_msg(stamp_ns), frame_id=parent),
+        child_frame_id=child,
+        transform=types["geometry_msgs/msg/Transform"](
+            translation=types["geometry_msgs/msg/Vector3"](x=float(offset[0]),
+                                                           y=float(offset[1]), z=0.0),
+            rotation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+    return types[TF_TYPE](transforms=[transform])
+
+
 def _serialize(msg: Any, msgtype: str) -> bytes:
     return bytes(TYPESTORE.serialize_cdr(msg, msgtype))
 
@@ -258,7 +279,8 @@ def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
         connections = {}
         for topic, msgtype in ((ODOM_TOPIC, ODOMETRY_TYPE), (LANDMARKS_TOPIC, CLOUD_TYPE),
                                (GROUND_TRUTH_POSE_TOPIC, ODOMETRY_TYPE),
-                               (GROUND_TRUTH_LANDMARKS_TOPIC, CLOUD_TYPE)):
+                               (GROUND_TRUTH_LANDMARKS_TOPIC, CLOUD_TYPE),
+                               (TF_STATIC_TOPIC, TF_TYPE)):
             if any(record.topic == topic for record in records):
                 connections[topic] = writer.add_connection(topic, msgtype, typestore=TYPESTORE)
         for record in records:
@@ -275,6 +297,12 @@ def _schema_records(bag: SchemaBag) -> Iterable[_Record]:
                                       np.asarray(truth.ids, dtype=np.int32), "map")
         yield _Record(stamp_to_ns(first_stamp), 0, GROUND_TRUTH_LANDMARKS_TOPIC,
                       _serialize(msg, CLOUD_TYPE))
+    truth = bag.ground_truth
+    if truth is not None and truth.reference_offset is not None:
+        stamp_ns = stamp_to_ns(min(_first_stamps(bag)))
+        msg = _static_transform_message(stamp_ns, bag.odometry.child_frame_id,
+                                        truth.child_frame_id, truth.reference_offset)
+        yield _Record(stamp_ns, 0, TF_STATIC_TOPIC, _serialize(msg, TF_TYPE))
     for order, topic, series in ((1, ODOM_TOPIC, bag.odometry),
                                  (2, GROUND_TRUTH_POSE_TOPIC, bag.ground_truth)):
         if series is None:
@@ -347,8 +375,13 @@ def read_last(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[float,
                 for topic, (stamp_ns, connection, raw) in last.items()}
 
 
-def pose_series_from_messages(messages: list[Any]) -> PoseSeries:
-    """Planar poses of ``nav_msgs/Odometry`` messages, stamped by their headers."""
+def pose_series_from_messages(messages: list[Any], static_transforms: list[Any] = ()
+                              ) -> PoseSeries:
+    """Planar poses of ``nav_msgs/Odometry`` messages, stamped by their headers.
+
+    ``static_transforms`` (``tf2_msgs/TFMessage``) may place the messages' ``child_frame_id``
+    on the robot (``PoseSeries.reference_offset``).
+    """
     if not messages:
         return PoseSeries(np.zeros(0), np.zeros((0, 3)))
     stamps = np.array([time_msg_to_stamp(msg.header.stamp) for msg in messages])
@@ -357,7 +390,14 @@ def pose_series_from_messages(messages: list[Any]) -> PoseSeries:
     position_only = bool(first.pose.covariance[35] < 0.0)
     if position_only:
         poses[:, 2] = np.nan
-    return PoseSeries(stamps, poses, first.header.frame_id, first.child_frame_id, position_only)
+    offset = None
+    for tf_message in static_transforms:
+        for transform in tf_message.transforms:
+            if transform.child_frame_id == first.child_frame_id:
+                offset = np.array([transform.transform.translation.x,
+                                   transform.transform.translation.y])
+    return PoseSeries(stamps, poses, first.header.frame_id, first.child_frame_id, position_only,
+                      offset)
 
 
 def read_schema_bag(path: str | Path, require_inputs: bool = True) -> SchemaBag:
@@ -376,7 +416,7 @@ def read_schema_bag(path: str | Path, require_inputs: bool = True) -> SchemaBag:
         raise SchemaError(f"{path}: missing topic(s) {', '.join(missing)} "
                           f"(has: {', '.join(sorted(available)) or 'none'})")
     data = read_topics(path, [ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                              GROUND_TRUTH_LANDMARKS_TOPIC])
+                              GROUND_TRUTH_LANDMARKS_TOPIC, TF_STATIC_TOPIC])
     odometry = pose_series_from_messages(data[ODOM_TOPIC][1])
     cloud_messages = data[LANDMARKS_TOPIC][1]
     scan_stamps = np.array([time_msg_to_stamp(msg.header.stamp) for msg in cloud_messages])
@@ -389,7 +429,8 @@ def read_schema_bag(path: str | Path, require_inputs: bool = True) -> SchemaBag:
     scans = LandmarkScans(scan_stamps.reshape(-1), points, ids, frame_id)
     ground_truth = None
     if data[GROUND_TRUTH_POSE_TOPIC][1]:
-        ground_truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1])
+        ground_truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1],
+                                                 data[TF_STATIC_TOPIC][1])
     landmarks_truth = None
     if data[GROUND_TRUTH_LANDMARKS_TOPIC][1]:
         truth_points, truth_ids = landmark_cloud_arrays(data[GROUND_TRUTH_LANDMARKS_TOPIC][1][-1])

@@ -2,7 +2,8 @@
 
 KIND is ``mrclam`` (UTIAS MRCLAM, one robot), ``victoria-park`` (ACFR Victoria Park,
 ``rfs_slam_txt``) or ``freiburg`` (Freiburg "Robot Mapping" course world). ``--calibrate``
-prints the noise parameters estimated from the data (MRCLAM, Freiburg) instead of converting.
+prints what is estimated from the data instead of converting: noise parameters (MRCLAM,
+Freiburg) or the GPS antenna's position on the car (Victoria Park).
 """
 from __future__ import annotations
 
@@ -41,12 +42,13 @@ def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_
 
 
 def calibrate(kind: str, source: Path | str) -> dict[str, float]:
-    """Noise parameters estimated from the data (``mrclam``: all robots against Vicon)."""
+    """Parameters estimated from the data (``mrclam``: noise, all robots against Vicon;
+    ``victoria-park``: the GPS antenna's position on the car)."""
     if kind == "mrclam":
         return mrclam.calibrate(source)
     if kind == "freiburg":
         return freiburg.calibrate(source)
-    raise ValueError(f"--calibrate: not available for {kind} (it has no full ground truth)")
+    return victoria_park.calibrate(source)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -63,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output bag")
     parser.add_argument("--calibrate", action="store_true",
-                        help="print noise parameters estimated from the data and exit")
+                        help="print parameters estimated from the data and exit")
     return parser
 
 

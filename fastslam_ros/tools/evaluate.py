@@ -34,8 +34,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           LANDMARKS_TOPIC, ODOM_TOPIC, LandmarkSet, PoseSeries,
+                                           LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC,
+                                           LandmarkSet, PoseSeries,
                                            bag_topics, cloud_to_arrays, landmark_cloud_arrays,
                                            pose_series_from_messages, quaternion_to_yaw,
                                            read_last, read_topics, time_msg_to_stamp)
@@ -141,6 +143,15 @@ class TrajectoryResult:
                               "x": float(self.alignment.translation[0]),
                               "y": float(self.alignment.translation[1])},
                 "samples": int(len(self.stamps))}
+
+
+def reference_positions(poses: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+    """Positions (N, 2) of the point the ground truth measures, from estimated poses (N, 3):
+    the base itself, or the point at ``offset`` (x, y) in the base frame (a GPS antenna)."""
+    poses = np.asarray(poses, dtype=float)
+    if offset is None:
+        return poses[:, :2]
+    return compose(poses, np.array([offset[0], offset[1], 0.0]))[:, :2]
 
 
 def evaluate_trajectory(stamps: np.ndarray, positions: np.ndarray, ground_truth: PoseSeries,
@@ -297,7 +308,7 @@ def load_run(out_path: str | Path, ground_truth_path: str | Path | None = None) 
     truth_topics = bag_topics(truth_path)
     source = {topic: truth_path if topic in truth_topics else out_path
               for topic in (GROUND_TRUTH_POSE_TOPIC, GROUND_TRUTH_LANDMARKS_TOPIC, ODOM_TOPIC,
-                            LANDMARKS_TOPIC)}
+                            LANDMARKS_TOPIC, TF_STATIC_TOPIC)}
     series: dict[str, list[Any]] = {}
     for path in set(source.values()):
         topics = [topic for topic, where in source.items() if where == path]
@@ -316,7 +327,8 @@ def load_run(out_path: str | Path, ground_truth_path: str | Path | None = None) 
         final_path=(_pose_stamped_series(last[PATH_TOPIC][1].poses)
                     if PATH_TOPIC in last and last[PATH_TOPIC][1].poses else None),
         odometry=pose_series_from_messages(series[ODOM_TOPIC]) if series[ODOM_TOPIC] else None,
-        ground_truth=(pose_series_from_messages(series[GROUND_TRUTH_POSE_TOPIC])
+        ground_truth=(pose_series_from_messages(series[GROUND_TRUTH_POSE_TOPIC],
+                                                series[TF_STATIC_TOPIC])
                       if series[GROUND_TRUTH_POSE_TOPIC] else None),
         landmarks=_landmark_estimate(last[MAP_CLOUD_TOPIC][1]) if MAP_CLOUD_TOPIC in last else None,
         landmarks_truth=landmarks_truth,
@@ -346,10 +358,15 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
     trajectories: dict[str, TrajectoryResult] = {}
     metrics: dict[str, Any] = {}
     if run.ground_truth is not None:
+        offset = run.ground_truth.reference_offset
+        if offset is not None:
+            metrics["reference_point"] = {"frame": run.ground_truth.child_frame_id,
+                                          "x": float(offset[0]), "y": float(offset[1])}
         for name, series in (("estimate", run.estimate), ("final_path", run.final_path),
                              ("dead_reckoning", run.odometry)):
             if series is not None and len(series.stamps):
-                result = evaluate_trajectory(series.stamps, series.poses[:, :2],
+                result = evaluate_trajectory(series.stamps,
+                                             reference_positions(series.poses, offset),
                                              run.ground_truth, max_gap)
                 if result is not None:
                     trajectories[name] = result

@@ -100,6 +100,10 @@ class Recording:
     landmark_positions: np.ndarray | None = None
     landmark_ids: np.ndarray | None = None
     counts: dict[str, int] = field(default_factory=dict)
+    ground_truth_frame: str = "base_link"
+    """The point of the robot the ground truth measures (a GPS antenna: ``gps_antenna``)."""
+    ground_truth_offset: tuple[float, float] | None = None
+    """(x, y) of that point in the base frame, when it is not the base itself."""
 
     def head(self, duration: float) -> "Recording":
         """The first ``duration`` seconds (from the first odometry stamp) of this recording."""
@@ -114,7 +118,7 @@ class Recording:
             None if truth is None else self.ground_truth_stamps[truth],
             None if truth is None else self.ground_truth_poses[truth],
             self.ground_truth_position_only, self.landmark_positions, self.landmark_ids,
-            dict(self.counts))
+            dict(self.counts), self.ground_truth_frame, self.ground_truth_offset)
 
     def to_schema_bag(self):
         """The ``bag_schema.SchemaBag`` of this recording."""
@@ -122,9 +126,12 @@ class Recording:
 
         ground_truth = None
         if self.ground_truth_stamps is not None:
-            ground_truth = PoseSeries(self.ground_truth_stamps, self.ground_truth_poses,
-                                      frame_id="map", child_frame_id="base_link",
-                                      position_only=self.ground_truth_position_only)
+            ground_truth = PoseSeries(
+                self.ground_truth_stamps, self.ground_truth_poses, frame_id="map",
+                child_frame_id=self.ground_truth_frame,
+                position_only=self.ground_truth_position_only,
+                reference_offset=(None if self.ground_truth_offset is None
+                                  else np.asarray(self.ground_truth_offset, dtype=float)))
         landmarks_truth = None
         if self.landmark_positions is not None:
             landmarks_truth = LandmarkSet(self.landmark_positions,
