@@ -57,7 +57,19 @@ class ReferenceFastSLAM:
         self.R = np.diag([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.offset = (config.sensor_x, config.sensor_y, config.sensor_yaw)
         self.log_p0 = math.log(config.new_landmark_likelihood)
+        self.eps = config.outlier_probability
+        # Outlier term eps * u, u uniform over the perceptual range and field of view.
+        self.log_outlier = (math.log(self.eps) - math.log(
+            (config.max_range - config.min_range) * config.field_of_view)
+            if self.eps > 0.0 else -math.inf)
         self.removed = 0
+        self.outliers = 0
+
+    def noise(self, z_range):
+        """R of one observation: the range variance grows with the range."""
+        c = self.c
+        return np.diag([c.sigma_range ** 2 + (c.sigma_range_per_meter * z_range) ** 2,
+                        c.sigma_bearing ** 2])
 
     # -------------------------------------------------------------- motion
     def predict(self, odom_from, odom_to):
@@ -163,7 +175,7 @@ class ReferenceFastSLAM:
                 scores = []
                 for n, lm in enumerate(self.maps[m]):
                     z_hat, g_s, g_m = measure(pose, lm["mean"], self.offset)
-                    s_cov = g_m @ lm["cov"] @ g_m.T + self.R
+                    s_cov = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
                     if pose_cov is not None:
                         s_cov = s_cov + g_s @ pose_cov @ g_s.T
                     nu = z - z_hat
@@ -174,6 +186,11 @@ class ReferenceFastSLAM:
                 choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
             if c.association == "ml":
                 self._exclusive(all_scores, choice, factor, m, K)
+            for j in range(K):   # (1 - eps) N < eps u: an outlier, not used
+                if (self.eps > 0.0 and isinstance(choice[j][m], int)
+                        and math.log(1.0 - self.eps) + factor[j][m] < self.log_outlier):
+                    choice[j][m] = "outlier"
+                    self.outliers += 1
 
         for m in range(self.M):
             if motion:
@@ -184,7 +201,7 @@ class ReferenceFastSLAM:
                         continue
                     lm = self.maps[m][n]
                     z_hat, g_s, g_m = measure(mean, lm["mean"], self.offset)
-                    q = g_m @ lm["cov"] @ g_m.T + self.R
+                    q = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
                     big_l = g_s @ cov @ g_s.T + q
                     nu = z - z_hat
                     nu[1] = wrap(nu[1])
@@ -194,6 +211,11 @@ class ReferenceFastSLAM:
                     cov = sigma
                     factor[j][m] = log_gauss(nu, big_l)
                 motion[m] = (mean, cov)
+            for j in range(K):   # robust likelihood (1 - eps) N + eps u
+                if self.eps > 0.0 and (isinstance(choice[j][m], int)
+                                       or choice[j][m] == "outlier"):
+                    factor[j][m] = float(np.logaddexp(math.log(1.0 - self.eps) + factor[j][m],
+                                                      self.log_outlier))
             self.log_w[m] += sum(factor[j][m] for j in range(K))
         if motion and fast2:
             self.prior = motion
@@ -210,13 +232,14 @@ class ReferenceFastSLAM:
                 if isinstance(n, (int, dict)):
                     lm = self.maps[m][n] if isinstance(n, int) else n
                     z_hat, _, g_m = measure(self.poses[m], lm["mean"], self.offset)
-                    q = g_m @ lm["cov"] @ g_m.T + self.R
+                    r = self.noise(z[0])
+                    q = g_m @ lm["cov"] @ g_m.T + r
                     gain = lm["cov"] @ g_m.T @ np.linalg.inv(q)
                     nu = z - z_hat
                     nu[1] = wrap(nu[1])
                     lm["mean"] = lm["mean"] + gain @ nu
                     a = np.eye(2) - gain @ g_m
-                    lm["cov"] = a @ lm["cov"] @ a.T + gain @ self.R @ gain.T
+                    lm["cov"] = a @ lm["cov"] @ a.T + gain @ r @ gain.T
                     lm["logodds"] = min(lm["logodds"] + c.logodds_observed, c.logodds_max)
                     observed.add(id(lm))
                 elif n == "new":
@@ -228,7 +251,7 @@ class ReferenceFastSLAM:
                     mean = np.array([sx + z[0] * math.cos(angle), sy + z[0] * math.sin(angle)])
                     _, _, g_m = measure(self.poses[m], mean, self.offset)
                     g_inv = np.linalg.inv(g_m)
-                    lm = dict(mean=mean, cov=g_inv @ self.R @ g_inv.T,
+                    lm = dict(mean=mean, cov=g_inv @ self.noise(z[0]) @ g_inv.T,
                               logodds=c.logodds_observed, label=int(labels[j]))
                     self.maps[m].append(lm)
                     created_by_label[int(labels[j])] = lm

@@ -16,7 +16,7 @@ from .landmark_ekf import innovation_covariance
 NEW = -1
 """The observation starts a new landmark."""
 IGNORE = -2
-"""two_gate only: the observation is ambiguous and is not used."""
+"""The observation is not used: ambiguous (two_gate) or an outlier (``reject_outliers``)."""
 
 LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
@@ -134,3 +134,33 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
         cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0
         cyy = cyy + (p_tt * w1 - 2.0 * e1) * w1
     return gaussian_log_likelihood(nu_r, nu_b, cxx, cxy, cyy)
+
+
+def log_outlier_density(config) -> float:
+    """log of eps * u, u = 1 / ((max_range - min_range) * field_of_view): the outlier term of
+    the robust likelihood (-inf when ``outlier_probability`` is 0)."""
+    eps = config.outlier_probability
+    if eps <= 0.0:
+        return -np.inf
+    return float(np.log(eps) - np.log((config.max_range - config.min_range)
+                                      * config.field_of_view))
+
+
+def reject_outliers(choices: np.ndarray, log_lik: np.ndarray, eps: float, log_outlier: float):
+    """Mark associated observations that are more likely outliers than inliers as ``IGNORE``.
+
+    ``choices`` and ``log_lik`` (K, M) come from association (the Gaussian log-likelihood of
+    the chosen landmark). An observation is an outlier when (1 - eps) N(z; z_hat, L) < eps u.
+    Changes ``choices`` in place and returns the outlier mask, or None when eps is 0.
+    """
+    if eps <= 0.0:
+        return None
+    outliers = (choices >= 0) & (np.log1p(-eps) + log_lik < log_outlier)
+    choices[outliers] = IGNORE
+    return outliers
+
+
+def robust_log_factors(log_lik: np.ndarray, rows: np.ndarray, eps: float, log_outlier: float):
+    """log((1 - eps) N + eps u) where ``rows`` is True, ``log_lik`` (log N) elsewhere."""
+    robust = np.logaddexp(np.log1p(-eps) + log_lik, log_outlier)
+    return np.where(rows, robust, log_lik)

@@ -60,6 +60,15 @@ class FastSLAMConfig:
     """Range measurement standard deviation (m)."""
     sigma_bearing: float = 0.0175
     """Bearing measurement standard deviation (rad)."""
+    sigma_range_per_meter: float = 0.0
+    """Range noise that grows with the range (m per m): the range variance of an observation
+    is sigma_range^2 + (sigma_range_per_meter * range)^2 (camera ranges from apparent size)."""
+    outlier_probability: float = 0.0
+    """eps: probability that an observation associated with a landmark is an outlier, uniform
+    over the perceptual range (min_range..max_range, field_of_view). Its weight factor is
+    (1 - eps) N(z; z_hat, L) + eps / (range span * field_of_view), so one outlier cannot wipe
+    out the good particles; an observation whose outlier term is the larger one is not used for
+    the pose proposal nor the landmark update. 0 (default): plain Gaussian."""
     sensor_x: float = 0.0
     """Sensor position on the robot, forward (m)."""
     sensor_y: float = 0.0
@@ -116,6 +125,8 @@ class FastSLAMConfig:
         need(self.max_prior_heading_sigma > 0.0, "max_prior_heading_sigma", "> 0")
         need(self.sigma_range > 0.0, "sigma_range", "> 0")
         need(self.sigma_bearing > 0.0, "sigma_bearing", "> 0")
+        need(self.sigma_range_per_meter >= 0.0, "sigma_range_per_meter", ">= 0")
+        need(0.0 <= self.outlier_probability < 1.0, "outlier_probability", "in [0, 1)")
         need(self.min_range >= 0.0, "min_range", ">= 0")
         need(self.max_range > self.min_range, "max_range", "> min_range")
         need(0.0 < self.field_of_view <= 2.0 * math.pi, "field_of_view", "in (0, 2 pi]")

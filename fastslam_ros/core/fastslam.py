@@ -79,6 +79,7 @@ class FastSLAM:
         self.noise_diag = np.array([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
+        self._log_outlier = assoc.log_outlier_density(config)
         self.reset(initial_pose)
 
     # ------------------------------------------------------------------ lifecycle
@@ -171,6 +172,8 @@ class FastSLAM:
         ws = self._gather(proposal_mean, ranges, labels if known else None)
         choices, log_factors = self._associate(ws, proposal_mean, proposal_cov, ranges, bearings,
                                                labels)
+        outliers = assoc.reject_outliers(choices, log_factors, self.config.outlier_probability,
+                                         self._log_outlier)
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if fastslam2:
             for j in range(len(ranges)):
@@ -180,6 +183,10 @@ class FastSLAM:
             if proposal_cov is not None:
                 self._prior = (proposal_mean, proposal_cov)
                 self.poses = self._sample_prior()
+        if outliers is not None:
+            log_factors = assoc.robust_log_factors(log_factors, (choices >= 0) | outliers,
+                                                   self.config.outlier_probability,
+                                                   self._log_outlier)
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
 
@@ -188,6 +195,14 @@ class FastSLAM:
         self.history.record(stamp, self.poses)
         self.num_updates += 1
         return self._finish_update(ws, choices)
+
+    def _noise(self, ranges):
+        """(range variance, bearing variance) of observations with these ranges: the range
+        variance grows with the range when ``sigma_range_per_meter`` > 0."""
+        if self.config.sigma_range_per_meter == 0.0:
+            return self.noise_diag
+        return (self.noise_diag[0] + (self.config.sigma_range_per_meter * ranges) ** 2,
+                self.noise_diag[1])
 
     def _gather(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
         """Working set: every particle's landmarks in cells the sensor can reach."""
@@ -257,7 +272,7 @@ class FastSLAM:
                               self.offset)
         log_lik, mahalanobis = assoc.score(
             t, ws.cov[particle, column], ranges[None, :, None], bearings[None, :, None],
-            self.noise_diag, cov)
+            self._noise(ranges[None, :, None]), cov)
         # Rows of the association rules: observation-major, (K * M, C).
         shape = (count * self.num_particles, candidates.shape[2])
         log_lik = np.where(valid, log_lik, -np.inf).transpose(1, 0, 2).reshape(shape)
@@ -302,7 +317,7 @@ class FastSLAM:
         t = observation_terms(sub_mean[:, 0], sub_mean[:, 1], sub_mean[:, 2],
                               landmark[:, 0], landmark[:, 1], self.offset)
         landmark_term = landmark_covariance_in_measurement_space(t, landmark[:, COV],
-                                                                 self.noise_diag)
+                                                                 self._noise(z_range))
         innovation = np.stack([z_range - t.range, wrap_angle(z_bearing - t.bearing)], -1)
         refined = refine_proposal(sub_mean, cov[rows], pose_jacobian(t), innovation,
                                   landmark_term)
@@ -333,7 +348,8 @@ class FastSLAM:
         if len(obs):
             slot = first_new + obs
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
-                self.poses[particle], ranges[obs], bearings[obs], self.offset, self.noise_diag)
+                self.poses[particle], ranges[obs], bearings[obs], self.offset,
+                self._noise(ranges[obs]))
             ws.logodds[particle, slot] = config.logodds_observed
             ws.label[particle, slot] = labels[obs]
             ws.valid[particle, slot] = True
@@ -357,7 +373,7 @@ class FastSLAM:
             state = ws.state[p, s]
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
-                self.offset, self.noise_diag)
+                self.offset, self._noise(ranges[j]))
             ws.state[p, s] = state
         np.add.at(ws.logodds, (particle, slot), config.logodds_observed)
         ws.logodds[particle, slot] = np.minimum(ws.logodds[particle, slot], config.logodds_max)
