@@ -133,6 +133,14 @@ class ReferenceFastSLAM:
                         a3 * trans ** 2 + a4 * (rot1 ** 2 + rot2 ** 2)
                         + self.c.min_translation_sigma ** 2,
                         a1 * rot2 ** 2 + a2 * trans ** 2 + self.c.min_rotation_sigma ** 2])
+        c = self.c   # random-walk terms, linear in the step's size
+        var = var + np.array([
+            c.rotation_variance_per_radian * abs(rot1) + 0.5 * c.rotation_variance_per_meter
+            * abs(trans),
+            c.translation_variance_per_meter * abs(trans) + c.translation_variance_per_radian
+            * (abs(rot1) + abs(rot2)),
+            c.rotation_variance_per_radian * abs(rot2) + 0.5 * c.rotation_variance_per_meter
+            * abs(trans)])
         return (rot1, trans, rot2), var
 
     @staticmethod

@@ -17,8 +17,10 @@ CASES = [
 ]
 ROBUST_CASES = [("fastslam1", "known", 5.0), ("fastslam2", "known", 5.0),
                 ("fastslam2", "ml", 0.3), ("fastslam2", "ml", 5.0), ("fastslam1", "ml", 5.0)]
-"""Range noise growing with the range and the outlier-robust likelihood."""
-ROBUST = dict(sigma_range_per_meter=0.03, outlier_probability=0.3, new_landmark_likelihood=1e-3)
+"""Range noise growing with the range, the outlier-robust likelihood, random-walk motion noise."""
+ROBUST = dict(sigma_range_per_meter=0.03, outlier_probability=0.3, new_landmark_likelihood=1e-3,
+              rotation_variance_per_radian=0.01, rotation_variance_per_meter=0.004,
+              translation_variance_per_meter=0.002, translation_variance_per_radian=0.001)
 
 
 def small_config(algorithm: str, association: str, flush: float,

@@ -43,6 +43,18 @@ class FastSLAMConfig:
     """Translation noise from translation (m^2/m^2)."""
     alpha4: float = 0.01
     """Translation noise from rotation (m^2/rad^2)."""
+    rotation_variance_per_radian: float = 0.0
+    """Random-walk heading noise from rotation (rad^2 per rad turned): added to the variance of
+    each rotation of a step in proportion to its size. Unlike the alphas (variance growing with
+    the square of the step), it adds up to the same total however the odometry is divided into
+    steps, i.e. however often observations arrive. 0 (default): alphas only."""
+    rotation_variance_per_meter: float = 0.0
+    """Random-walk heading noise from translation (rad^2 per m travelled), split between the two
+    rotations of a step."""
+    translation_variance_per_meter: float = 0.0
+    """Random-walk translation noise from translation (m^2 per m travelled)."""
+    translation_variance_per_radian: float = 0.0
+    """Random-walk translation noise from rotation (m^2 per rad turned)."""
     min_translation_sigma: float = 0.001
     """Noise floor added to every motion step's translation (m), so P never collapses."""
     min_rotation_sigma: float = 0.001
@@ -116,7 +128,9 @@ class FastSLAMConfig:
         need(self.association_gate > 0.0, "association_gate", "> 0")
         need(self.new_landmark_gate >= self.association_gate, "new_landmark_gate",
              ">= association_gate")
-        for name in ("alpha1", "alpha2", "alpha3", "alpha4"):
+        for name in ("alpha1", "alpha2", "alpha3", "alpha4", "rotation_variance_per_radian",
+                     "rotation_variance_per_meter", "translation_variance_per_meter",
+                     "translation_variance_per_radian"):
             need(getattr(self, name) >= 0.0, name, ">= 0")
         need(self.min_translation_sigma > 0.0, "min_translation_sigma", "> 0")
         need(self.min_rotation_sigma > 0.0, "min_rotation_sigma", "> 0")

@@ -78,6 +78,10 @@ class FastSLAM:
         self.offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
         self.noise_diag = np.array([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+        self.linear_noise = (config.rotation_variance_per_radian,
+                             config.rotation_variance_per_meter,
+                             config.translation_variance_per_meter,
+                             config.translation_variance_per_radian)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
         self._log_outlier = assoc.log_outlier_density(config)
         self.reset(initial_pose)
@@ -122,7 +126,7 @@ class FastSLAM:
             return
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
-                                      self.config.min_rotation_sigma)
+                                      self.config.min_rotation_sigma, self.linear_noise)
         self._pending = np.zeros(3)
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
