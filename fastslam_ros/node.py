@@ -91,6 +91,7 @@ CORE_RANGES = {
     "num_particles": (1, 1_000_000),
     "seed": (-1, 2**31 - 1),
     "resample_threshold": (0.0, 1.0),
+    "outlier_probability": (0.0, 1.0),
     "field_of_view": (0.0, 2.0 * math.pi),
     "sensor_yaw": (-math.pi, math.pi),
     "logodds_missed": (-FLOAT_MAX, 0.0),

@@ -56,10 +56,21 @@ class ReferenceFastSLAM:
         self.maps = [[] for _ in range(self.M)]   # dicts: mean, cov, logodds, label
         self.pending = None
         self.prior = None          # FastSLAM 2.0: per particle (mean, cov) of flushed odometry
-        self.R = np.diag([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.offset = (config.sensor_x, config.sensor_y, config.sensor_yaw)
         self.log_p0 = math.log(config.new_landmark_likelihood)
+        self.eps = config.outlier_probability
+        # Outlier term eps * u, u uniform over the perceptual range and field of view.
+        self.log_outlier = (math.log(self.eps) - math.log(
+            (config.max_range - config.min_range) * config.field_of_view)
+            if self.eps > 0.0 else -math.inf)
         self.removed = 0
+        self.outliers = 0
+
+    def noise(self, z_range):
+        """R of one observation: the range variance grows with the range."""
+        c = self.c
+        return np.diag([c.sigma_range ** 2 + (c.sigma_range_per_meter * z_range) ** 2,
+                        c.sigma_bearing ** 2])
 
     # -------------------------------------------------------------- motion
     def predict(self, odom_from, odom_to):
@@ -123,6 +134,14 @@ class ReferenceFastSLAM:
                         a3 * trans ** 2 + a4 * (rot1 ** 2 + rot2 ** 2)
                         + self.c.min_translation_sigma ** 2,
                         a1 * rot2 ** 2 + a2 * trans ** 2 + self.c.min_rotation_sigma ** 2])
+        c = self.c   # random-walk terms, linear in the step's size
+        var = var + np.array([
+            c.rotation_variance_per_radian * abs(rot1) + 0.5 * c.rotation_variance_per_meter
+            * abs(trans),
+            c.translation_variance_per_meter * abs(trans) + c.translation_variance_per_radian
+            * (abs(rot1) + abs(rot2)),
+            c.rotation_variance_per_radian * abs(rot2) + 0.5 * c.rotation_variance_per_meter
+            * abs(trans)])
         return (rot1, trans, rot2), var
 
     @staticmethod
@@ -161,12 +180,23 @@ class ReferenceFastSLAM:
                 # Again at the proposal means, with the prior covariances.
                 choice, factor = self._associate([p[0] for p in proposals], covs, z_all, labels)
                 proposals = [self._proposal(motion[m], choice, z_all, m) for m in range(self.M)]
+        at_association = [row[:] for row in factor]
         for m in range(self.M):
             if motion:
                 mean, cov, factors = proposals[m]
                 for j, value in factors.items():
                     factor[j][m] = value
                 motion[m] = (mean, cov)
+            for j in range(K):   # robust likelihood (1 - eps) N + eps u, N at association
+                if self.eps > 0.0 and (isinstance(choice[j][m], int)
+                                       or choice[j][m] == "outlier"):
+                    gauss = at_association[j][m]
+                    robust = float(np.logaddexp(math.log(1.0 - self.eps) + gauss,
+                                                self.log_outlier))
+                    # An outlier weighs its robust likelihood; an inlier its Gaussian weight
+                    # (joint with the others in 2.0) times robust / N.
+                    factor[j][m] = robust if choice[j][m] == "outlier" else (
+                        factor[j][m] + robust - gauss)
             self.log_w[m] += sum(factor[j][m] for j in range(K))
         if motion and fast2:
             self.prior = motion
@@ -183,13 +213,14 @@ class ReferenceFastSLAM:
                 if isinstance(n, (int, dict)):
                     lm = self.maps[m][n] if isinstance(n, int) else n
                     z_hat, _, g_m = measure(self.poses[m], lm["mean"], self.offset)
-                    q = g_m @ lm["cov"] @ g_m.T + self.R
+                    r = self.noise(z[0])
+                    q = g_m @ lm["cov"] @ g_m.T + r
                     gain = lm["cov"] @ g_m.T @ np.linalg.inv(q)
                     nu = z - z_hat
                     nu[1] = wrap(nu[1])
                     lm["mean"] = lm["mean"] + gain @ nu
                     a = np.eye(2) - gain @ g_m
-                    lm["cov"] = a @ lm["cov"] @ a.T + gain @ self.R @ gain.T
+                    lm["cov"] = a @ lm["cov"] @ a.T + gain @ r @ gain.T
                     lm["logodds"] = min(lm["logodds"] + c.logodds_observed, c.logodds_max)
                     observed.add(id(lm))
                 elif n == "new":
@@ -201,7 +232,7 @@ class ReferenceFastSLAM:
                     mean = np.array([sx + z[0] * math.cos(angle), sy + z[0] * math.sin(angle)])
                     _, _, g_m = measure(self.poses[m], mean, self.offset)
                     g_inv = np.linalg.inv(g_m)
-                    lm = dict(mean=mean, cov=g_inv @ self.R @ g_inv.T,
+                    lm = dict(mean=mean, cov=g_inv @ self.noise(z[0]) @ g_inv.T,
                               logodds=c.logodds_observed, label=int(labels[j]))
                     self.maps[m].append(lm)
                     created_by_label[int(labels[j])] = lm
@@ -248,7 +279,7 @@ class ReferenceFastSLAM:
                 scores = []
                 for n, lm in enumerate(self.maps[m]):
                     z_hat, g_s, g_m = measure(pose, lm["mean"], self.offset)
-                    s_cov = g_m @ lm["cov"] @ g_m.T + self.R
+                    s_cov = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
                     if pose_cov is not None:
                         s_cov = s_cov + g_s @ pose_cov @ g_s.T
                     nu = z - z_hat
@@ -259,6 +290,11 @@ class ReferenceFastSLAM:
                 choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
             if c.association == "ml":
                 self._exclusive(all_scores, choice, factor, m, K)
+            for j in range(K):   # (1 - eps) N < eps u: an outlier, not used
+                if (self.eps > 0.0 and isinstance(choice[j][m], int)
+                        and math.log(1.0 - self.eps) + factor[j][m] < self.log_outlier):
+                    choice[j][m] = "outlier"
+                    self.outliers += 1
         return choice, factor
 
     def _proposal(self, prior, choice, z_all, m):
@@ -278,7 +314,7 @@ class ReferenceFastSLAM:
                 z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
                 step = mean - point
                 step[2] = wrap(step[2])
-                q = g_m @ lm["cov"] @ g_m.T + self.R
+                q = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
                 big_l = g_s @ cov @ g_s.T + q
                 nu = z - (z_point + g_s @ step)
                 nu[1] = wrap(nu[1])

@@ -21,10 +21,16 @@ CASES = [
     # Association repeated at the proposal mean.
     ("fastslam2", "ml", 0.3, 1, 2), ("fastslam2", "monte_carlo", 5.0, 2, 3),
 ]
+ROBUST_CASES = [("fastslam1", "known", 5.0), ("fastslam2", "known", 5.0),
+                ("fastslam2", "ml", 0.3), ("fastslam2", "ml", 5.0), ("fastslam1", "ml", 5.0)]
+"""Range noise growing with the range, the outlier-robust likelihood, random-walk motion noise."""
+ROBUST = dict(sigma_range_per_meter=0.03, outlier_probability=0.3, new_landmark_likelihood=1e-3,
+              rotation_variance_per_radian=0.01, rotation_variance_per_meter=0.004,
+              translation_variance_per_meter=0.002, translation_variance_per_radian=0.001)
 
 
 def small_config(algorithm: str, association: str, flush: float, iterations: int = 1,
-                 passes: int = 1) -> FastSLAMConfig:
+                 passes: int = 1, extra: dict | None = None) -> FastSLAMConfig:
     return FastSLAMConfig(
         num_particles=12, algorithm=algorithm, association=association,
         new_landmark_likelihood=0.05, association_gate=6.0, new_landmark_gate=16.0,
@@ -35,7 +41,7 @@ def small_config(algorithm: str, association: str, flush: float, iterations: int
         logodds_observed=0.8, logodds_missed=-0.9, logodds_remove=-0.5,
         resample_threshold=0.7, cell_size=4.0, max_pending_translation=flush,
         max_prior_heading_sigma=0.06, proposal_iterations=iterations,
-        association_passes=passes)
+        association_passes=passes).replace(**(extra or {}))
 
 
 def sorted_map(means, covs, logodds, labels):
@@ -43,15 +49,19 @@ def sorted_map(means, covs, logodds, labels):
     return means[order], covs[order], logodds[order], labels[order]
 
 
-@pytest.mark.parametrize("algorithm,association,flush,iterations,passes", CASES)
+@pytest.mark.parametrize("algorithm,association,flush,iterations,passes,robust",
+                         [case + (False,) for case in CASES]
+                         + [case + (1, 1, True) for case in ROBUST_CASES]
+                         + [("fastslam2", "ml", 0.3, 2, 2, True)])
 def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush,
-                                             iterations, passes):
+                                             iterations, passes, robust):
     # Score every landmark, as the reference does (the small world never reaches the cap).
     monkeypatch.setattr(fastslam_module, "MAX_CANDIDATES", 1000)
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
-    config = small_config(algorithm, association, flush, iterations, passes)
+    config = small_config(algorithm, association, flush, iterations, passes,
+                          ROBUST if robust else None)
     start = world.steps[0].truth
     fast = FastSLAM(config, rng=np.random.default_rng(11), initial_pose=start)
     slow = ReferenceFastSLAM(config, np.random.default_rng(11), start)
@@ -93,3 +103,4 @@ def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association
                 np.testing.assert_allclose(g, w, atol=1e-9, rtol=0)
     # The run must have exercised what it claims to test: creation, elimination, resampling.
     assert created > 0 and resampled > 0 and slow.removed > 0
+    assert slow.outliers > 0 or not robust

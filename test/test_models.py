@@ -227,3 +227,44 @@ def test_sample_pose_has_the_requested_covariance_even_when_singular():
                           rng.standard_normal((100000, 3)))
     assert np.all(np.isfinite(samples))
     np.testing.assert_allclose(samples.T @ samples / 100000, cov, atol=3e-4)
+
+
+def test_random_walk_motion_noise_does_not_depend_on_the_split():
+    # Heading variance var(rot1) + var(rot2) and translation variance of one step equal the
+    # sums over the same motion cut into four steps (alphas and floors off).
+    linear = (0.01, 0.005, 0.0005, 0.0012)
+    whole = control_variances(OdometryControl(0.1, 1.0, 0.1), (0, 0, 0, 0), 0.0, 0.0, linear)
+    part = control_variances(OdometryControl(0.025, 0.25, 0.025), (0, 0, 0, 0), 0.0, 0.0,
+                             linear)
+    np.testing.assert_allclose(whole[0] + whole[2], 4 * (part[0] + part[2]), rtol=1e-12)
+    np.testing.assert_allclose(whole[1], 4 * part[1], rtol=1e-12)
+    # Backward motion (negative translation) adds the same noise as forward motion.
+    back = control_variances(OdometryControl(0.1, -1.0, 0.1), (0, 0, 0, 0), 0.0, 0.0, linear)
+    np.testing.assert_allclose(back, whole, rtol=1e-12)
+
+
+def test_robust_likelihood_floors_outliers_and_rejects_them():
+    from fastslam_ros.core import association as assoc
+    from fastslam_ros.core.config import FastSLAMConfig
+
+    config = FastSLAMConfig(outlier_probability=0.05, min_range=0.5, max_range=8.0,
+                            field_of_view=1.1)
+    log_outlier = assoc.log_outlier_density(config)
+    np.testing.assert_allclose(log_outlier, np.log(0.05 / (7.5 * 1.1)))
+    choices = np.array([[3, 2, assoc.NEW]])
+    log_lik = np.array([[2.0, -40.0, np.log(1e-4)]])
+    kept, factors, correction = assoc.reject_outliers(choices, log_lik, 0.05, log_outlier)
+    assert kept.tolist() == [[3, assoc.IGNORE, assoc.NEW]]
+    # The outlier weighs (1 - eps) N + eps u, floored near eps u instead of e^-40.
+    np.testing.assert_allclose(factors[0, 1], np.logaddexp(np.log(0.95) - 40.0, log_outlier))
+    np.testing.assert_allclose(factors[0, 1], log_outlier, atol=1e-12)
+    # The inlier keeps log N, and its correction makes it log((1 - eps) N + eps u).
+    assert factors[0, 0] == 2.0
+    np.testing.assert_allclose(factors[0, 0] + correction[0, 0],
+                               np.log(0.95 * np.exp(2.0) + np.exp(log_outlier)))
+    # New landmarks: p0, untouched.
+    assert factors[0, 2] == log_lik[0, 2] and correction[0, 2] == 0.0
+    # eps = 0: plain Gaussian, nothing changes.
+    kept, factors, correction = assoc.reject_outliers(choices, log_lik, 0.0, -np.inf)
+    assert kept.tolist() == choices.tolist() and np.array_equal(factors, log_lik)
+    assert not correction.any()

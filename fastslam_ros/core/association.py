@@ -15,7 +15,7 @@ from .landmark_ekf import innovation_covariance
 NEW = -1
 """The observation starts a new landmark."""
 IGNORE = -2
-"""two_gate only: the observation is ambiguous and is not used."""
+"""The observation is not used: ambiguous (two_gate) or an outlier (``reject_outliers``)."""
 
 LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
@@ -130,3 +130,35 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
         cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0
         cyy = cyy + (p_tt * w1 - 2.0 * e1) * w1
     return gaussian_log_likelihood(nu_r, nu_b, cxx, cxy, cyy)
+
+
+def log_outlier_density(config) -> float:
+    """log of eps * u, u = 1 / ((max_range - min_range) * field_of_view): the outlier term of
+    the robust likelihood (-inf when ``outlier_probability`` is 0)."""
+    eps = config.outlier_probability
+    if eps <= 0.0:
+        return -np.inf
+    return float(np.log(eps) - np.log((config.max_range - config.min_range)
+                                      * config.field_of_view))
+
+
+def reject_outliers(choices: np.ndarray, log_lik: np.ndarray, eps: float, log_outlier: float):
+    """The robust likelihood (1 - eps) N(z; z_hat, S) + eps u of associated observations.
+
+    ``choices`` and ``log_lik`` (K, M) come from association (log N of the chosen landmark).
+    An observation whose outlier term is the larger, (1 - eps) N < eps u, is an outlier: it
+    becomes ``IGNORE`` (neither proposal nor landmark update) with weight factor
+    log((1 - eps) N + eps u). An inlier keeps its choice; its factor log N is returned as is,
+    with ``correction`` = log((1 - eps) N + eps u) - log N to add to whatever Gaussian weight
+    the filter computes for it (FastSLAM 2.0 computes one joint weight for all of a reading's
+    inliers). Returns (choices, log factors, correction); eps = 0 changes nothing.
+    """
+    if eps <= 0.0:
+        return choices, log_lik, np.zeros_like(log_lik)
+    associated = choices >= 0
+    inlier_term = np.log1p(-eps) + log_lik
+    robust = np.logaddexp(inlier_term, log_outlier)
+    outliers = associated & (inlier_term < log_outlier)
+    inliers = associated & ~outliers
+    return (np.where(outliers, IGNORE, choices), np.where(outliers, robust, log_lik),
+            np.where(inliers, robust - np.where(inliers, log_lik, 0.0), 0.0))

@@ -43,6 +43,18 @@ class FastSLAMConfig:
     """Translation noise from translation (m^2/m^2)."""
     alpha4: float = 0.01
     """Translation noise from rotation (m^2/rad^2)."""
+    rotation_variance_per_radian: float = 0.0
+    """Random-walk heading noise from rotation (rad^2 per rad turned): added to the variance of
+    each rotation of a step in proportion to its size. Unlike the alphas (variance growing with
+    the square of the step), it adds up to the same total however the odometry is divided into
+    steps, i.e. however often observations arrive. 0 (default): alphas only."""
+    rotation_variance_per_meter: float = 0.0
+    """Random-walk heading noise from translation (rad^2 per m travelled), split between the two
+    rotations of a step."""
+    translation_variance_per_meter: float = 0.0
+    """Random-walk translation noise from translation (m^2 per m travelled)."""
+    translation_variance_per_radian: float = 0.0
+    """Random-walk translation noise from rotation (m^2 per rad turned)."""
     min_translation_sigma: float = 0.001
     """Noise floor added to every motion step's translation (m), so P never collapses."""
     min_rotation_sigma: float = 0.001
@@ -67,6 +79,15 @@ class FastSLAMConfig:
     """Range measurement standard deviation (m)."""
     sigma_bearing: float = 0.0175
     """Bearing measurement standard deviation (rad)."""
+    sigma_range_per_meter: float = 0.0
+    """Range noise that grows with the range (m per m): the range variance of an observation
+    is sigma_range^2 + (sigma_range_per_meter * range)^2 (camera ranges from apparent size)."""
+    outlier_probability: float = 0.0
+    """eps: probability that an observation associated with a landmark is an outlier, uniform
+    over the perceptual range (min_range..max_range, field_of_view). Its weight factor is
+    (1 - eps) N(z; z_hat, L) + eps / (range span * field_of_view), so one outlier cannot wipe
+    out the good particles; an observation whose outlier term is the larger one is not used for
+    the pose proposal nor the landmark update. 0 (default): plain Gaussian."""
     sensor_x: float = 0.0
     """Sensor position on the robot, forward (m)."""
     sensor_y: float = 0.0
@@ -114,7 +135,9 @@ class FastSLAMConfig:
         need(self.association_gate > 0.0, "association_gate", "> 0")
         need(self.new_landmark_gate >= self.association_gate, "new_landmark_gate",
              ">= association_gate")
-        for name in ("alpha1", "alpha2", "alpha3", "alpha4"):
+        for name in ("alpha1", "alpha2", "alpha3", "alpha4", "rotation_variance_per_radian",
+                     "rotation_variance_per_meter", "translation_variance_per_meter",
+                     "translation_variance_per_radian"):
             need(getattr(self, name) >= 0.0, name, ">= 0")
         need(self.min_translation_sigma > 0.0, "min_translation_sigma", "> 0")
         need(self.min_rotation_sigma > 0.0, "min_rotation_sigma", "> 0")
@@ -127,6 +150,8 @@ class FastSLAMConfig:
              "association_passes", "an integer in [1, 5]")
         need(self.sigma_range > 0.0, "sigma_range", "> 0")
         need(self.sigma_bearing > 0.0, "sigma_bearing", "> 0")
+        need(self.sigma_range_per_meter >= 0.0, "sigma_range_per_meter", ">= 0")
+        need(0.0 <= self.outlier_probability < 1.0, "outlier_probability", "in [0, 1)")
         need(self.min_range >= 0.0, "min_range", ">= 0")
         need(self.max_range > self.min_range, "max_range", "> min_range")
         need(0.0 < self.field_of_view <= 2.0 * math.pi, "field_of_view", "in (0, 2 pi]")

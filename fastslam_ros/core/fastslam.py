@@ -77,7 +77,12 @@ class FastSLAM:
         self.offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
         self.noise_diag = np.array([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+        self.linear_noise = (config.rotation_variance_per_radian,
+                             config.rotation_variance_per_meter,
+                             config.translation_variance_per_meter,
+                             config.translation_variance_per_radian)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
+        self._log_outlier = assoc.log_outlier_density(config)
         self.reset(initial_pose)
 
     # ------------------------------------------------------------------ lifecycle
@@ -120,7 +125,7 @@ class FastSLAM:
             return
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
-                                      self.config.min_rotation_sigma)
+                                      self.config.min_rotation_sigma, self.linear_noise)
         self._pending = np.zeros(3)
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
@@ -168,19 +173,20 @@ class FastSLAM:
                                                                                     None)
 
         ws = self._gather(proposal_mean, ranges, labels if known else None)
-        choices, log_factors = self._associate(ws, proposal_mean, proposal_cov, ranges, bearings,
-                                               labels)
+        choices, log_factors, robust = self._associate(ws, proposal_mean, proposal_cov, ranges,
+                                                       bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if fastslam2 and proposal_cov is not None:
             proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
             for _ in range(self.config.association_passes - 1):
                 # Associate again where this reading's observations put the robot; the
                 # prior covariance is kept (the refined one already holds these observations).
-                choices, log_factors = self._associate(ws, proposal[0], proposal_cov, ranges,
-                                                       bearings, labels)
+                choices, log_factors, robust = self._associate(
+                    ws, proposal[0], proposal_cov, ranges, bearings, labels)
                 proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges,
                                           bearings)
             log_factors = self._sample_proposal(proposal, choices, log_factors)
+        log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
 
@@ -189,6 +195,14 @@ class FastSLAM:
         self.history.record(stamp, self.poses)
         self.num_updates += 1
         return self._finish_update(ws, choices)
+
+    def _noise(self, ranges):
+        """(range variance, bearing variance) of observations with these ranges: the range
+        variance grows with the range when ``sigma_range_per_meter`` > 0."""
+        if self.config.sigma_range_per_meter == 0.0:
+            return self.noise_diag
+        return (self.noise_diag[0] + (self.config.sigma_range_per_meter * ranges) ** 2,
+                self.noise_diag[1])
 
     def _gather(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
         """Working set: every particle's landmarks in cells the sensor can reach."""
@@ -245,8 +259,9 @@ class FastSLAM:
 
         Scored at the pose before this reading's observations are used: the sampled pose
         (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Returns
-        choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE``, and the log
-        weight factors (K, M).
+        choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE`` (also for
+        outliers, with ``outlier_probability`` > 0), the log weight factors (K, M) and the
+        robust-likelihood correction of the inliers (``association.reject_outliers``).
         """
         config = self.config
         count = len(ranges)
@@ -258,7 +273,7 @@ class FastSLAM:
                               landmark[..., 0], landmark[..., 1], self.offset)
         log_lik, mahalanobis = assoc.score(
             t, landmark[..., COV], ranges[:, None, None], bearings[:, None, None],
-            self.noise_diag, None if cov is None else cov[:, None])
+            self._noise(ranges[:, None, None]), None if cov is None else cov[:, None])
         # Rows of the association rules: observation-major, (K * M, C).
         shape = (count * self.num_particles, candidates.shape[2])
         valid = candidates >= 0
@@ -283,8 +298,9 @@ class FastSLAM:
         choice[rows] = candidates[rows, pick[rows]]
         if mode == "known":
             log_factor = np.where(choice >= 0, log_factor, self._log_p0)
-        return (choice.reshape(count, self.num_particles),
-                log_factor.reshape(count, self.num_particles))
+        return assoc.reject_outliers(choice.reshape(count, self.num_particles),
+                                     log_factor.reshape(count, self.num_particles),
+                                     config.outlier_probability, self._log_outlier)
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -295,7 +311,7 @@ class FastSLAM:
             return mean, cov, np.zeros(self.num_particles)
         landmarks = ws.state[particle, choices[obs, particle], :5]
         return observation_proposal(mean, cov, particle, landmarks, ranges[obs], bearings[obs],
-                                    self.offset, self.noise_diag,
+                                    self.offset, self._noise(ranges[obs]),
                                     self.config.proposal_iterations)
 
     def _sample_proposal(self, proposal, choices: np.ndarray,
@@ -335,7 +351,8 @@ class FastSLAM:
         if len(obs):
             slot = first_new + obs
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
-                self.poses[particle], ranges[obs], bearings[obs], self.offset, self.noise_diag)
+                self.poses[particle], ranges[obs], bearings[obs], self.offset,
+                self._noise(ranges[obs]))
             ws.logodds[particle, slot] = config.logodds_observed
             ws.label[particle, slot] = labels[obs]
             ws.valid[particle, slot] = True
@@ -360,7 +377,7 @@ class FastSLAM:
             state = ws.state[p, s]
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
-                self.offset, self.noise_diag)
+                self.offset, self._noise(ranges[j]))
             ws.state[p, s] = state
         hits = np.bincount(pair, minlength=ws.valid.size).reshape(ws.valid.shape)
         ws.logodds[:] = np.minimum(ws.logodds + hits * config.logodds_observed,

@@ -39,15 +39,27 @@ class OdometryControl:
 
 
 def control_variances(u: OdometryControl, alphas, min_translation_sigma: float,
-                      min_rotation_sigma: float) -> np.ndarray:
-    """Variances of (rot1, trans, rot2): alpha-scaled terms plus a fixed floor."""
+                      min_rotation_sigma: float, linear=(0.0, 0.0, 0.0, 0.0)) -> np.ndarray:
+    """Variances of (rot1, trans, rot2): alpha-scaled terms plus a fixed floor.
+
+    ``linear`` = (rotation per radian, rotation per meter, translation per meter, translation
+    per radian) adds random-walk terms, linear in the step's size, so that the variance of a
+    motion does not depend on how many steps it is divided into.
+    """
     a1, a2, a3, a4 = alphas
     rot1_sq, trans_sq, rot2_sq = u.rot1 ** 2, u.trans ** 2, u.rot2 ** 2
-    return np.array([
+    variances = np.array([
         a1 * rot1_sq + a2 * trans_sq + min_rotation_sigma ** 2,
         a3 * trans_sq + a4 * (rot1_sq + rot2_sq) + min_translation_sigma ** 2,
         a1 * rot2_sq + a2 * trans_sq + min_rotation_sigma ** 2,
     ])
+    k_rr, k_rt, k_tt, k_tr = linear
+    if k_rr or k_rt or k_tt or k_tr:
+        rot1, trans, rot2 = abs(u.rot1), abs(u.trans), abs(u.rot2)
+        variances += np.array([k_rr * rot1 + 0.5 * k_rt * trans,
+                               k_tt * trans + k_tr * (rot1 + rot2),
+                               k_rr * rot2 + 0.5 * k_rt * trans])
+    return variances
 
 
 def apply_control(poses: np.ndarray, rot1, trans, rot2) -> np.ndarray:

@@ -161,6 +161,7 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
     """
     folder = Path(folder)
     range_residuals, bearing_residuals, odometry_steps, true_steps = [], [], [], []
+    true_ranges, walk_rows = [], []
     positions, ids = load_landmarks(folder)
     for robot in robots:
         gt_stamps, gt_poses, _ = load_ground_truth(folder, robot)
@@ -169,7 +170,8 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
         poses = interpolate_poses(gt_stamps, gt_poses, stamps[inside])
         landmark = positions[np.searchsorted(ids, subjects[inside])]
         delta = landmark - poses[:, :2]
-        range_residuals.append(ranges[inside] - np.hypot(delta[:, 0], delta[:, 1]))
+        true_ranges.append(np.hypot(delta[:, 0], delta[:, 1]))
+        range_residuals.append(ranges[inside] - true_ranges[-1])
         bearing_residuals.append(wrap_angle(bearings[inside] - np.arctan2(delta[:, 1], delta[:, 0])
                                             + poses[:, 2]))
 
@@ -177,13 +179,60 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
         grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]), step)
         odometry_steps.append(relative_motion(interpolate_poses(odom_stamps, odom_poses, grid)))
         true_steps.append(relative_motion(interpolate_poses(gt_stamps, gt_poses, grid)))
+        walk_rows.append(random_walk_rows(odom_stamps, odom_poses, gt_stamps, gt_poses, grid))
     range_residuals = np.concatenate(range_residuals)
     bearing_residuals = np.concatenate(bearing_residuals)
+    true_ranges = np.concatenate(true_ranges)
     return {"sigma_range": robust_std(range_residuals),
+            "sigma_range_per_meter": robust_std(range_residuals / true_ranges),
             "sigma_bearing": robust_std(bearing_residuals),
             "sigma_range_q90": float(np.quantile(np.abs(range_residuals), 0.9) / 1.645),
             "sigma_bearing_q90": float(np.quantile(np.abs(bearing_residuals), 0.9) / 1.645),
-            **fit_alphas(np.concatenate(odometry_steps), np.concatenate(true_steps))}
+            **fit_alphas(np.concatenate(odometry_steps), np.concatenate(true_steps)),
+            **fit_random_walk(np.concatenate(walk_rows))}
+
+
+def random_walk_rows(odom_stamps: np.ndarray, odom_poses: np.ndarray, gt_stamps: np.ndarray,
+                     gt_poses: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Per increment of ``grid``: odometry path length (m), odometry absolute rotation (rad),
+    heading error (rad) and along-track error (m) of the odometry against the ground truth."""
+    length = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(odom_poses[:, :2], axis=0).T))))
+    turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap_angle(np.diff(odom_poses[:, 2]))))))
+    odometry = interpolate_poses(odom_stamps, odom_poses, grid)
+    truth = interpolate_poses(gt_stamps, gt_poses, grid)
+    heading_error = wrap_angle(wrap_angle(np.diff(truth[:, 2])) - wrap_angle(np.diff(odometry[:, 2])))
+
+    def along(poses: np.ndarray) -> np.ndarray:
+        delta = np.diff(poses[:, :2], axis=0)
+        return np.cos(poses[:-1, 2]) * delta[:, 0] + np.sin(poses[:-1, 2]) * delta[:, 1]
+    return np.column_stack((np.diff(np.interp(grid, odom_stamps, length)),
+                            np.diff(np.interp(grid, odom_stamps, turned)),
+                            heading_error, along(truth) - along(odometry)))
+
+
+def fit_random_walk(rows: np.ndarray) -> dict[str, float]:
+    """Random-walk (variance linear in the motion) noise from :func:`random_walk_rows`.
+
+    The squared heading errors are fitted as rotation_variance_per_meter * length +
+    rotation_variance_per_radian * turned, the squared along-track errors as
+    translation_variance_per_meter * length + translation_variance_per_radian * turned
+    (non-negative least squares, largest 2 % left out as in :func:`fit_alphas`). Unlike the
+    alphas, these do not depend on the increment the fit (or the filter) uses.
+    """
+    from scipy.optimize import nnls
+
+    design = rows[:, :2]
+
+    def fit(squared_errors: np.ndarray) -> np.ndarray:
+        keep = squared_errors <= np.quantile(squared_errors, 0.98)
+        return nnls(design[keep], squared_errors[keep])[0]
+
+    rotation_per_meter, rotation_per_radian = fit(rows[:, 2] ** 2)
+    translation_per_meter, translation_per_radian = fit(rows[:, 3] ** 2)
+    return {"rotation_variance_per_meter": float(rotation_per_meter),
+            "rotation_variance_per_radian": float(rotation_per_radian),
+            "translation_variance_per_meter": float(translation_per_meter),
+            "translation_variance_per_radian": float(translation_per_radian)}
 
 
 def relative_motion(poses: np.ndarray) -> np.ndarray:
