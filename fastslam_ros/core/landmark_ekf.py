@@ -81,11 +81,3 @@ def innovation_covariance(t, sxx, sxy, syy, noise_diag: np.ndarray):
     s01 = g10 * a0 + g11 * a1
     s11 = g10 * b0 + g11 * b1 + noise_diag[1]
     return (g00, g01, g10, g11), (a0, a1, b0, b1), (s00, s01, s11)
-
-
-def landmark_covariance_in_measurement_space(t, cov_packed: np.ndarray,
-                                             noise_diag: np.ndarray) -> np.ndarray:
-    """Q = G_m Sigma G_m^T + R, packed (..., 3), for the pairs described by ``t``."""
-    _, _, q = innovation_covariance(t, cov_packed[..., 0], cov_packed[..., 1],
-                                    cov_packed[..., 2], noise_diag)
-    return np.stack(q, -1)
