@@ -84,10 +84,11 @@ class FastSLAMConfig:
     is sigma_range^2 + (sigma_range_per_meter * range)^2 (camera ranges from apparent size)."""
     outlier_probability: float = 0.0
     """eps: probability that an observation associated with a landmark is an outlier, uniform
-    over the perceptual range (min_range..max_range, field_of_view). Its weight factor is
+    over the perceptual range (min_range..max_range, field_of_view). Its likelihood is
     (1 - eps) N(z; z_hat, L) + eps / (range span * field_of_view), so one outlier cannot wipe
     out the good particles; an observation whose outlier term is the larger one is not used for
-    the pose proposal nor the landmark update. 0 (default): plain Gaussian."""
+    the pose proposal nor the landmark update (``association.reject_outliers``). 0 (default):
+    plain Gaussian."""
     sensor_x: float = 0.0
     """Sensor position on the robot, forward (m)."""
     sensor_y: float = 0.0
