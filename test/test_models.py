@@ -32,6 +32,17 @@ def test_compose_and_relative_pose_are_inverse():
     np.testing.assert_allclose(compose(a, relative_pose(a, b)), wrap_pose(b), atol=1e-12)
 
 
+def test_single_poses_take_the_float_path_with_the_same_result():
+    rng = np.random.default_rng(1)
+    a = rng.uniform(-5, 5, (50, 3))
+    b = rng.uniform(-5, 5, (50, 3))
+    b[0, 2] = a[0, 2] + np.pi   # the wrap boundary: (-pi, pi] on both paths
+    batch_relative, batch_compose = relative_pose(a, b), compose(a, b)
+    for k in range(50):
+        np.testing.assert_allclose(relative_pose(a[k], b[k]), batch_relative[k], atol=1e-12)
+        np.testing.assert_allclose(compose(a[k], b[k]), batch_compose[k], atol=1e-12)
+
+
 def wrap_pose(p):
     return np.column_stack([p[:, :2], wrap_angle(p[:, 2])])
 

@@ -380,8 +380,8 @@ class FastSLAM:
                 self.offset, self._noise(ranges[j]))
             ws.state[p, s] = state
         hits = np.bincount(pair, minlength=ws.valid.size).reshape(ws.valid.shape)
-        ws.logodds[:] = np.minimum(ws.logodds + hits * config.logodds_observed,
-                                   np.maximum(ws.logodds, config.logodds_max))
+        raised = np.minimum(ws.logodds + hits * config.logodds_observed, config.logodds_max)
+        ws.logodds[:] = np.where(hits > 0, raised, ws.logodds)
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
 

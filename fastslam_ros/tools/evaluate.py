@@ -498,6 +498,9 @@ def main(argv: list[str] | None = None) -> int:
                              f"[{DEFAULT_MAX_GAP}]")
     parser.add_argument("--min-existence", type=float, default=0.0,
                         help="ignore estimated landmarks with a lower existence probability [0]")
+    parser.add_argument("--at-base", action="store_true",
+                        help="compare the robot base even when the ground truth measures another "
+                             "point of the robot (/tf_static), e.g. to see what that point costs")
     args = parser.parse_args(argv)
     try:
         run = load_run(args.out, args.ground_truth)
@@ -511,6 +514,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fastslam-eval: no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}",
               file=sys.stderr)
         return 1
+    if args.at_base:
+        run.ground_truth.reference_offset = None
     evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence)
     print(markdown_table(evaluation.metrics))
     if args.json:
