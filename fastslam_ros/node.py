@@ -260,8 +260,20 @@ class FastSLAMNode(Node):
     """Landmark FastSLAM on ``odom`` + ``landmarks``; publishes pose, map, path and particles."""
 
     def __init__(self, **node_kwargs) -> None:
-        """Declare parameters (ParameterError on a bad value), create the filter and the I/O."""
+        """Declare parameters (ParameterError on a bad value), create the filter and the I/O.
+
+        A failed start destroys the half-built node at once: left to the garbage collector, its
+        DDS participant would be torn down at some later, arbitrary point (Fast DDS can then
+        block the whole process)."""
         super().__init__(NODE_NAME, **node_kwargs)
+        try:
+            self._set_up()
+        except BaseException:
+            Node.destroy_node(self)
+            raise
+
+    def _set_up(self) -> None:
+        """Everything of the start after the rcl node exists."""
         self.output_listeners: list[Callable[[str, object], None]] = []
         self.publish_to_dds = True
         """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""

@@ -143,6 +143,11 @@ class Recorder:
         return len(self.messages.get(topic, []))
 
 
+CREATED_NODES: list[FastSLAMNode] = []
+"""Nodes of the running test: destroyed before their context shuts down, never left to the
+garbage collector (a Fast DDS participant torn down during a later collection can hang)."""
+
+
 @pytest.fixture
 def context():
     ctx = Context()
@@ -150,13 +155,17 @@ def context():
     try:
         yield ctx
     finally:
+        while CREATED_NODES:
+            CREATED_NODES.pop().destroy_node()
         rclpy.shutdown(context=ctx)
 
 
 def make_node(context: Context, **parameters) -> FastSLAMNode:
     values = {**BASE_PARAMETERS, **parameters}
-    return FastSLAMNode(context=context, parameter_overrides=[
+    node = FastSLAMNode(context=context, parameter_overrides=[
         Parameter(name, value=value) for name, value in values.items()])
+    CREATED_NODES.append(node)
+    return node
 
 
 def pose_error(pose_msg, stamp: float) -> tuple[float, float]:
@@ -600,7 +609,6 @@ def test_dds_run_reliable_inputs_late_map_subscriber_save_and_reset(context, tmp
     finally:
         executor.shutdown()
         driver.destroy_node()
-        node.destroy_node()
 
 
 def test_output_types_and_topics_over_dds(context):
