@@ -480,6 +480,20 @@ def test_bad_parameter_stops_the_start_naming_it(context, name, value):
         make_node(context, **{name: value})
 
 
+def test_a_failed_start_leaves_no_node_behind(context):
+    with pytest.raises(ParameterError) as failure:
+        make_node(context, num_particles=0)
+    probe = Node("probe", context=context)
+    try:
+        # The traceback still references the half-built node: only an explicit destroy has
+        # removed it from the graph.
+        assert failure.traceback
+        assert "fastslam" not in probe.get_node_names()
+        assert "probe" in probe.get_node_names()
+    finally:
+        probe.destroy_node()
+
+
 def test_runtime_parameter_changes(context):
     node = make_node(context)
     result = node.set_parameters([Parameter("num_particles", value=10)])[0]
