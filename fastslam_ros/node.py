@@ -269,7 +269,7 @@ class FastSLAMNode(Node):
         try:
             self._set_up()
         except BaseException:
-            Node.destroy_node(self)
+            Node.destroy_node(self)  # not the override: its counters may not exist yet
             raise
 
     def _set_up(self) -> None:
