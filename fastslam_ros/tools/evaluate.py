@@ -353,12 +353,16 @@ class Evaluation:
 
 
 def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
-                 max_gap: float = DEFAULT_MAX_GAP, min_existence: float = 0.0) -> Evaluation:
-    """Compute every metric of a loaded run."""
+                 max_gap: float = DEFAULT_MAX_GAP, min_existence: float = 0.0,
+                 at_base: bool = False) -> Evaluation:
+    """Compute every metric of a loaded run.
+
+    Poses are compared at the point the ground truth measures (``reference_offset``, e.g. a
+    GPS antenna); ``at_base`` compares the robot base instead."""
     trajectories: dict[str, TrajectoryResult] = {}
     metrics: dict[str, Any] = {}
     if run.ground_truth is not None:
-        offset = run.ground_truth.reference_offset
+        offset = None if at_base else run.ground_truth.reference_offset
         if offset is not None:
             metrics["reference_point"] = {"frame": run.ground_truth.child_frame_id,
                                           "x": float(offset[0]), "y": float(offset[1])}
@@ -407,7 +411,7 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
 
 def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
              cutoff: float = OSPA_CUTOFF, max_gap: float = DEFAULT_MAX_GAP,
-             min_existence: float = 0.0) -> dict[str, Any]:
+             min_existence: float = 0.0, at_base: bool = False) -> dict[str, Any]:
     """Metrics of a recorded run (JSON-ready).
 
     Keys, each present when its inputs are: ``estimate``, ``final_path``, ``dead_reckoning``
@@ -421,7 +425,7 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
     ``stats`` (node counters); ``params``; ``ground_truth_position_only``.
     """
     run = load_run(out_path, ground_truth_path)
-    return evaluate_run(run, cutoff, max_gap, min_existence).metrics
+    return evaluate_run(run, cutoff, max_gap, min_existence, at_base).metrics
 
 
 def json_ready(value: Any) -> Any:
@@ -514,9 +518,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fastslam-eval: no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}",
               file=sys.stderr)
         return 1
-    if args.at_base:
-        run.ground_truth.reference_offset = None
-    evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence)
+    evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence, args.at_base)
     print(markdown_table(evaluation.metrics))
     if args.json:
         args.json.write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
