@@ -110,7 +110,7 @@ def test_covariances_stay_symmetric_positive_definite_and_finite():
     run(slam, world)
     assert np.all(np.isfinite(slam.poses)) and np.all(np.isfinite(slam.log_weights))
     for particle in range(slam.num_particles):
-        _, cov, _, _, _ = slam.landmarks.particle_map(particle)
+        _, cov, _, _, _ = slam.particle_map(particle)
         xx, xy, yy = cov[:, 0], cov[:, 1], cov[:, 2]
         assert np.all(xx > 0) and np.all(xx * yy - xy * xy > 0)
 

@@ -88,7 +88,7 @@ def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association
         np.testing.assert_allclose(fast.poses, np.array(slow.poses), atol=1e-9, rtol=0)
         np.testing.assert_allclose(fast.log_weights, np.array(slow.log_w), atol=1e-9, rtol=0)
         for m in range(config.num_particles):
-            mean, cov, logodds, label, _ = fast.landmarks.particle_map(m)
+            mean, cov, logodds, label, _ = fast.particle_map(m)
             ref = slow.maps[m]
             assert len(mean) == len(ref), f"step {k} particle {m}: map sizes differ"
             if not ref:

@@ -25,7 +25,7 @@ from . import association as assoc
 from .config import FastSLAMConfig
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
-from .landmark_store import COV, MEAN, LandmarkStore, WorkingSet
+from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import SensorOffset, inverse_observe, observation_terms
 from .path_history import PathHistory
@@ -34,6 +34,9 @@ from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
 MAX_CANDIDATES = 4
 """Landmarks scored per observation and particle: the nearest ones to the observed point."""
+NEW_SLOTS_PER_OBSERVATION = 3
+"""Free working-set columns per observation of the reading that gathers it: readings that
+create landmarks use one column per observation, and a full working set is gathered again."""
 
 
 @dataclass
@@ -93,6 +96,9 @@ class FastSLAM:
         self.log_weights = np.full(count, -np.log(count))
         self.landmarks = LandmarkStore(count, self.config.cell_size)
         self.history = PathHistory(count)
+        self._working: WorkingSet | None = None
+        self._working_box = (0, 0, 0, 0)
+        self._working_labels: set[int] = set()
         self._pending = np.zeros(3)
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
@@ -172,7 +178,7 @@ class FastSLAM:
         proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
                                                                                     None)
 
-        ws = self._gather(proposal_mean, ranges, labels if known else None)
+        ws = self._working_set(proposal_mean, ranges, labels if known else None)
         choices, log_factors, robust = self._associate(ws, proposal_mean, proposal_cov, ranges,
                                                        bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
@@ -188,13 +194,15 @@ class FastSLAM:
             log_factors = self._sample_proposal(proposal, choices, log_factors)
         log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
-        self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
-
+        created = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
         self._missed_evidence(ws, observed)
-        self.landmarks.scatter(ws, track_labels=known)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
-        return self._finish_update(ws, choices)
+        report = self._finish_update(ws, choices)
+        if created:
+            # This reading's new-landmark columns now hold landmarks (in some particles).
+            self._working.first_new_slot += len(ranges)
+        return report
 
     def _noise(self, ranges):
         """(range variance, bearing variance) of observations with these ranges: the range
@@ -204,24 +212,72 @@ class FastSLAM:
         return (self.noise_diag[0] + (self.config.sigma_range_per_meter * ranges) ** 2,
                 self.noise_diag[1])
 
-    def _gather(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
-        """Working set: every particle's landmarks in cells the sensor can reach."""
+    def _working_set(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
+        """Every particle's landmarks in the cells the sensor can reach from ``poses``, with a
+        free column per observation for new landmarks.
+
+        The working set of the previous reading is reused while it still holds those cells (and,
+        with known ids, the cells of the observed ids) and has free columns; otherwise it is
+        written back and a new one gathered. So the robot pays for gathering and writing back
+        once per cell change, not once per reading.
+        """
         reach = (max(self.config.max_range, float(ranges.max(initial=0.0)))
                  + self.config.cell_size + np.hypot(self.config.sensor_x, self.config.sensor_y))
+        low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
-        region = store.columns_in_box(poses[:, :2].min(axis=0) - reach,
-                                      poses[:, :2].max(axis=0) + reach)
+        box = (*store.cell_of(low), *store.cell_of(high))
+        label_set = np.unique(labels) if labels is not None and len(labels) else None
+        ws = self._working
+        if ws is not None:
+            # Cells are only registered when the working set is written back, so a box of
+            # cells inside the gathered box holds no cell the working set lacks.
+            gathered = self._working_box
+            inside = (box[0] >= gathered[0] and box[1] >= gathered[1]
+                      and box[2] <= gathered[2] and box[3] <= gathered[3])
+            if inside and ws.free_slots >= len(ranges) and self._holds_labels(ws, label_set):
+                return ws
+            # Writing back registers the cells of new landmarks: look the region up after it.
+            self.flush()
+        region = store.columns_in_box(low, high)
+        # Known ids: also the cells holding each observed id, wherever it lies.
+        extra = store.label_columns(label_set) if label_set is not None else None
         columns = np.broadcast_to(region, (self.num_particles, len(region)))
-        if labels is not None and len(labels):
-            # Known ids: also the cells holding each observed id, wherever it lies.
-            extra = store.label_columns(np.unique(labels))
+        if extra is not None:
             in_region = np.zeros(max(store.num_cells, 1), dtype=bool)
             in_region[region] = True
             extra = np.where((extra >= 0) & ~in_region[np.maximum(extra, 0)], extra, -1)
             extra = np.sort(extra, axis=1)
             extra[:, 1:][extra[:, 1:] == extra[:, :-1]] = -1
             columns = np.concatenate([columns, extra], axis=1)
-        return store.gather(columns, num_new_slots=len(ranges))
+        self._working = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
+                                     * max(len(ranges), 1))
+        self._working_box = box
+        self._working_labels = set() if label_set is None else set(label_set.tolist())
+        return self._working
+
+    def _holds_labels(self, ws: WorkingSet, label_set) -> bool:
+        """Known ids: every particle's landmark with one of these labels is in the working set
+        (or not in the store). Each label is looked up once per working set."""
+        if label_set is None:
+            return True
+        unseen = [label for label in label_set.tolist() if label not in self._working_labels]
+        if not unseen:
+            return True
+        if not ws.covers(self.landmarks.label_columns(np.array(unseen, np.int64))):
+            return False
+        self._working_labels.update(unseen)
+        return True
+
+    def flush(self) -> None:
+        """Write the working set back into ``landmarks`` (the shared store) and drop it.
+
+        ``update`` does this by itself when the robot reaches other cells; call it before
+        reading ``landmarks`` directly. ``particle_map`` and ``best_map`` do not need it.
+        """
+        if self._working is not None:
+            self.landmarks.scatter(self._working,
+                                   track_labels=self.config.association == "known")
+            self._working = None
 
     def _candidates(self, ws: WorkingSet, mean: np.ndarray, ranges: np.ndarray,
                     bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -241,17 +297,27 @@ class FastSLAM:
             return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
         points = inverse_observe(mean[None], ranges[:, None], bearings[:, None],
                                  self.offset)                             # (K, M, 2)
-        # Squared distances (K, M, N); empty entries are infinitely far.
-        far = np.where(ws.valid[:, :existing], 0.0, np.inf)
-        dx = points[..., 0, None] - ws.mean[None, :, :existing, 0]
-        dy = points[..., 1, None] - ws.mean[None, :, :existing, 1]
-        distance = dx * dx + dy * dy + far
-        if existing > MAX_CANDIDATES:
-            nearest = np.argpartition(distance, MAX_CANDIDATES - 1, axis=2)[..., :MAX_CANDIDATES]
-        else:
-            nearest = np.broadcast_to(np.arange(existing), distance.shape)
-        live = np.take_along_axis(distance, nearest, axis=2) < np.inf
-        return np.where(live, nearest, -1)
+        # Squared distances (K * M, N); empty entries are infinitely far.
+        valid = ws.valid[:, :existing]
+        landmark_x = np.where(valid, ws.state[:, :existing, 0], np.inf)
+        landmark_y = np.where(valid, ws.state[:, :existing, 1], np.inf)
+        distance = points[..., 0, None] - landmark_x                     # (K, M, N) dx
+        dy = points[..., 1, None] - landmark_y
+        distance *= distance
+        dy *= dy
+        distance += dy                                # in place: fewer large temporaries
+        distance = distance.reshape(-1, existing)
+        # The nearest first, one pass per candidate: cheaper than a partition for small C.
+        rows = np.arange(len(distance))
+        nearest = np.full((len(distance), min(MAX_CANDIDATES, existing)), -1, np.int64)
+        for rank in range(nearest.shape[1]):
+            column = distance.argmin(axis=1)
+            found = distance[rows, column] < np.inf
+            if not found.any():
+                break
+            nearest[:, rank] = np.where(found, column, -1)
+            distance[rows, column] = np.inf
+        return nearest.reshape(count, self.num_particles, -1)
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
                    bearings: np.ndarray, labels: np.ndarray):
@@ -331,13 +397,14 @@ class FastSLAM:
         return log_factors
 
     def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
-                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> None:
+                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> bool:
         """New landmarks, then EKF updates of the associated ones, for all observations.
 
         ``choices`` (K, M) is updated in place: a new landmark's particles get the column it was
         put in. With known ids, a repeated id in one reading updates the landmark that its
         first observation created. All (observation, particle) pairs are updated in one batch;
-        a landmark that several observations hit is updated by them in turn.
+        a landmark that several observations hit is updated by them in turn. Returns whether
+        any particle created a landmark.
         """
         config = self.config
         first_new = ws.first_new_slot
@@ -348,42 +415,48 @@ class FastSLAM:
             repeated = (creator != np.arange(count))[:, None] & (choices == assoc.NEW)
             choices[repeated] = np.broadcast_to(first_new + creator[:, None], choices.shape)[repeated]
         obs, particle = np.nonzero(choices == assoc.NEW)
-        if len(obs):
+        created = len(obs) > 0
+        if created:
             slot = first_new + obs
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
                 self.poses[particle], ranges[obs], bearings[obs], self.offset,
                 self._noise(ranges[obs]))
             ws.logodds[particle, slot] = config.logodds_observed
             ws.label[particle, slot] = labels[obs]
+            ws.key[particle, slot] = self.landmarks.new_keys(len(obs))
             ws.valid[particle, slot] = True
             ws.is_new[particle, slot] = True
             observed[particle, slot] = True
             choices[obs, particle] = slot
-        created = first_new + np.arange(count)[:, None]
-        obs, particle = np.nonzero((choices >= 0) & (choices != created))
+        new_slot = first_new + np.arange(count)[:, None]
+        obs, particle = np.nonzero((choices >= 0) & (choices != new_slot))
         if len(obs) == 0:
-            return
+            return created
         slot = choices[obs, particle]
         pair = particle * ws.valid.shape[1] + slot
-        order = np.lexsort((obs, pair))
-        obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
-        first = np.ones(len(pair), bool)
-        first[1:] = pair[1:] != pair[:-1]
-        repeat = np.arange(len(pair)) - np.maximum.accumulate(
-            np.where(first, np.arange(len(pair)), 0))
-        for rank in range(int(repeat.max()) + 1):
-            batch = repeat == rank
+        batches = [slice(None)]
+        if np.bincount(pair).max() > 1:
+            # A landmark hit by several observations: they update it in turn, in batches of
+            # distinct landmarks (the first observation of each, then the second, ...).
+            order = np.lexsort((obs, pair))
+            obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
+            first = np.ones(len(pair), bool)
+            first[1:] = pair[1:] != pair[:-1]
+            repeat = np.arange(len(pair)) - np.maximum.accumulate(
+                np.where(first, np.arange(len(pair)), 0))
+            batches = [repeat == rank for rank in range(int(repeat.max()) + 1)]
+        for batch in batches:
             p, s, j = particle[batch], slot[batch], obs[batch]
             state = ws.state[p, s]
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self._noise(ranges[j]))
+            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + config.logodds_observed,
+                                           config.logodds_max)
             ws.state[p, s] = state
-        hits = np.bincount(pair, minlength=ws.valid.size).reshape(ws.valid.shape)
-        raised = np.minimum(ws.logodds + hits * config.logodds_observed, config.logodds_max)
-        ws.logodds[:] = np.where(hits > 0, raised, ws.logodds)
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
+        return created
 
     def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""
@@ -417,6 +490,7 @@ class FastSLAM:
             indices = RESAMPLERS[self.config.resampling](np.exp(self.log_weights), self.rng)
             self.poses = self.poses[indices]
             self.landmarks.resample(indices)
+            self._working = self._working.take(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
             self._best = int(np.argmax(indices == best))
@@ -455,10 +529,22 @@ class FastSLAM:
         ``min_existence`` keeps only landmarks at least that likely to exist, e.g. to leave out
         tentative ones seen once (a new landmark starts at sigmoid(logodds_observed)).
         """
-        mean, cov, logodds, label, key = self.landmarks.particle_map(self._best)
+        mean, cov, logodds, label, key = self.particle_map(self._best)
         existence = 1.0 / (1.0 + np.exp(-logodds))
         keep = existence >= min_existence
         return LandmarkMap(mean[keep], unpack(cov[keep]), existence[keep], label[keep], key[keep])
+
+    def particle_map(self, particle: int):
+        """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle's
+        landmarks: the store's, with the working set's in place of the cells it holds."""
+        ws = self._working
+        if ws is None:
+            return self.landmarks.particle_map(particle)
+        stored = self.landmarks.particle_map(particle, skip_columns=ws.columns[particle])
+        live = ws.valid[particle]
+        working = (ws.mean[particle, live], ws.cov[particle, live], ws.logodds[particle, live],
+                   ws.label[particle, live], ws.key[particle, live])
+        return tuple(np.concatenate([a, b]) for a, b in zip(stored, working))
 
     def best_path(self) -> tuple[np.ndarray, np.ndarray]:
         """(stamps (T,), poses (T, 3)) of the best particle, one pose per update."""

@@ -8,9 +8,10 @@ which point that particle gets its own copy of the block (copy-on-write). Memory
 with the number of distinct blocks, not with M x N.
 
 The filter works on a dense *working set*: ``gather`` copies the landmarks of some cells of every
-particle into (M, K) arrays, the filter updates them, and ``scatter`` writes the changed entries
-back (copying shared blocks first). Covariances are stored packed as (xx, xy, yy), so they are
-symmetric by construction.
+particle into (M, K) arrays, the filter updates them over as many readings as the robot stays
+among those cells (resampling reindexes the working set like the tables), and ``scatter``
+writes the changed and new entries back (copying shared blocks first). Covariances are stored
+packed as (xx, xy, yy), so they are symmetric by construction.
 """
 from __future__ import annotations
 
@@ -57,25 +58,48 @@ class RecordViews:
 class WorkingSet(RecordViews):
     """Landmarks of every particle near the robot as dense (M, K) arrays.
 
-    The last ``num_new_slots`` columns are empty slots where the filter places new landmarks.
-    ``mean``, ``cov``, ... are views into the packed ``state`` / ``ident`` records, so writing
-    through them (also with fancy indices) updates the working set.
+    Columns from ``first_new_slot`` on are empty slots where the filter places new landmarks
+    (one per observation of a reading); the columns before it hold landmarks, gathered or
+    created in earlier readings. ``mean``, ``cov``, ... are views into the packed ``state`` /
+    ``ident`` records, so writing through them (also with fancy indices) updates the working set.
     """
 
     row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
     slot: np.ndarray      # (M, K) slot within the row
     block: np.ndarray     # (M, K) index into ``columns[m]`` of the entry, -1 for a new slot
     columns: np.ndarray   # (M, B) cell columns that were gathered
+    gathered: np.ndarray  # (M, num_cells) the particle's cell column is in the working set
     state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
     ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
     valid: np.ndarray     # (M, K) entry holds a live landmark
-    dirty: np.ndarray     # (M, K) existing entry changed (updated, evidence, removed)
-    is_new: np.ndarray    # (M, K) created during this update
-    num_new_slots: int
+    dirty: np.ndarray     # (M, K) gathered entry changed (updated, evidence, removed)
+    is_new: np.ndarray    # (M, K) created since the gather
+    first_new_slot: int
 
     @property
-    def first_new_slot(self) -> int:
-        return self.valid.shape[1] - self.num_new_slots
+    def free_slots(self) -> int:
+        """Empty columns left for new landmarks."""
+        return self.valid.shape[1] - self.first_new_slot
+
+    def covers(self, columns: np.ndarray) -> bool:
+        """Every particle's cell ``columns`` ((M, C) or (C,), -1 ignored) are gathered."""
+        columns = np.asarray(columns)
+        wanted = columns >= 0
+        if not np.any(wanted):
+            return True
+        if int(columns.max()) >= self.gathered.shape[1]:
+            return False
+        if columns.ndim == 1:
+            return bool(self.gathered[:, columns[wanted]].all())
+        particle = np.broadcast_to(np.arange(len(columns))[:, None], columns.shape)
+        return bool(self.gathered[particle[wanted], columns[wanted]].all())
+
+    def take(self, indices: np.ndarray) -> "WorkingSet":
+        """The working set after resampling: particle m takes the entries of ``indices[m]``."""
+        return WorkingSet(self.row[indices], self.slot[indices], self.block[indices],
+                          self.columns[indices], self.gathered[indices], self.state[indices],
+                          self.ident[indices], self.valid[indices], self.dirty[indices],
+                          self.is_new[indices], self.first_new_slot)
 
 
 class LandmarkStore(RecordViews):
@@ -230,7 +254,8 @@ class LandmarkStore(RecordViews):
 
     # ------------------------------------------------------------------ working set
     def gather(self, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
-        """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set."""
+        """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set with
+        ``num_new_slots`` empty columns for new landmarks."""
         num_particles = self.num_particles
         particle = np.arange(num_particles)[:, None]
         rows = np.where(columns >= 0, self.table[particle, np.maximum(columns, 0)], -1)
@@ -253,10 +278,14 @@ class LandmarkStore(RecordViews):
         target = owner * total + rank
         state.reshape(-1, STATE_WIDTH)[target] = self.state.reshape(-1, STATE_WIDTH)[source]
         ident.reshape(-1, 2)[target] = self.ident.reshape(-1, 2)[source]
+        gathered = np.zeros((num_particles, self.num_cells), bool)
+        wanted = columns >= 0
+        gathered[np.broadcast_to(particle, columns.shape)[wanted], columns[wanted]] = True
         ws = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
-                        block=np.full(shape, -1, np.int64), columns=columns, state=state,
-                        ident=ident, valid=np.zeros(shape, bool), dirty=np.zeros(shape, bool),
-                        is_new=np.zeros(shape, bool), num_new_slots=num_new_slots)
+                        block=np.full(shape, -1, np.int64), columns=columns, gathered=gathered,
+                        state=state, ident=ident, valid=np.zeros(shape, bool),
+                        dirty=np.zeros(shape, bool), is_new=np.zeros(shape, bool),
+                        first_new_slot=width)
         ws.row.flat[target] = src_row
         ws.slot.flat[target] = slot
         ws.block.flat[target] = block
@@ -325,16 +354,20 @@ class LandmarkStore(RecordViews):
                 for cx, cy in np.unique(np.stack([ix[pending], iy[pending]], 1), axis=0).tolist():
                     self._register_cell(cx, cy)
                 columns[pending] = self._columns_for_cells(ix[pending], iy[pending])
-        count = len(owner)
-        keys = self.next_key + np.arange(count)
-        ws.key[owner, entry] = keys
-        self.next_key += count
+        keyless = ws.key[owner, entry] < 0
+        ws.key[owner[keyless], entry[keyless]] = self.new_keys(int(keyless.sum()))
         self.state[placed_rows, placed_slots] = ws.state[owner, entry]
         self.ident[placed_rows, placed_slots] = ws.ident[owner, entry]
         if track_labels:
             labels = ws.label[owner, entry]
             index = self._label_indices(labels, create=True)
             self.label_column[owner, index] = columns
+
+    def new_keys(self, count: int) -> np.ndarray:
+        """``count`` store-wide landmark keys never handed out before."""
+        keys = self.next_key + np.arange(count)
+        self.next_key += count
+        return keys
 
     # ------------------------------------------------------------------ resampling and queries
     def resample(self, indices: np.ndarray) -> None:
@@ -344,9 +377,12 @@ class LandmarkStore(RecordViews):
         used = self.table[:, :self.num_cells]
         self.refcount = np.bincount(used[used >= 0], minlength=self.num_rows).astype(np.int64)
 
-    def particle_map(self, particle: int):
-        """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle."""
-        rows = self.table[particle, :self.num_cells]
+    def particle_map(self, particle: int, skip_columns: np.ndarray | None = None):
+        """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle,
+        leaving out the cell ``skip_columns`` (-1 ignored)."""
+        rows = self.table[particle, :self.num_cells].copy()
+        if skip_columns is not None:
+            rows[skip_columns[skip_columns >= 0]] = -1
         rows = rows[rows >= 0]
         mask = self.occupied[rows]
         state, ident = self.state[rows][mask], self.ident[rows][mask]

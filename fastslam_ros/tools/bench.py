@@ -112,6 +112,7 @@ def memory(particles: int, seed: int, sizes=(10000, 50000), steps: int = 100) ->
                         initial_pose=world.steps[0].truth)
         populate(slam, np.concatenate([world.landmarks, others]))
         run_world(slam, world)
+        slam.flush()
         indices = np.sort(rng.integers(0, particles, particles))
         start = time.perf_counter()
         repeats = 20
