@@ -23,6 +23,9 @@ def test_wrap_angle_range_and_identity():
     np.testing.assert_allclose(np.cos(wrapped), np.cos(angles), atol=1e-12)
     assert wrap_angle(np.pi) == pytest.approx(np.pi)
     assert wrap_angle(-np.pi) == pytest.approx(np.pi)
+    # Round-off at large multiples of pi must not leave the interval.
+    edges = wrap_angle(np.nextafter(np.arange(-60, 61) * np.pi, np.inf))
+    assert np.all(edges > -np.pi) and np.all(edges <= np.pi)
 
 
 def test_compose_and_relative_pose_are_inverse():

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .landmark_ekf import innovation_covariance
+from .observation import heading_column
 
 NEW = -1
 """The observation starts a new landmark."""
@@ -23,8 +24,8 @@ LOG_TWO_PI = float(np.log(2.0 * np.pi))
 def gaussian_log_likelihood(innovation_range, innovation_bearing, cov_xx, cov_xy, cov_yy):
     """log N(nu; 0, S) and nu^T S^-1 nu for 2-D innovations with packed covariance S."""
     det = cov_xx * cov_yy - cov_xy * cov_xy
-    mahalanobis = (cov_yy * innovation_range ** 2 - 2.0 * cov_xy * innovation_range
-                   * innovation_bearing + cov_xx * innovation_bearing ** 2) / det
+    mahalanobis = (cov_yy * innovation_range * innovation_range - 2.0 * cov_xy * innovation_range
+                   * innovation_bearing + cov_xx * innovation_bearing * innovation_bearing) / det
     return -0.5 * mahalanobis - LOG_TWO_PI - 0.5 * np.log(det), mahalanobis
 
 
@@ -58,6 +59,8 @@ def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray,
         rows = np.flatnonzero(pick >= 0)
         landmark = candidate_columns[rows, pick[rows]]
         key = particle[rows] * (int(landmark.max(initial=0)) + 1) + landmark
+        if len(key) == 0 or np.bincount(key).max() == 1:
+            return pick, log_factor
         # Stable sort: among equal likelihoods the earlier observation comes first.
         order = np.lexsort((-log_factor[rows], key))
         sorted_key = key[order]
@@ -122,13 +125,17 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
     (g00, g01, g10, g11), _, (cxx, cxy, cyy) = innovation_covariance(t, sxx, sxy, syy,
                                                                       noise_diag)
     if pose_cov is not None:
-        w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
-        w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
+        w0, w1 = heading_column(t)
         c0, c1, p_tt = pose_cov[..., 0, 2], pose_cov[..., 1, 2], pose_cov[..., 2, 2]
         e0, e1 = g00 * c0 + g01 * c1, g10 * c0 + g11 * c1         # G_m c
-        cxx = cxx + (p_tt * w0 - 2.0 * e0) * w0
-        cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0
-        cyy = cyy + (p_tt * w1 - 2.0 * e1) * w1
+        if isinstance(w0, float) and w0 == 0.0 and w1 == -1.0:
+            # No lever arm: the same terms with w = (0, -1), written out.
+            cxy = cxy + e0
+            cyy = cyy + p_tt + 2.0 * e1
+        else:
+            cxx = cxx + (p_tt * w0 - 2.0 * e0) * w0
+            cxy = cxy + p_tt * w0 * w1 - e0 * w1 - e1 * w0
+            cyy = cyy + (p_tt * w1 - 2.0 * e1) * w1
     return gaussian_log_likelihood(nu_r, nu_b, cxx, cxy, cyy)
 
 

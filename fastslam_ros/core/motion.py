@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import wrap_angle
+from .geometry import wrap_angle, wrap_scalar
 
 
 @dataclass(frozen=True)
@@ -33,9 +33,9 @@ class OdometryControl:
         trans = math.hypot(dx, dy)
         rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
         if abs(rot1) > math.pi / 2.0:
-            rot1 = wrap_angle(rot1 - math.pi)
+            rot1 = wrap_scalar(rot1 - math.pi)
             trans = -trans
-        return cls(rot1, trans, wrap_angle(dtheta - rot1))
+        return cls(rot1, trans, wrap_scalar(dtheta - rot1))
 
 
 def control_variances(u: OdometryControl, alphas, min_translation_sigma: float,
@@ -81,31 +81,28 @@ def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u: OdometryControl,
                        variances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """EKF prediction of N(mean, cov) through h: (h(mean, u), F cov F^T + V M V^T).
 
-    F = dh/ds is the identity but for its heading column: F = I + f e^T, e = (0, 0, 1),
-    f = (-trans sin(heading), trans cos(heading), 0). So F cov F^T = cov + f c^T + c f^T
-    + cov_tt f f^T with c = cov e, written out instead of two stacked matmuls.
+    With heading h = theta + rot1, F = dh/ds is the identity but for its heading column
+    f = (-trans sin h, trans cos h, 1), and V = dh/d(rot1, trans, rot2) has the columns
+    (f_x, f_y, 1), (cos h, sin h, 0) and (0, 0, 1). Both products are written out per entry
+    (numpy's stacked 3x3 matmul costs more than the whole expression).
     """
     heading = mean[:, 2] + u.rot1
-    f = np.zeros((mean.shape[0], 3))
-    f[:, 0] = -u.trans * np.sin(heading)
-    f[:, 1] = u.trans * np.cos(heading)
-    c = cov[:, :, 2]
-    outer = f[:, :, None] * c[:, None, :]
-    predicted = (cov + outer + outer.transpose(0, 2, 1)
-                 + cov[:, 2, 2, None, None] * f[:, :, None] * f[:, None, :])
-    return (apply_control(mean, u.rot1, u.trans, u.rot2),
-            predicted + motion_covariance(mean, u, variances))
+    cos_h, sin_h = np.cos(heading), np.sin(heading)
+    fx, fy = -u.trans * sin_h, u.trans * cos_h
+    v_rot1, v_trans, v_rot2 = (float(v) for v in variances)
+    p = cov.reshape(-1, 9)
+    c0, c1, c2 = p[:, 2], p[:, 5], p[:, 8]            # cov times the heading axis
+    w = c2 + v_rot1
+    xx = p[:, 0] + 2.0 * fx * c0 + w * fx * fx + v_trans * cos_h * cos_h
+    xy = p[:, 1] + fx * c1 + fy * c0 + w * fx * fy + v_trans * cos_h * sin_h
+    yy = p[:, 4] + 2.0 * fy * c1 + w * fy * fy + v_trans * sin_h * sin_h
+    xt, yt, tt = c0 + w * fx, c1 + w * fy, c2 + (v_rot1 + v_rot2)
+    predicted = np.stack([xx, xy, xt, xy, yy, yt, xt, yt, tt], axis=-1).reshape(-1, 3, 3)
+    moved = np.stack([mean[:, 0] + u.trans * cos_h, mean[:, 1] + u.trans * sin_h,
+                      wrap_angle(heading + u.rot2)], axis=1)
+    return moved, predicted
 
 
 def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:
     """P_t = V M V^T for every particle (M, 3, 3), V = dh/d(rot1, trans, rot2)."""
-    heading = poses[:, 2] + u.rot1
-    c, s = np.cos(heading), np.sin(heading)
-    jac = np.zeros((poses.shape[0], 3, 3))
-    jac[:, 0, 0] = -u.trans * s
-    jac[:, 0, 1] = c
-    jac[:, 1, 0] = u.trans * c
-    jac[:, 1, 1] = s
-    jac[:, 2, 0] = 1.0
-    jac[:, 2, 2] = 1.0
-    return (jac * variances[None, None, :]) @ jac.transpose(0, 2, 1)
+    return propagate_gaussian(poses, np.zeros((len(poses), 3, 3)), u, variances)[1]

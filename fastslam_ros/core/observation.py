@@ -32,8 +32,9 @@ class ObservationTerms:
     dx: np.ndarray
     dy: np.ndarray
     q: np.ndarray
-    lever_x: np.ndarray
-    lever_y: np.ndarray
+    lever_x: np.ndarray | float
+    """Sensor position relative to the robot, in the world frame (0.0 without an offset)."""
+    lever_y: np.ndarray | float
     range: np.ndarray
     heading: np.ndarray
     """Sensor heading in the world, theta + sensor yaw."""
@@ -50,7 +51,7 @@ class ObservationTerms:
 def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> ObservationTerms:
     """Predicted range with the terms the Jacobians and the bearing need (broadcasting)."""
     if offset.x == 0.0 and offset.y == 0.0:
-        lever_x = lever_y = np.zeros(np.shape(ptheta))
+        lever_x = lever_y = 0.0
     else:
         c, s = np.cos(ptheta), np.sin(ptheta)
         lever_x = c * offset.x - s * offset.y
@@ -59,6 +60,16 @@ def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> Observati
     dy = my - (py + lever_y)
     q = dx * dx + dy * dy
     return ObservationTerms(dx, dy, q, lever_x, lever_y, np.sqrt(q), ptheta + offset.yaw)
+
+
+def heading_column(t: ObservationTerms):
+    """(d range / d theta, d bearing / d theta), the heading column of G_s: (0, -1) as plain
+    floats when the sensor sits at the robot's origin, which spares the hot paths array work."""
+    if isinstance(t.lever_x, float) and isinstance(t.lever_y, float):
+        if t.lever_x == 0.0 and t.lever_y == 0.0:
+            return 0.0, -1.0
+    return ((t.dx * t.lever_y - t.dy * t.lever_x) / t.range,
+            -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0)
 
 
 def observe(pose, landmark, offset: SensorOffset = SensorOffset()) -> np.ndarray:
@@ -79,9 +90,8 @@ def landmark_jacobian(t: ObservationTerms) -> np.ndarray:
 def pose_jacobian(t: ObservationTerms) -> np.ndarray:
     """G_s = dh/ds, shape (..., 2, 3); the sensor lever arm makes theta enter both rows."""
     r = t.range
-    entries = np.stack([-t.dx / r, -t.dy / r, (t.dx * t.lever_y - t.dy * t.lever_x) / r,
-                        t.dy / t.q, -t.dx / t.q, -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0],
-                       -1)
+    w0, w1 = (np.broadcast_to(w, np.shape(r)) for w in heading_column(t))
+    entries = np.stack([-t.dx / r, -t.dy / r, w0, t.dy / t.q, -t.dx / t.q, w1], -1)
     return entries.reshape(entries.shape[:-1] + (2, 3))
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from .geometry import wrap_angle
 from .landmark_ekf import innovation_covariance
-from .observation import SensorOffset, observation_terms
+from .observation import SensorOffset, heading_column, observation_terms
 
 POSE_JITTER = 1e-12
 """Variance added to the proposal diagonal before factorising it (sigma 1e-6 m, rad)."""
@@ -86,8 +86,7 @@ def _information(point, mean, particle, landmarks, ranges, bearings, offset, noi
     (g00, g01, g10, g11), _, (q00, q01, q11) = innovation_covariance(
         t, landmarks[:, 2], landmarks[:, 3], landmarks[:, 4], noise_diag)
     # G_s (2, 3, U): range row (-g00, -g01, w0), bearing row (-g10, -g11, w1).
-    w0 = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
-    w1 = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
+    w0, w1 = (np.broadcast_to(w, g00.shape) for w in heading_column(t))
     g_s = np.stack([-g00, -g01, w0, -g10, -g11, w1]).reshape(2, 3, -1)
     nu = np.stack([ranges - t.range, t.bearing_innovation(bearings)])
     if point is not mean:
