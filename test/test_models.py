@@ -216,8 +216,16 @@ def test_proposal_equals_joint_kalman_update(offset, iterations):
     truth = [observe(mean[p] + rng.normal(size=3) * 0.05, lm[:2], offset)
              for p, lm in zip(particle, landmarks)]
     z = np.array(truth) + rng.normal(size=(len(particle), 2)) * [0.1, 0.03]
-    got_mean, got_cov, got_w = observation_proposal(mean, cov, particle, landmarks, z[:, 0],
-                                                    z[:, 1], offset, np.diag(noise), iterations)
+    # The dense (observation, particle) layout of the pairs: particle m's k-th pair in row k.
+    rank = np.arange(len(particle)) - np.searchsorted(particle, particle)
+    used = np.zeros((counts.max(), n), bool)
+    used[rank, particle] = True
+    dense = np.zeros((counts.max(), n, 5))
+    dense[rank, particle] = landmarks
+    z_range, z_bearing = np.zeros(used.shape), np.zeros(used.shape)
+    z_range[rank, particle], z_bearing[rank, particle] = z[:, 0], z[:, 1]
+    got_mean, got_cov, got_w = observation_proposal(mean, cov, dense, z_range, z_bearing, used,
+                                                    offset, np.diag(noise), iterations)
     for m in range(n):
         mine = particle == m
         if not mine.any():

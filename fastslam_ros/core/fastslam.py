@@ -374,12 +374,13 @@ class FastSLAM:
                   ranges: np.ndarray, bearings: np.ndarray):
         """FastSLAM 2.0: (mu_s, Sigma_s, joint log likelihood (M,)) of the proposal given the
         observations associated to existing landmarks (``choices`` (K, M))."""
-        obs, particle = np.nonzero(choices >= 0)
-        if len(obs) == 0:
+        used = choices >= 0
+        if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        landmarks = ws.state[particle, choices[obs, particle], :5]
-        return observation_proposal(mean, cov, particle, landmarks, ranges[obs], bearings[obs],
-                                    self.offset, self._noise(ranges[obs]),
+        flat = np.maximum(choices, 0) + ws.state.shape[1] * np.arange(self.num_particles)
+        landmarks = ws.state.reshape(-1, ws.state.shape[-1])[flat]          # (K, M, 6)
+        return observation_proposal(mean, cov, landmarks, ranges[:, None], bearings[:, None],
+                                    used, self.offset, self._noise(ranges[:, None]),
                                     self.config.proposal_iterations)
 
     def _sample_proposal(self, proposal, choices: np.ndarray,

@@ -42,21 +42,22 @@ POSE_JITTER = 1e-12
 LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
 
-def observation_proposal(mean: np.ndarray, cov: np.ndarray, particle: np.ndarray,
-                         landmarks: np.ndarray, ranges: np.ndarray, bearings: np.ndarray,
-                         offset: SensorOffset, noise_diag: np.ndarray, iterations: int = 1):
+def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarray,
+                         ranges: np.ndarray, bearings: np.ndarray, used: np.ndarray,
+                         offset: SensorOffset, noise_diag, iterations: int = 1):
     """The proposal N(mu_s, Sigma_s) and log weight for n particles.
 
-    mean (n, 3) and cov (n, 3, 3): the motion prior N(s_hat, P). The observations come as U
-    (particle, landmark, measurement) pairs: ``particle`` (U,) the particle index, ``landmarks``
-    (U, 5) its landmark (x, y, packed covariance xx, xy, yy), ``ranges``, ``bearings`` (U,).
-    Returns (mu_s (n, 3), Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without pairs
-    keeps its prior and gets log weight 0.
+    mean (n, 3) and cov (n, 3, 3): the motion prior N(s_hat, P). Observations and particles meet
+    in a dense (K, n) layout: where ``used[k, m]``, observation k of particle m, ``ranges`` and
+    ``bearings`` (broadcasting against (K, n), e.g. (K, 1) for one reading), refines the
+    proposal with the landmark ``landmarks[k, m]`` (x, y, packed covariance xx, xy, yy).
+    ``noise_diag`` holds the (range, bearing) variances, broadcasting likewise. Returns (mu_s (n, 3),
+    Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without observations keeps its prior
+    and gets log weight 0.
     """
     point = mean
     for _ in range(max(int(iterations), 1)):
-        terms = _information(point, mean, particle, landmarks, ranges, bearings, offset,
-                             noise_diag)
+        terms = _information(point, mean, landmarks, ranges, bearings, used, offset, noise_diag)
         sigma, log_weight = _combine(cov, *terms)
         point = mean + np.einsum("nij,nj->ni", sigma, terms[1])
     point[:, 2] = wrap_angle(point[:, 2])
@@ -72,41 +73,46 @@ _COF_P, _COF_Q = np.array([4, 5, 3, 2, 0, 1, 1, 2, 0]), np.array([8, 6, 7, 7, 8,
 _COF_R, _COF_S = np.array([5, 3, 4, 1, 2, 0, 2, 0, 1]), np.array([7, 8, 6, 8, 6, 7, 4, 5, 3])
 
 
-def _information(point, mean, particle, landmarks, ranges, bearings, offset, noise_diag):
-    """Sums over each particle's pairs, linearised at ``point`` (n, 3): J (n, 3, 3),
-    b (n, 3), nu^T Q^-1 nu and log det Q (n,), and the number of pairs (n,).
+def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_diag):
+    """Sums over each particle's used observations, linearised at ``point`` (n, 3):
+    J (n, 3, 3), b (n, 3), nu^T Q^-1 nu and log det Q (n,), and the number of them (n,).
 
-    The per-pair terms are stacked into one (11, U) array and summed per particle with a single
-    ``bincount``.
+    The per-pair terms are stacked into one (11, K, n) array and summed over observations at
+    once; unused pairs are given a harmless landmark 1 m ahead and contribute zero.
     """
-    count = point.shape[0]
-    pose = point[particle]
-    t = observation_terms(pose[:, 0], pose[:, 1], pose[:, 2], landmarks[:, 0], landmarks[:, 1],
-                          offset)
+    landmark_x = np.where(used, landmarks[..., 0], point[:, 0] + 1.0)
+    landmark_y = np.where(used, landmarks[..., 1], point[:, 1])
+    t = observation_terms(point[:, 0], point[:, 1], point[:, 2], landmark_x, landmark_y, offset)
     (g00, g01, g10, g11), _, (q00, q01, q11) = innovation_covariance(
-        t, landmarks[:, 2], landmarks[:, 3], landmarks[:, 4], noise_diag)
-    # G_s (2, 3, U): range row (-g00, -g01, w0), bearing row (-g10, -g11, w1).
-    w0, w1 = (np.broadcast_to(w, g00.shape) for w in heading_column(t))
-    g_s = np.stack([-g00, -g01, w0, -g10, -g11, w1]).reshape(2, 3, -1)
-    nu = np.stack([ranges - t.range, t.bearing_innovation(bearings)])
+        t, landmarks[..., 2], landmarks[..., 3], landmarks[..., 4], noise_diag)
+    # G_s (2, 3, K, n): range row (-g00, -g01, w0), bearing row (-g10, -g11, w1).
+    g_s = np.empty((2, 3) + g00.shape)
+    np.negative(g00, out=g_s[0, 0])
+    np.negative(g01, out=g_s[0, 1])
+    np.negative(g10, out=g_s[1, 0])
+    np.negative(g11, out=g_s[1, 1])
+    g_s[0, 2], g_s[1, 2] = heading_column(t)
+    nu = np.empty((2,) + g00.shape)
+    np.subtract(ranges, t.range, out=nu[0])
+    nu[1] = t.bearing_innovation(bearings)
     if point is not mean:
         # Linearised about ``point``: h(s_hat) ~ h(point) + G_s (s_hat - point).
-        d = (mean - point)[particle].T
+        d = (mean - point).T
         d[2] = wrap_angle(d[2])
-        nu -= (g_s * d).sum(axis=1)
+        nu -= (g_s * d[:, None, :]).sum(axis=1)
     det = q00 * q11 - q01 * q01
-    q_inv = np.stack([q11, -q01, q00]) / det                          # (xx, xy, yy)
-    u = np.stack([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, U)
+    q_inv = np.stack([q11, -q01, q00]) * (used / det)                # (xx, xy, yy), 0 unused
+    u = np.stack([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, K, n)
                   q_inv[1] * g_s[0] + q_inv[2] * g_s[1]])
     row, col = _UPPER
-    info = g_s[0, row] * u[0, col] + g_s[1, row] * u[1, col]         # (6, U)
-    b = u[0] * nu[0] + u[1] * nu[1]                                    # (3, U)
+    info = g_s[0, row] * u[0, col] + g_s[1, row] * u[1, col]         # (6, K, n)
+    b = u[0] * nu[0] + u[1] * nu[1]                                    # (3, K, n)
     quadratic = nu[0] * (q_inv[0] * nu[0] + 2.0 * q_inv[1] * nu[1]) + q_inv[2] * nu[1] * nu[1]
-    terms = np.concatenate([info, b, quadratic[None], np.log(det)[None]])
-    index = particle + count * np.arange(len(terms))[:, None]
-    sums = np.bincount(index.ravel(), terms.ravel(), count * len(terms)).reshape(-1, count)
-    pairs = np.bincount(particle, minlength=count)
-    return sums[_FULL].T.reshape(count, 3, 3), sums[6:9].T, sums[9], sums[10], pairs
+    log_det = np.where(used, np.log(det), 0.0)
+    sums = np.concatenate([info, b, quadratic[None], log_det[None]]).sum(axis=1)   # (11, n)
+    count = point.shape[0]
+    return (sums[_FULL].T.reshape(count, 3, 3), sums[6:9].T, sums[9], sums[10],
+            used.sum(axis=0))
 
 
 def _combine(cov, info, b, quadratic, log_det_q, pairs):
