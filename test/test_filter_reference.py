@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
-from fastslam_ros.core import fastslam as fastslam_module
 from fastslam_ros.tools.synthetic import make_world
 from reference_fastslam import ReferenceFastSLAM
 
@@ -53,10 +52,8 @@ def sorted_map(means, covs, logodds, labels):
                          [case + (False,) for case in CASES]
                          + [case + (1, 1, True) for case in ROBUST_CASES]
                          + [("fastslam2", "ml", 0.3, 2, 2, True)])
-def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush,
+def test_vectorized_filter_matches_reference(algorithm, association, flush,
                                              iterations, passes, robust):
-    # Score every landmark, as the reference does (the small world never reaches the cap).
-    monkeypatch.setattr(fastslam_module, "MAX_CANDIDATES", 1000)
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)

@@ -22,11 +22,23 @@ LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
 
 def gaussian_log_likelihood(innovation_range, innovation_bearing, cov_xx, cov_xy, cov_yy):
-    """log N(nu; 0, S) and nu^T S^-1 nu for 2-D innovations with packed covariance S."""
+    """log N(nu; 0, S) and nu^T S^-1 nu for 2-D innovations with packed covariance S.
+
+    S usually has fewer entries than the innovations (one per (particle, landmark) pair against
+    every observation), so its inverse and log-determinant are formed first, at its own size;
+    the broadcast part runs in place (fresh large temporaries cost more than the arithmetic).
+    """
     det = cov_xx * cov_yy - cov_xy * cov_xy
-    mahalanobis = (cov_yy * innovation_range * innovation_range - 2.0 * cov_xy * innovation_range
-                   * innovation_bearing + cov_xx * innovation_bearing * innovation_bearing) / det
-    return -0.5 * mahalanobis - LOG_TWO_PI - 0.5 * np.log(det), mahalanobis
+    inv_xx, inv_xy2, inv_yy = cov_yy / det, -2.0 * cov_xy / det, cov_xx / det
+    mahalanobis = innovation_range * inv_xx
+    mahalanobis += inv_xy2 * innovation_bearing
+    mahalanobis *= innovation_range
+    bearing_term = innovation_bearing * inv_yy
+    bearing_term *= innovation_bearing
+    mahalanobis += bearing_term
+    log_lik = mahalanobis * -0.5
+    log_lik -= LOG_TWO_PI + 0.5 * np.log(det)
+    return log_lik, mahalanobis
 
 
 def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):
@@ -40,33 +52,31 @@ def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):
     return np.where(is_new, NEW, best), np.where(is_new, log_p0, best_log_lik)
 
 
-def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray,
-                                           candidate_columns: np.ndarray, num_particles: int,
+def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray, num_particles: int,
                                            log_p0: float):
     """Maximum likelihood where a landmark takes at most one observation of a reading.
 
-    Rows are (observation, particle) pairs, observation-major; ``candidate_columns`` names the
-    landmark behind each candidate. In rounds, every observation picks its most likely
-    remaining candidate (or new, below p0); when several observations of one particle pick the
-    same landmark, the most likely keeps it (ties: the earlier observation) and the others
-    drop it and pick again. A point landmark gives at most one detection per reading, so this
-    keeps two nearby landmarks from collapsing into one.
+    Rows are (observation, particle) pairs, observation-major, and column j is the particle's
+    landmark j. In rounds, every observation picks its most likely remaining landmark (or new,
+    below p0); when several observations of one particle pick the same landmark, the most
+    likely keeps it (ties: the earlier observation) and the others drop it and pick again. A
+    point landmark gives at most one detection per reading, so this keeps two nearby
+    landmarks from collapsing into one.
     """
-    log_lik = candidate_log_lik.copy()
+    log_lik = candidate_log_lik
     particle = np.arange(len(log_lik)) % num_particles
     while True:
         pick, log_factor = associate_maximum_likelihood(log_lik, log_p0)
         rows = np.flatnonzero(pick >= 0)
-        landmark = candidate_columns[rows, pick[rows]]
-        key = particle[rows] * (int(landmark.max(initial=0)) + 1) + landmark
+        key = particle[rows] * log_lik.shape[1] + pick[rows]
         if len(key) == 0 or np.bincount(key).max() == 1:
             return pick, log_factor
         # Stable sort: among equal likelihoods the earlier observation comes first.
         order = np.lexsort((-log_factor[rows], key))
         sorted_key = key[order]
         losers = rows[order[1:][sorted_key[1:] == sorted_key[:-1]]]
-        if len(losers) == 0:
-            return pick, log_factor
+        if log_lik is candidate_log_lik:
+            log_lik = log_lik.copy()
         log_lik[losers, pick[losers]] = -np.inf
 
 

@@ -32,8 +32,10 @@ from .path_history import PathHistory
 from .proposal import observation_proposal, sample_pose
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
-MAX_CANDIDATES = 4
-"""Landmarks scored per observation and particle: the nearest ones to the observed point."""
+REACH_MARGIN = 2.0
+"""Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
+within which landmarks join the working set: a landmark whose mean lies farther out is no
+plausible match for any observation."""
 NEW_SLOTS_PER_OBSERVATION = 3
 """Free working-set columns per observation of the reading that gathers it: readings that
 create landmarks use one column per observation, and a full working set is gathered again."""
@@ -221,8 +223,8 @@ class FastSLAM:
         written back and a new one gathered. So the robot pays for gathering and writing back
         once per cell change, not once per reading.
         """
-        reach = (max(self.config.max_range, float(ranges.max(initial=0.0)))
-                 + self.config.cell_size + np.hypot(self.config.sensor_x, self.config.sensor_y))
+        reach = (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
+                 + np.hypot(self.config.sensor_x, self.config.sensor_y))
         low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
         box = (*store.cell_of(low), *store.cell_of(high))
@@ -279,93 +281,70 @@ class FastSLAM:
                                    track_labels=self.config.association == "known")
             self._working = None
 
-    def _candidates(self, ws: WorkingSet, mean: np.ndarray, ranges: np.ndarray,
-                    bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
-        """(K, M, C) working-set columns that observation k may be associated with (-1: none).
-
-        Known ids: the landmark carrying the id. Otherwise spatial gating: the
-        ``MAX_CANDIDATES`` landmarks nearest (Euclidean) to where the particle places the
-        observation, so the cost per observation does not grow with the landmarks in view.
-        """
+    def _known_candidates(self, ws: WorkingSet, labels: np.ndarray) -> np.ndarray:
+        """(K, M, 1) working-set column of the landmark carrying each observation's id (-1:
+        the particle has none)."""
         existing = ws.first_new_slot
-        count = len(ranges)
-        if existing == 0 or count == 0:
-            return np.full((count, self.num_particles, 0), -1, np.int64)
-        if self.config.association == "known":
-            match = ws.valid[None, :, :existing] & (ws.label[None, :, :existing]
-                                                     == labels[:, None, None])
-            return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
-        points = inverse_observe(mean[None], ranges[:, None], bearings[:, None],
-                                 self.offset)                             # (K, M, 2)
-        # Squared distances (K * M, N); empty entries are infinitely far.
-        valid = ws.valid[:, :existing]
-        landmark_x = np.where(valid, ws.state[:, :existing, 0], np.inf)
-        landmark_y = np.where(valid, ws.state[:, :existing, 1], np.inf)
-        distance = points[..., 0, None] - landmark_x                     # (K, M, N) dx
-        dy = points[..., 1, None] - landmark_y
-        distance *= distance
-        dy *= dy
-        distance += dy                                # in place: fewer large temporaries
-        distance = distance.reshape(-1, existing)
-        # The nearest first, one pass per candidate: cheaper than a partition for small C.
-        # Rank r is a landmark when the particle has more than r of them.
-        live = valid.sum(axis=1)                                          # (M,)
-        width = min(MAX_CANDIDATES, int(live.max()))
-        nearest = np.empty((len(distance), width), np.int64)
-        flat = distance.ravel()
-        row_start = np.arange(len(distance)) * existing
-        for rank in range(width):
-            nearest[:, rank] = distance.argmin(axis=1)
-            if rank + 1 < width:
-                flat[row_start + nearest[:, rank]] = np.inf
-        nearest = nearest.reshape(count, self.num_particles, width)
-        return np.where(np.arange(width) < live[:, None], nearest, -1)
+        match = ws.valid[None, :, :existing] & (ws.label[None, :, :existing]
+                                                 == labels[:, None, None])
+        if existing == 0:
+            return np.full(match.shape[:2] + (1,), -1, np.int64)
+        return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
                    bearings: np.ndarray, labels: np.ndarray):
         """Choose every particle's landmark for every observation of the reading at once.
 
         Scored at the pose before this reading's observations are used: the sampled pose
-        (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Returns
-        choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE`` (also for
-        outliers, with ``outlier_probability`` > 0), the log weight factors (K, M) and the
-        robust-likelihood correction of the inliers (``association.reject_outliers``).
+        (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Every
+        observation is scored against all of the particle's landmarks in the working set (the
+        cells the sensor can reach, so the cost does not grow with the map): the terms of a
+        (particle, landmark) pair are computed once and broadcast over the observations. With
+        known ids the only candidate is the landmark carrying the id. Returns choices (K, M),
+        working-set columns or ``association.NEW`` / ``IGNORE`` (also for outliers, with
+        ``outlier_probability`` > 0), the log weight factors (K, M) and the robust-likelihood
+        correction of the inliers (``association.reject_outliers``).
         """
         config = self.config
         count = len(ranges)
-        candidates = self._candidates(ws, mean, ranges, bearings, labels)   # (K, M, C)
-        width = ws.valid.shape[1]
-        flat = np.maximum(candidates, 0) + width * np.arange(self.num_particles)[:, None]
-        landmark = ws.state.reshape(-1, ws.state.shape[-1])[flat]          # (K, M, C, 6)
+        mode = config.association
+        if mode == "known":
+            candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
+            flat = np.maximum(candidates, 0) + ws.state.shape[1] * np.arange(
+                self.num_particles)[:, None]
+            landmark = ws.state.reshape(-1, ws.state.shape[-1])[flat]      # (K, M, 1, 6)
+            valid = candidates >= 0
+        else:
+            existing = ws.first_new_slot
+            landmark = ws.state[None, :, :existing]                          # (1, M, E, 6)
+            valid = ws.valid[None, :, :existing]
+        # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
+        landmark_x = np.where(valid, landmark[..., 0], mean[:, 0, None] + 1.0)
+        landmark_y = np.where(valid, landmark[..., 1], mean[:, 1, None])
         t = observation_terms(mean[:, 0, None], mean[:, 1, None], mean[:, 2, None],
-                              landmark[..., 0], landmark[..., 1], self.offset)
+                              landmark_x, landmark_y, self.offset)
         log_lik, mahalanobis = assoc.score(
             t, landmark[..., COV], ranges[:, None, None], bearings[:, None, None],
             self._noise(ranges[:, None, None]), None if cov is None else cov[:, None])
         # Rows of the association rules: observation-major, (K * M, C).
-        shape = (count * self.num_particles, candidates.shape[2])
-        valid = candidates >= 0
+        shape = (count * self.num_particles, log_lik.shape[2])
         log_lik = np.where(valid, log_lik, -np.inf).reshape(shape)
-        candidates = candidates.reshape(shape)
-        mode = config.association
         if mode == "known":
-            # The only candidate is the landmark carrying the id, if the particle has one.
             pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
+            rows = np.flatnonzero(pick >= 0)
+            choice = pick.copy()
+            choice[rows] = candidates.reshape(shape)[rows, pick[rows]]
+            log_factor = np.where(choice >= 0, log_factor, self._log_p0)
         elif mode == "ml":
-            pick, log_factor = assoc.associate_exclusive_maximum_likelihood(
-                log_lik, candidates, self.num_particles, self._log_p0)
+            choice, log_factor = assoc.associate_exclusive_maximum_likelihood(
+                log_lik, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
-            pick, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
+            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
-            pick, log_factor = assoc.associate_two_gates(
+            choice, log_factor = assoc.associate_two_gates(
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
-        rows = np.flatnonzero(pick >= 0)
-        choice = pick.copy()
-        choice[rows] = candidates[rows, pick[rows]]
-        if mode == "known":
-            log_factor = np.where(choice >= 0, log_factor, self._log_p0)
         return assoc.reject_outliers(choice.reshape(count, self.num_particles),
                                      log_factor.reshape(count, self.num_particles),
                                      config.outlier_probability, self._log_outlier)

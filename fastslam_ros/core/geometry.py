@@ -16,9 +16,15 @@ def wrap_angle(angle):
     can leave it a hair above pi at large multiples of pi, which the clamp removes. A ceil is
     ~4x cheaper than a modulo, and this sits on hot paths.
     """
+    if np.ndim(angle) == 0:
+        return wrap_scalar(float(angle))
     angle = np.asarray(angle, dtype=float)
-    wrapped = np.minimum(angle - TWO_PI * np.ceil(angle * (1.0 / TWO_PI) - 0.5), np.pi)
-    return wrapped if np.ndim(wrapped) else float(wrapped)
+    turns = angle * (1.0 / TWO_PI)              # in place from here: one temporary, not five
+    turns -= 0.5
+    np.ceil(turns, out=turns)
+    turns *= -TWO_PI
+    turns += angle
+    return np.minimum(turns, np.pi, out=turns)
 
 
 def relative_pose(pose_from, pose_to) -> np.ndarray:
