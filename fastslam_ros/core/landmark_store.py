@@ -67,8 +67,7 @@ class WorkingSet(RecordViews):
     row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot
     slot: np.ndarray      # (M, K) slot within the row
     block: np.ndarray     # (M, K) index into ``columns[m]`` of the entry, -1 for a new slot
-    columns: np.ndarray   # (M, B) cell columns that were gathered
-    gathered: np.ndarray  # (M, num_cells) the particle's cell column is in the working set
+    columns: np.ndarray   # (M, B) cell columns that were gathered (-1: none)
     state: np.ndarray     # (M, K, 6) mean, packed covariance (xx, xy, yy), log-odds
     ident: np.ndarray     # (M, K, 2) label of the creating observation (-1: none), key
     valid: np.ndarray     # (M, K) entry holds a live landmark
@@ -82,22 +81,14 @@ class WorkingSet(RecordViews):
         return self.valid.shape[1] - self.first_new_slot
 
     def covers(self, columns: np.ndarray) -> bool:
-        """Every particle's cell ``columns`` ((M, C) or (C,), -1 ignored) are gathered."""
-        columns = np.asarray(columns)
-        wanted = columns >= 0
-        if not np.any(wanted):
-            return True
-        if int(columns.max()) >= self.gathered.shape[1]:
-            return False
-        if columns.ndim == 1:
-            return bool(self.gathered[:, columns[wanted]].all())
-        particle = np.broadcast_to(np.arange(len(columns))[:, None], columns.shape)
-        return bool(self.gathered[particle[wanted], columns[wanted]].all())
+        """Every particle's cell ``columns`` ((M, C), -1 ignored) are in the working set."""
+        held = (columns[:, :, None] == self.columns[:, None, :]).any(axis=2)
+        return bool(np.all(held | (columns < 0)))
 
     def take(self, indices: np.ndarray) -> "WorkingSet":
         """The working set after resampling: particle m takes the entries of ``indices[m]``."""
         return WorkingSet(self.row[indices], self.slot[indices], self.block[indices],
-                          self.columns[indices], self.gathered[indices], self.state[indices],
+                          self.columns[indices], self.state[indices],
                           self.ident[indices], self.valid[indices], self.dirty[indices],
                           self.is_new[indices], self.first_new_slot)
 
@@ -278,12 +269,8 @@ class LandmarkStore(RecordViews):
         target = owner * total + rank
         state.reshape(-1, STATE_WIDTH)[target] = self.state.reshape(-1, STATE_WIDTH)[source]
         ident.reshape(-1, 2)[target] = self.ident.reshape(-1, 2)[source]
-        gathered = np.zeros((num_particles, self.num_cells), bool)
-        wanted = columns >= 0
-        gathered[np.broadcast_to(particle, columns.shape)[wanted], columns[wanted]] = True
         ws = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
-                        block=np.full(shape, -1, np.int64), columns=columns, gathered=gathered,
-                        state=state, ident=ident, valid=np.zeros(shape, bool),
+                        block=np.full(shape, -1, np.int64), columns=columns, state=state, ident=ident, valid=np.zeros(shape, bool),
                         dirty=np.zeros(shape, bool), is_new=np.zeros(shape, bool),
                         first_new_slot=width)
         ws.row.flat[target] = src_row
