@@ -5,9 +5,11 @@ once, with no Python loop over particles, landmarks or observations. Per step:
 
 1. Motion. Odometry given to ``predict`` is accumulated and applied at the next update. FastSLAM
    1.0 samples the odometry motion model; FastSLAM 2.0 keeps its Gaussian form N(s_hat, P).
-2. Association, per particle and observation, against the particle's landmarks near the robot
-   (``LandmarkStore.gather``): likelihood N(z; z_hat, Q), Q = G_m Sigma G_m^T + R (1.0) or
-   N(z; z_hat, L), L = G_s P G_s^T + Q (2.0), p0 for a new landmark.
+2. Association, per particle and observation, against all of the particle's landmarks within
+   the sensor's reach (the *working set*, gathered from the shared store and kept across
+   readings until the robot reaches other cells): likelihood N(z; z_hat, Q),
+   Q = G_m Sigma G_m^T + R (1.0) or N(z; z_hat, L), L = G_s P G_s^T + Q (2.0), p0 for a new
+   landmark.
 3. FastSLAM 2.0 only: the associated observations refine the pose proposal, all at once
    (``proposal.observation_proposal``); then the pose is sampled from it.
 4. Map: EKF update (Joseph form) of each observed landmark, inverse-model initialisation of new
@@ -27,7 +29,7 @@ from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
-from .observation import SensorOffset, inverse_observe, observation_terms
+from .observation import SensorOffset, observation_terms
 from .path_history import PathHistory
 from .proposal import observation_proposal, sample_pose
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
