@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools import demo, evaluate, play, replay, sim
+from fastslam_ros.tools import bench, benchmark, convert, demo, evaluate, play, replay, sim
 from fastslam_ros.tools.bag_schema import (LandmarkSet, PoseSeries, read_schema_bag,
                                            write_schema_bag)
 from fastslam_ros.tools.sim import SimConfig, simulate
@@ -15,7 +15,7 @@ from fastslam_ros.tools.sim import SimConfig, simulate
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("command", [sim, replay, play, evaluate, demo])
+@pytest.mark.parametrize("command", [sim, replay, play, evaluate, demo, bench, benchmark, convert])
 def test_every_command_has_help(command, capsys):
     with pytest.raises(SystemExit) as exit_info:
         command.main(["--help"])
@@ -141,3 +141,20 @@ def test_landmarks_never_observed_are_not_counted_as_missed(tmp_path, capsys):
     assert metrics["landmarks_never_observed"] == len(truth.ids) + 1 - len(seen)
     assert metrics["landmarks"]["truth"] == len(seen)
     assert metrics["landmarks"]["missed"] == 0
+
+
+def test_bench_prints_and_writes_its_figures(tmp_path, capsys):
+    """A tiny run of every part: the rows it promises, with positive rates and best >= median
+    (figures themselves are not asserted: speed belongs to the benchmark, not to tests)."""
+    figures = tmp_path / "bench.json"
+    assert bench.main(["--particles", "10", "--steps", "30", "--repeat", "2",
+                       "--json", str(figures)]) == 0
+    printed = capsys.readouterr().out
+    assert "### Throughput" in printed and "### Landmark store memory" in printed
+    results = json.loads(figures.read_text())
+    assert {(r["algorithm"], r["association"]) for r in results["throughput"]} == {
+        (a, m) for a in ("fastslam1", "fastslam2") for m in ("ml", "known")}
+    for row in results["throughput"]:
+        assert row["runs"] == 2 and row["obs_per_s_best"] >= row["obs_per_s_median"] > 0
+    assert [r["landmarks"] for r in results["memory"]] == [10000, 50000]
+    assert all(r["ratio"] < 1.0 for r in results["memory"])
