@@ -186,3 +186,40 @@ def test_known_id_seen_twice_in_one_reading_makes_one_landmark():
     # The second observation was fused: the covariance shrank below a single initialisation.
     assert np.linalg.det(found.covariances[0]) < 0.75 * np.linalg.det(
         single.best_map().covariances[0])
+
+
+@pytest.mark.parametrize("association", ["ml", "monte_carlo", "known"])
+def test_keeping_the_working_set_across_readings_changes_nothing(association):
+    """The working set kept across readings (written back only when the robot reaches other
+    cells) gives the same filter as writing it back after every reading, which is what the
+    shared store alone would hold; the map read through ``particle_map`` is the stored one."""
+    world = make_world(seed=3, num_steps=150, extent=40.0, num_landmarks=40, laps=1.5,
+                       clutter_per_step=0.5)
+    kept = FastSLAM(config(association=association, cell_size=4.0, max_range=8.0),
+                    initial_pose=world.steps[0].truth)
+    flushed = FastSLAM(config(association=association, cell_size=4.0, max_range=8.0),
+                       initial_pose=world.steps[0].truth)
+    gathers = []
+    store_gather = kept.landmarks.gather
+    kept.landmarks.gather = lambda *args, **kwargs: gathers.append(1) or store_gather(*args,
+                                                                                    **kwargs)
+    previous = world.steps[0].odometry
+    for k, step in enumerate(world.steps[1:]):
+        ids = step.ids if association == "known" else None
+        keep = step.ids >= 0 if association == "known" else slice(None)
+        for slam in (kept, flushed):
+            slam.predict(previous, step.odometry)
+            slam.update(step.ranges[keep], step.bearings[keep],
+                        None if ids is None else ids[keep], stamp=float(k))
+        flushed.flush()
+        previous = step.odometry
+        np.testing.assert_array_equal(kept.poses, flushed.poses)
+        np.testing.assert_array_equal(kept.log_weights, flushed.log_weights)
+        if k % 10 == 0:
+            for particle in range(0, kept.num_particles, 7):
+                mine, theirs = kept.particle_map(particle), flushed.particle_map(particle)
+                order_mine, order_theirs = np.argsort(mine[4]), np.argsort(theirs[4])
+                for a, b in zip(mine, theirs):
+                    np.testing.assert_array_equal(a[order_mine], b[order_theirs])
+    # The run exercised both paths: kept across readings and gathered anew.
+    assert kept.num_updates - len(gathers) > 50 and len(gathers) > 3
