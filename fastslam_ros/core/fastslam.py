@@ -39,8 +39,9 @@ REACH_MARGIN = 2.0
 within which landmarks join the working set: a landmark whose mean lies farther out is no
 plausible match for any observation."""
 NEW_SLOTS_PER_OBSERVATION = 3
-"""Free working-set columns per observation of the reading that gathers it: readings that
-create landmarks use one column per observation, and a full working set is gathered again."""
+"""Free working-set columns per observation of the reading that gathers it: each observation
+that creates a landmark (in any particle) takes one, and a full working set is gathered
+again."""
 
 
 @dataclass
@@ -198,14 +199,13 @@ class FastSLAM:
             log_factors = self._sample_proposal(proposal, choices, log_factors)
         log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
-        created = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
+        creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
         self._missed_evidence(ws, observed)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
-        report = self._finish_update(ws, choices)
-        if created:
-            # This reading's new-landmark columns now hold landmarks (in some particles).
-            self._working.first_new_slot += len(ranges)
+        report = self._finish_update(ws, choices, creating)
+        # This reading's new-landmark columns now hold landmarks (in some particles).
+        self._working.first_new_slot += int(creating.any(axis=1).sum())
         return report
 
     def _noise(self, ranges):
@@ -381,27 +381,34 @@ class FastSLAM:
         return log_factors
 
     def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
-                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> bool:
+                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
         """New landmarks, then EKF updates of the associated ones, for all observations.
 
         ``choices`` (K, M) is updated in place: a new landmark's particles get the column it was
-        put in. With known ids, a repeated id in one reading updates the landmark that its
-        first observation created. All (observation, particle) pairs are updated in one batch;
-        a landmark that several observations hit is updated by them in turn. Returns whether
-        any particle created a landmark.
+        put in, one free column per observation that creates a landmark in some particle. With
+        known ids, a repeated id in one reading updates the landmark that its first observation
+        created. All (observation, particle) pairs are updated in one batch; a landmark that
+        several observations hit is updated by them in turn. Returns which (observation,
+        particle) pairs created a landmark (K, M).
         """
         config = self.config
         first_new = ws.first_new_slot
         count = len(ranges)
+        creating = choices == assoc.NEW
+        repeated = None
         if config.association == "known" and count > 1:
             _, first_index, inverse = np.unique(labels, return_index=True, return_inverse=True)
             creator = first_index[inverse.reshape(-1)]
-            repeated = (creator != np.arange(count))[:, None] & (choices == assoc.NEW)
-            choices[repeated] = np.broadcast_to(first_new + creator[:, None], choices.shape)[repeated]
-        obs, particle = np.nonzero(choices == assoc.NEW)
-        created = len(obs) > 0
-        if created:
-            slot = first_new + obs
+            repeated = (creator != np.arange(count))[:, None] & creating
+            creating &= ~repeated
+        column = np.full(count, -1, np.int64)
+        creators = np.flatnonzero(creating.any(axis=1))
+        column[creators] = first_new + np.arange(len(creators))
+        if repeated is not None:
+            choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
+        obs, particle = np.nonzero(creating)
+        if len(obs):
+            slot = column[obs]
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
                 self.poses[particle], ranges[obs], bearings[obs], self.offset,
                 self._noise(ranges[obs]))
@@ -412,10 +419,9 @@ class FastSLAM:
             ws.is_new[particle, slot] = True
             observed[particle, slot] = True
             choices[obs, particle] = slot
-        new_slot = first_new + np.arange(count)[:, None]
-        obs, particle = np.nonzero((choices >= 0) & (choices != new_slot))
+        obs, particle = np.nonzero((choices >= 0) & ~creating)
         if len(obs) == 0:
-            return created
+            return creating
         slot = choices[obs, particle]
         pair = particle * ws.valid.shape[1] + slot
         batches = [slice(None)]
@@ -440,7 +446,7 @@ class FastSLAM:
             ws.state[p, s] = state
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
-        return created
+        return creating
 
     def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""
@@ -458,7 +464,8 @@ class FastSLAM:
         ws.dirty |= inside
         ws.valid[inside & (ws.logodds < config.logodds_remove)] = False
 
-    def _finish_update(self, ws: WorkingSet, choices: np.ndarray) -> UpdateReport:
+    def _finish_update(self, ws: WorkingSet, choices: np.ndarray,
+                       creating: np.ndarray) -> UpdateReport:
         """Normalise weights, report from the best particle, resample if N_eff is low."""
         self.log_weights, underflow = normalize_log_weights(self.log_weights)
         self.num_underflows += int(underflow)
@@ -466,7 +473,7 @@ class FastSLAM:
         best_choice = choices[:, best] if len(choices) else np.zeros(0, np.int64)
         associated = best_choice >= 0
         labels = np.where(associated, ws.label[best, np.maximum(best_choice, 0)], -1)
-        is_new = best_choice == ws.first_new_slot + np.arange(len(best_choice))
+        is_new = creating[:, best] if len(choices) else np.zeros(0, bool)
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
                               effective_sample_size(np.exp(self.log_weights)), underflow)
         self._best = best
