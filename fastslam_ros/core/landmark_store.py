@@ -59,8 +59,8 @@ class WorkingSet(RecordViews):
     """Landmarks of every particle near the robot as dense (M, K) arrays.
 
     Columns from ``first_new_slot`` on are empty slots where the filter places new landmarks
-    (one per observation of a reading); the columns before it hold landmarks, gathered or
-    created in earlier readings. ``mean``, ``cov``, ... are views into the packed ``state`` /
+    (one column per observation that creates a landmark in some particle); the columns before
+    it hold landmarks, gathered or created in earlier readings. ``mean``, ``cov``, ... are views into the packed ``state`` /
     ``ident`` records, so writing through them (also with fancy indices) updates the working set.
     """
 
@@ -270,9 +270,9 @@ class LandmarkStore(RecordViews):
         state.reshape(-1, STATE_WIDTH)[target] = self.state.reshape(-1, STATE_WIDTH)[source]
         ident.reshape(-1, 2)[target] = self.ident.reshape(-1, 2)[source]
         ws = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
-                        block=np.full(shape, -1, np.int64), columns=columns, state=state, ident=ident, valid=np.zeros(shape, bool),
-                        dirty=np.zeros(shape, bool), is_new=np.zeros(shape, bool),
-                        first_new_slot=width)
+                        block=np.full(shape, -1, np.int64), columns=columns, state=state,
+                        ident=ident, valid=np.zeros(shape, bool), dirty=np.zeros(shape, bool),
+                        is_new=np.zeros(shape, bool), first_new_slot=width)
         ws.row.flat[target] = src_row
         ws.slot.flat[target] = slot
         ws.block.flat[target] = block
