@@ -185,7 +185,10 @@ class ReferenceFastSLAM:
             if motion:
                 mean, cov, factors = proposals[m]
                 for j, value in factors.items():
-                    factor[j][m] = value
+                    # A sampled association (monte_carlo) also weighs 1 / q, q = its own
+                    # likelihood over the marginal that ``factor`` holds.
+                    factor[j][m] = value + (at_association[j][m] - self.chosen_ll[j][m]
+                                            if c.association == "monte_carlo" else 0.0)
                 motion[m] = (mean, cov)
             for j in range(K):   # robust likelihood (1 - eps) N + eps u, N at association
                 if self.eps > 0.0 and (isinstance(choice[j][m], int)
@@ -272,6 +275,7 @@ class ReferenceFastSLAM:
                     if c.association == "monte_carlo" and K else None)
         choice = [[None] * self.M for _ in range(K)]
         factor = [[0.0] * self.M for _ in range(K)]
+        self.chosen_ll = [[None] * self.M for _ in range(K)]
         all_scores = [[None] * self.M for _ in range(K)]
         for m in range(self.M):
             pose, pose_cov = points[m], covs[m]
@@ -288,6 +292,8 @@ class ReferenceFastSLAM:
                     scores.append((n, log_gauss(nu, s_cov), maha))
                 all_scores[j][m] = scores
                 choice[j][m], factor[j][m] = self._choose(scores, m, j, labels[j], uniforms)
+                if c.association == "monte_carlo" and isinstance(choice[j][m], int):
+                    self.chosen_ll[j][m] = next(ll for n, ll, _ in scores if n == choice[j][m])
             if c.association == "ml":
                 self._exclusive(all_scores, choice, factor, m, K)
             for j in range(K):   # (1 - eps) N < eps u: an outlier, not used

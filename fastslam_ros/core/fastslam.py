@@ -184,19 +184,19 @@ class FastSLAM:
                                                                                     None)
 
         ws = self._working_set(proposal_mean, ranges, labels if known else None)
-        choices, log_factors, robust = self._associate(ws, proposal_mean, proposal_cov, ranges,
-                                                       bearings, labels)
+        choices, log_factors, robust, inverse_q = self._associate(
+            ws, proposal_mean, proposal_cov, ranges, bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if fastslam2 and proposal_cov is not None:
             proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
             for _ in range(self.config.association_passes - 1):
                 # Associate again where this reading's observations put the robot; the
                 # prior covariance is kept (the refined one already holds these observations).
-                choices, log_factors, robust = self._associate(
+                choices, log_factors, robust, inverse_q = self._associate(
                     ws, proposal[0], proposal_cov, ranges, bearings, labels)
                 proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges,
                                           bearings)
-            log_factors = self._sample_proposal(proposal, choices, log_factors)
+            log_factors = self._sample_proposal(proposal, choices, log_factors, inverse_q)
         log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
         creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
@@ -304,8 +304,11 @@ class FastSLAM:
         (particle, landmark) pair are computed once and broadcast over the observations. With
         known ids the only candidate is the landmark carrying the id. Returns choices (K, M),
         working-set columns or ``association.NEW`` / ``IGNORE`` (also for outliers, with
-        ``outlier_probability`` > 0), the log weight factors (K, M) and the robust-likelihood
-        correction of the inliers (``association.reject_outliers``).
+        ``outlier_probability`` > 0), the log weight factors (K, M), the robust-likelihood
+        correction of the inliers (``association.reject_outliers``) and log(1 / q) (K, M) of
+        each associated observation, q the probability with which its landmark was drawn (0
+        but with ``monte_carlo``, where it is the log marginal minus the landmark's own log
+        likelihood).
         """
         config = self.config
         count = len(ranges)
@@ -342,14 +345,19 @@ class FastSLAM:
                 log_lik, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
             choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
+            rows = np.flatnonzero(choice >= 0)
+            inverse_q = np.zeros(len(choice))
+            inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
             choice, log_factor = assoc.associate_two_gates(
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
-        return assoc.reject_outliers(choice.reshape(count, self.num_particles),
-                                     log_factor.reshape(count, self.num_particles),
-                                     config.outlier_probability, self._log_outlier)
+        grid = (count, self.num_particles)
+        inverse_q = inverse_q.reshape(grid) if mode == "monte_carlo" else np.zeros(grid)
+        return assoc.reject_outliers(choice.reshape(grid), log_factor.reshape(grid),
+                                     config.outlier_probability,
+                                     self._log_outlier) + (inverse_q,)
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -364,19 +372,22 @@ class FastSLAM:
                                     used, self.offset, self._noise(ranges[:, None]),
                                     self.config.proposal_iterations)
 
-    def _sample_proposal(self, proposal, choices: np.ndarray,
-                         log_factors: np.ndarray) -> np.ndarray:
+    def _sample_proposal(self, proposal, choices: np.ndarray, log_factors: np.ndarray,
+                         inverse_q: np.ndarray) -> np.ndarray:
         """Draw every pose from the proposal; return the log weight factors (K, M).
 
         The associated observations' factors are replaced by their joint likelihood
-        N(z; z_hat, L) (put on the first row); new / ignored ones keep p0 / 1.
+        N(z; z_hat, L) (put on the first row) times 1 / q, q the probability of their sampled
+        association (``monte_carlo``; 1 otherwise): the importance weight of the association
+        draw, which makes a single observation weigh the marginal over associations, as in
+        FastSLAM 1.0. New / ignored observations keep p0 (the marginal, when sampled) / 1.
         """
         mean, cov, joint = proposal
         self._prior = (mean, cov)
         self.poses = self._sample_prior()
         if len(log_factors) == 0:
             return log_factors
-        log_factors = np.where(choices >= 0, 0.0, log_factors)
+        log_factors = np.where(choices >= 0, inverse_q, log_factors)
         log_factors[0] += joint
         return log_factors
 
