@@ -60,8 +60,9 @@ class WorkingSet(RecordViews):
 
     Columns from ``first_new_slot`` on are empty slots where the filter places new landmarks
     (one column per observation that creates a landmark in some particle); the columns before
-    it hold landmarks, gathered or created in earlier readings. ``mean``, ``cov``, ... are views into the packed ``state`` /
-    ``ident`` records, so writing through them (also with fancy indices) updates the working set.
+    it hold landmarks, gathered or created in earlier readings. ``mean``, ``cov``, ... are
+    views into the packed ``state`` / ``ident`` records, so writing through them (also with
+    fancy indices) updates the working set.
     """
 
     row: np.ndarray       # (M, K) pool row of the entry, -1 for a new slot

@@ -65,9 +65,8 @@ def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> Observati
 def heading_column(t: ObservationTerms):
     """(d range / d theta, d bearing / d theta), the heading column of G_s: (0, -1) as plain
     floats when the sensor sits at the robot's origin, which spares the hot paths array work."""
-    if isinstance(t.lever_x, float) and isinstance(t.lever_y, float):
-        if t.lever_x == 0.0 and t.lever_y == 0.0:
-            return 0.0, -1.0
+    if isinstance(t.lever_x, float) and t.lever_x == 0.0 and t.lever_y == 0.0:
+        return 0.0, -1.0
     return ((t.dx * t.lever_y - t.dy * t.lever_x) / t.range,
             -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0)
 

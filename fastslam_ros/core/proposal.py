@@ -51,9 +51,9 @@ def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarra
     in a dense (K, n) layout: where ``used[k, m]``, observation k of particle m, ``ranges`` and
     ``bearings`` (broadcasting against (K, n), e.g. (K, 1) for one reading), refines the
     proposal with the landmark ``landmarks[k, m]`` (x, y, packed covariance xx, xy, yy).
-    ``noise_diag`` holds the (range, bearing) variances, broadcasting likewise. Returns (mu_s (n, 3),
-    Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without observations keeps its prior
-    and gets log weight 0.
+    ``noise_diag`` holds the (range, bearing) variances, broadcasting likewise. Returns
+    (mu_s (n, 3), Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without observations
+    keeps its prior and gets log weight 0.
     """
     point = mean
     for _ in range(max(int(iterations), 1)):
