@@ -315,9 +315,7 @@ class FastSLAM:
         mode = config.association
         if mode == "known":
             candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
-            flat = np.maximum(candidates, 0) + ws.state.shape[1] * np.arange(
-                self.num_particles)[:, None]
-            landmark = ws.state.reshape(-1, ws.state.shape[-1])[flat]      # (K, M, 1, 6)
+            landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
             existing = ws.first_new_slot
@@ -334,6 +332,7 @@ class FastSLAM:
         # Rows of the association rules: observation-major, (K * M, C).
         shape = (count * self.num_particles, log_lik.shape[2])
         log_lik = np.where(valid, log_lik, -np.inf).reshape(shape)
+        inverse_q = np.zeros(shape[0])
         if mode == "known":
             pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
             rows = np.flatnonzero(pick >= 0)
@@ -346,7 +345,6 @@ class FastSLAM:
         elif mode == "monte_carlo":
             choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
             rows = np.flatnonzero(choice >= 0)
-            inverse_q = np.zeros(len(choice))
             inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
@@ -354,10 +352,9 @@ class FastSLAM:
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
         grid = (count, self.num_particles)
-        inverse_q = inverse_q.reshape(grid) if mode == "monte_carlo" else np.zeros(grid)
         return assoc.reject_outliers(choice.reshape(grid), log_factor.reshape(grid),
                                      config.outlier_probability,
-                                     self._log_outlier) + (inverse_q,)
+                                     self._log_outlier) + (inverse_q.reshape(grid),)
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -366,11 +363,9 @@ class FastSLAM:
         used = choices >= 0
         if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        flat = np.maximum(choices, 0) + ws.state.shape[1] * np.arange(self.num_particles)
-        landmarks = ws.state.reshape(-1, ws.state.shape[-1])[flat]          # (K, M, 6)
-        return observation_proposal(mean, cov, landmarks, ranges[:, None], bearings[:, None],
-                                    used, self.offset, self._noise(ranges[:, None]),
-                                    self.config.proposal_iterations)
+        return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
+                                    bearings[:, None], used, self.offset,
+                                    self._noise(ranges[:, None]), self.config.proposal_iterations)
 
     def _sample_proposal(self, proposal, choices: np.ndarray, log_factors: np.ndarray,
                          inverse_q: np.ndarray) -> np.ndarray:

@@ -86,6 +86,12 @@ class WorkingSet(RecordViews):
         held = (columns[:, :, None] == self.columns[:, None, :]).any(axis=2)
         return bool(np.all(held | (columns < 0)))
 
+    def records_at(self, columns: np.ndarray) -> np.ndarray:
+        """(..., M, 6) float records of each particle's column ``columns`` (..., M); entries of
+        a negative column hold column 0's record (mask them)."""
+        flat = np.maximum(columns, 0) + self.state.shape[1] * np.arange(self.state.shape[0])
+        return self.state.reshape(-1, STATE_WIDTH)[flat]
+
     def take(self, indices: np.ndarray) -> "WorkingSet":
         """The working set after resampling: particle m takes the entries of ``indices[m]``."""
         return WorkingSet(self.row[indices], self.slot[indices], self.block[indices],
