@@ -71,3 +71,7 @@ def test_normalize_log_weights_survives_underflow_and_nan():
     normalized, underflow = normalize_log_weights(np.array([-np.inf, np.nan, -np.inf]))
     assert underflow
     np.testing.assert_allclose(np.exp(normalized), [1 / 3] * 3)
+    # One NaN among finite weights: that particle gets weight zero, the others are kept.
+    normalized, underflow = normalize_log_weights(np.array([0.0, np.nan, np.log(3)]))
+    assert not underflow
+    np.testing.assert_allclose(np.exp(normalized), [0.25, 0.0, 0.75])

@@ -225,8 +225,7 @@ class FastSLAM:
         written back and a new one gathered. So the robot pays for gathering and writing back
         once per cell change, not once per reading.
         """
-        reach = (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
-                 + np.hypot(self.config.sensor_x, self.config.sensor_y))
+        reach = self._reach(ranges)
         low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
         box = (*store.cell_of(low), *store.cell_of(high))
@@ -318,9 +317,9 @@ class FastSLAM:
             landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
-            existing = ws.first_new_slot
-            landmark = ws.state[None, :, :existing]                          # (1, M, E, 6)
-            valid = ws.valid[None, :, :existing]
+            kept = self._columns_in_reach(ws, mean, ranges)
+            landmark = ws.state[:, kept][None]                               # (1, M, E, 6)
+            valid = ws.valid[:, kept][None]
         # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
         landmark_x = np.where(valid, landmark[..., 0], mean[:, 0, None] + 1.0)
         landmark_y = np.where(valid, landmark[..., 1], mean[:, 1, None])
@@ -351,10 +350,29 @@ class FastSLAM:
             choice, log_factor = assoc.associate_two_gates(
                 log_lik, mahalanobis, self._log_p0, config.association_gate,
                 config.new_landmark_gate)
+        if mode != "known" and len(kept):
+            choice = np.where(choice >= 0, kept[np.maximum(choice, 0)], choice)
         grid = (count, self.num_particles)
         return assoc.reject_outliers(choice.reshape(grid), log_factor.reshape(grid),
                                      config.outlier_probability,
                                      self._log_outlier) + (inverse_q.reshape(grid),)
+
+    def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
+        """Working-set columns (of the landmarks that existed before this reading) holding a
+        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose: the
+        working set holds whole cells of a box around all particles, about twice the area."""
+        existing = ws.first_new_slot
+        reach = self._reach(ranges)
+        dx = ws.mean[:, :existing, 0] - poses[:, 0, None]
+        dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
+        near = dx * dx
+        near += dy * dy
+        return np.flatnonzero((ws.valid[:, :existing] & (near <= reach * reach)).any(axis=0))
+
+    def _reach(self, ranges: np.ndarray) -> float:
+        """Distance from the robot within which a landmark may match an observation."""
+        return (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
+                + np.hypot(self.config.sensor_x, self.config.sensor_y))
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -459,32 +477,38 @@ class FastSLAM:
         config = self.config
         if config.logodds_missed == 0.0:
             return
+        # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
+        existing = slice(0, ws.first_new_slot)
+        mean = ws.mean[:, existing]
         t = observation_terms(self.poses[:, 0:1], self.poses[:, 1:2], self.poses[:, 2:3],
-                              ws.mean[..., 0], ws.mean[..., 1], self.offset)
-        inside = ws.valid & ~observed & (t.range >= config.min_range) & (t.range <= config.max_range)
+                              mean[..., 0], mean[..., 1], self.offset)
+        inside = ws.valid[:, existing] & ~observed[:, existing]
+        inside &= (t.range >= config.min_range) & (t.range <= config.max_range)
         if config.field_of_view < 2.0 * np.pi:
             # |bearing| <= fov / 2  <=>  cos(bearing) >= cos(fov / 2), without an arctan.
             along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
             inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
-        ws.logodds[inside] += config.logodds_missed
-        ws.dirty |= inside
-        ws.valid[inside & (ws.logodds < config.logodds_remove)] = False
+        logodds = ws.logodds[:, existing]
+        logodds[inside] += config.logodds_missed
+        ws.dirty[:, existing] |= inside
+        ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
 
     def _finish_update(self, ws: WorkingSet, choices: np.ndarray,
                        creating: np.ndarray) -> UpdateReport:
         """Normalise weights, report from the best particle, resample if N_eff is low."""
         self.log_weights, underflow = normalize_log_weights(self.log_weights)
         self.num_underflows += int(underflow)
-        best = int(np.argmax(self.log_weights))
+        weights = np.exp(self.log_weights)
+        best = int(self.log_weights.argmax())
         best_choice = choices[:, best] if len(choices) else np.zeros(0, np.int64)
         associated = best_choice >= 0
         labels = np.where(associated, ws.label[best, np.maximum(best_choice, 0)], -1)
         is_new = creating[:, best] if len(choices) else np.zeros(0, bool)
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
-                              effective_sample_size(np.exp(self.log_weights)), underflow)
+                              effective_sample_size(weights), underflow)
         self._best = best
         if report.n_eff < self.config.resample_threshold * self.num_particles:
-            indices = RESAMPLERS[self.config.resampling](np.exp(self.log_weights), self.rng)
+            indices = RESAMPLERS[self.config.resampling](weights, self.rng)
             self.poses = self.poses[indices]
             self.landmarks.resample(indices)
             self._working = self._working.take(indices)

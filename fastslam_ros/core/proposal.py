@@ -58,8 +58,8 @@ def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarra
     point = mean
     for _ in range(max(int(iterations), 1)):
         terms = _information(point, mean, landmarks, ranges, bearings, used, offset, noise_diag)
-        sigma, log_weight = _combine(cov, *terms)
-        point = mean + np.einsum("nij,nj->ni", sigma, terms[1])
+        sigma, shift, log_weight = _combine(cov, *terms)
+        point = mean + shift
     point[:, 2] = wrap_angle(point[:, 2])
     return point, sigma, log_weight
 
@@ -116,20 +116,22 @@ def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_d
 
 
 def _combine(cov, info, b, quadratic, log_det_q, pairs):
-    """Sigma_s = (I + P J)^-1 P and the joint log likelihood of the innovations.
+    """Sigma_s = (I + P J)^-1 P, the mean shift Sigma_s b and the joint log likelihood of the
+    innovations.
 
     The 3x3 inverse is the adjugate over the determinant, all cofactors in one expression.
     """
     a = (cov @ info).reshape(-1, 9).T                                 # rows of I + P J
-    a[[0, 4, 8]] += 1.0
+    a[::4] += 1.0                                                     # rows 0, 4, 8: diagonal
     cofactor = a[_COF_P] * a[_COF_Q] - a[_COF_R] * a[_COF_S]           # (9, n)
     det = (a[:3] * cofactor[:3]).sum(axis=0)
     inverse = (cofactor.reshape(3, 3, -1).transpose(2, 1, 0)) / det[:, None, None]
     sigma = inverse @ cov
     sigma = 0.5 * (sigma + sigma.transpose(0, 2, 1))
-    mahalanobis = quadratic - np.einsum("ni,nij,nj->n", b, sigma, b)
+    shift = (sigma @ b[:, :, None])[:, :, 0]
+    mahalanobis = quadratic - (b * shift).sum(axis=1)
     log_weight = -0.5 * (mahalanobis + log_det_q + np.log(det)) - pairs * LOG_TWO_PI
-    return sigma, log_weight
+    return sigma, shift, log_weight
 
 
 def sample_pose(mean: np.ndarray, cov: np.ndarray, standard_normals: np.ndarray) -> np.ndarray:

@@ -67,9 +67,12 @@ def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
     If no weight is finite (every likelihood underflowed, or NaN came in), the weights are reset
     to uniform and ``underflow`` is True, so the filter stays finite and can say so.
     """
-    log_weights = np.where(np.isnan(log_weights), -np.inf, log_weights)
-    peak = np.max(log_weights)
+    peak = log_weights.max()
+    if np.isnan(peak):
+        log_weights = np.where(np.isnan(log_weights), -np.inf, log_weights)
+        peak = log_weights.max()
     if not np.isfinite(peak):
         return np.full(log_weights.shape, -np.log(len(log_weights))), True
     shifted = log_weights - peak
-    return shifted - np.log(np.sum(np.exp(shifted))), False
+    shifted -= np.log(np.exp(shifted).sum())
+    return shifted, False
