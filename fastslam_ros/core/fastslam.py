@@ -5,11 +5,11 @@ once, with no Python loop over particles, landmarks or observations. Per step:
 
 1. Motion. Odometry given to ``predict`` is accumulated and applied at the next update. FastSLAM
    1.0 samples the odometry motion model; FastSLAM 2.0 keeps its Gaussian form N(s_hat, P).
-2. Association, per particle and observation, against all of the particle's landmarks within
-   the sensor's reach (the *working set*, gathered from the shared store and kept across
-   readings until the robot reaches other cells): likelihood N(z; z_hat, Q),
-   Q = G_m Sigma G_m^T + R (1.0) or N(z; z_hat, L), L = G_s P G_s^T + Q (2.0), p0 for a new
-   landmark.
+2. Association, per particle and observation, against the particle's landmarks within the
+   sensor's reach (taken from the *working set*, the cells around the robot gathered from the
+   shared store and kept across readings until the robot reaches other cells): likelihood
+   N(z; z_hat, Q), Q = G_m Sigma G_m^T + R (1.0) or N(z; z_hat, L), L = G_s P G_s^T + Q (2.0),
+   p0 for a new landmark.
 3. FastSLAM 2.0 only: the associated observations refine the pose proposal, all at once
    (``proposal.observation_proposal``); then the pose is sampled from it.
 4. Map: EKF update (Joseph form) of each observed landmark, inverse-model initialisation of new
@@ -36,8 +36,8 @@ from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
 REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
-within which landmarks join the working set: a landmark whose mean lies farther out is no
-plausible match for any observation."""
+within which landmarks join the working set and are scored against the observations: a
+landmark whose mean lies farther out is no plausible match for any observation."""
 NEW_SLOTS_PER_OBSERVATION = 3
 """Free working-set columns per observation of the reading that gathers it: each observation
 that creates a landmark (in any particle) takes one, and a full working set is gathered
@@ -298,9 +298,10 @@ class FastSLAM:
 
         Scored at the pose before this reading's observations are used: the sampled pose
         (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Every
-        observation is scored against all of the particle's landmarks in the working set (the
-        cells the sensor can reach, so the cost does not grow with the map): the terms of a
-        (particle, landmark) pair are computed once and broadcast over the observations. With
+        observation is scored against the particle's landmarks in the working-set columns
+        within the sensor's reach (``_columns_in_reach``; so the cost does not grow with the
+        map): the terms of a (particle, landmark) pair are computed once and broadcast over the
+        observations. With
         known ids the only candidate is the landmark carrying the id. Returns choices (K, M),
         working-set columns or ``association.NEW`` / ``IGNORE`` (also for outliers, with
         ``outlier_probability`` > 0), the log weight factors (K, M), the robust-likelihood
