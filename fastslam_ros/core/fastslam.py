@@ -229,7 +229,9 @@ class FastSLAM:
         low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
         box = (*store.cell_of(low), *store.cell_of(high))
-        label_set = np.unique(labels) if labels is not None and len(labels) else None
+        # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
+        label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
+                     else None)
         ws = self._working
         if ws is not None:
             # Cells are only registered when the working set is written back, so a box of
@@ -243,7 +245,8 @@ class FastSLAM:
             self.flush()
         region = store.columns_in_box(low, high)
         # Known ids: also the cells holding each observed id, wherever it lies.
-        extra = store.label_columns(label_set) if label_set is not None else None
+        extra = (store.label_columns(np.array(label_set, np.int64)) if label_set is not None
+                 else None)
         columns = np.broadcast_to(region, (self.num_particles, len(region)))
         if extra is not None:
             in_region = np.zeros(max(store.num_cells, 1), dtype=bool)
@@ -255,7 +258,7 @@ class FastSLAM:
         self._working = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
                                      * max(len(ranges), 1))
         self._working_box = box
-        self._working_labels = set() if label_set is None else set(label_set.tolist())
+        self._working_labels = set() if label_set is None else set(label_set)
         return self._working
 
     def _holds_labels(self, ws: WorkingSet, label_set) -> bool:
@@ -263,7 +266,7 @@ class FastSLAM:
         (or not in the store). Each label is looked up once per working set."""
         if label_set is None:
             return True
-        unseen = [label for label in label_set.tolist() if label not in self._working_labels]
+        unseen = [label for label in label_set if label not in self._working_labels]
         if not unseen:
             return True
         if not ws.covers(self.landmarks.label_columns(np.array(unseen, np.int64))):
@@ -422,10 +425,12 @@ class FastSLAM:
         creating = choices == assoc.NEW
         repeated = None
         if config.association == "known" and count > 1:
-            _, first_index, inverse = np.unique(labels, return_index=True, return_inverse=True)
-            creator = first_index[inverse.reshape(-1)]
-            repeated = (creator != np.arange(count))[:, None] & creating
-            creating &= ~repeated
+            first_with_label: dict[int, int] = {}
+            creator = np.array([first_with_label.setdefault(label, k)
+                                for k, label in enumerate(labels.tolist())])
+            if len(first_with_label) < count:
+                repeated = (creator != np.arange(count))[:, None] & creating
+                creating &= ~repeated
         column = np.full(count, -1, np.int64)
         creators = np.flatnonzero(creating.any(axis=1))
         column[creators] = first_new + np.arange(len(creators))
