@@ -33,7 +33,8 @@ def test_exact_arc_integration_matches_closed_form():
 
 def test_mrclam_distributed_files(dataset_dir):
     folder = dataset_dir(MRCLAM6)
-    recording = mrclam.load_mrclam(folder, robot=1)
+    recording = mrclam.load_mrclam(folder, robot=1, delay=0.0, speed_scale=1.0,
+                                   yaw_rate_scale=1.0)
     counts = recording.counts
     assert counts["variant"] == "distributed"
     assert len(recording.odometry_stamps) == 61785
@@ -106,8 +107,23 @@ def resampled_mrclam(tmp_path) -> Path:
     return tmp_path
 
 
+def test_mrclam_command_correction(resampled_mrclam):
+    # Commands take effect `delay` later and are scaled: v = 0.05, omega = 0.1 here.
+    recording = mrclam.load_mrclam(resampled_mrclam, robot=1, delay=0.2, speed_scale=0.5,
+                                   yaw_rate_scale=0.5)
+    assert recording.odometry_stamps[0] == 0.2
+    start = np.array([0.5 + 0.02, -0.2, 0.1 + 0.04])        # ground truth at t = 0.2
+    np.testing.assert_allclose(recording.odometry_poses[0], start, atol=1e-12)
+    heading = start[2] + 0.1 * 1.98
+    np.testing.assert_allclose(recording.odometry_poses[-1],
+                               [start[0] + 0.5 * (math.sin(heading) - math.sin(start[2])),
+                                start[1] - 0.5 * (math.cos(heading) - math.cos(start[2])),
+                                heading], atol=1e-9)
+
+
 def test_mrclam_resampled_variant(resampled_mrclam):
-    recording = mrclam.load_mrclam(resampled_mrclam, robot=1)
+    recording = mrclam.load_mrclam(resampled_mrclam, robot=1, delay=0.0, speed_scale=1.0,
+                                   yaw_rate_scale=1.0)
     counts = recording.counts
     assert counts["variant"] == "resampled"
     assert counts["odometry_dropped_negative_time"] == 2

@@ -16,11 +16,12 @@ from fastslam_ros.tools.converters import Recording, freiburg, mrclam, victoria_
 KINDS = ("mrclam", "victoria-park", "freiburg")
 
 
-def load_recording(kind: str, source: Path | str, robot: int = 1, use_ids: bool = True
-                   ) -> Recording:
-    """Parse a dataset folder of the given kind."""
+def load_recording(kind: str, source: Path | str, robot: int = 1, use_ids: bool = True,
+                   odometry: dict | None = None) -> Recording:
+    """Parse a dataset folder of the given kind (``odometry``: MRCLAM command corrections,
+    keyword arguments of ``mrclam.load_mrclam``)."""
     if kind == "mrclam":
-        return mrclam.load_mrclam(source, robot, use_ids=use_ids)
+        return mrclam.load_mrclam(source, robot, use_ids=use_ids, **(odometry or {}))
     if kind == "victoria-park":
         return victoria_park.load_victoria_park(source)
     if kind == "freiburg":
@@ -29,12 +30,12 @@ def load_recording(kind: str, source: Path | str, robot: int = 1, use_ids: bool 
 
 
 def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_ids: bool = True,
-            duration: float | None = None, storage: str = "mcap", overwrite: bool = False
-            ) -> Recording:
+            duration: float | None = None, storage: str = "mcap", overwrite: bool = False,
+            odometry: dict | None = None) -> Recording:
     """Convert a dataset to a schema-v1 bag at ``out``; return the recording written."""
     from fastslam_ros.tools.bag_schema import write_schema_bag
 
-    recording = load_recording(kind, source, robot, use_ids)
+    recording = load_recording(kind, source, robot, use_ids, odometry)
     if duration is not None:
         recording = recording.head(duration)
     write_schema_bag(out, recording.to_schema_bag(), storage=storage, overwrite=overwrite)
@@ -64,6 +65,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help="keep only the first DURATION seconds")
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output bag")
+    parser.add_argument("--command-delay", type=float, default=mrclam.COMMAND_DELAY,
+                        help="MRCLAM: s between a logged command and the motion "
+                             f"[{mrclam.COMMAND_DELAY}]")
+    parser.add_argument("--speed-scale", type=float, default=mrclam.SPEED_SCALE,
+                        help=f"MRCLAM: actual / commanded speed [{mrclam.SPEED_SCALE}]")
+    parser.add_argument("--yaw-rate-scale", type=float, default=mrclam.YAW_RATE_SCALE,
+                        help=f"MRCLAM: actual / commanded turn rate [{mrclam.YAW_RATE_SCALE}]")
     parser.add_argument("--calibrate", action="store_true",
                         help="print parameters estimated from the data and exit")
     return parser
@@ -83,7 +91,11 @@ def main(argv: list[str] | None = None) -> int:
             print("fastslam-convert: --out is required", file=sys.stderr)
             return 2
         recording = convert(args.kind, args.source, args.out, args.robot, not args.no_ids,
-                            args.duration, args.storage, args.overwrite)
+                            args.duration, args.storage, args.overwrite,
+                            odometry={"delay": args.command_delay,
+                                      "speed_scale": args.speed_scale,
+                                      "yaw_rate_scale": args.yaw_rate_scale}
+                            if args.kind == "mrclam" else None)
     except (OSError, ValueError) as error:
         print(f"fastslam-convert: {error}", file=sys.stderr)
         return 1

@@ -30,6 +30,17 @@ GLITCH_POSITION = 0.10
 """A ground-truth sample farther than this (m) from its running median is a glitch."""
 GLITCH_HEADING = 0.30
 """Same bound for the heading (rad)."""
+COMMAND_DELAY = 0.2
+"""Seconds between a logged (v, omega) command and the motion it causes (drive latency).
+``calibrate`` (``command_delay``): the heading change of 1 s windows of the integrated commands
+matches the Vicon one best 0.2-0.25 s later, on all five robots of Dataset 6 (RMS error
+0.042 rad without the delay, 0.027 rad with it)."""
+SPEED_SCALE = 0.93
+"""Actual over commanded forward speed (``calibrate``: ``speed_scale``, Dataset 6, 0.90-0.95
+per robot, 0.931 pooled): the robots drive slower than commanded."""
+YAW_RATE_SCALE = 0.93
+"""Actual over commanded turn rate (``calibrate``: ``yaw_rate_scale``, 0.91-0.94 per robot,
+0.927 pooled)."""
 
 
 def detect_variant(folder: Path | str, robot: int) -> str:
@@ -93,15 +104,20 @@ def interpolate_poses(stamps: np.ndarray, poses: np.ndarray, at: np.ndarray) -> 
 
 
 def load_odometry(folder: Path | str, robot: int, start_pose: np.ndarray | None = None,
-                  ground_truth: tuple[np.ndarray, np.ndarray] | None = None
+                  ground_truth: tuple[np.ndarray, np.ndarray] | None = None,
+                  delay: float = COMMAND_DELAY, speed_scale: float = SPEED_SCALE,
+                  yaw_rate_scale: float = YAW_RATE_SCALE
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Odometry of one robot: stamps (N,), integrated poses (N, 3), commands (N, 2), negatives dropped.
 
-    The integration starts at ``start_pose``, else at the ground truth interpolated at the first
+    The logged commands are scaled by ``speed_scale`` / ``yaw_rate_scale`` and take effect
+    ``delay`` seconds after their stamp (the returned stamps are shifted by it). The integration
+    starts at ``start_pose``, else at the ground truth interpolated at the first (shifted)
     odometry time, else at the origin.
     """
     table, negative = _read_timed(Path(folder) / f"Robot{robot}_Odometry.dat", 3)
-    stamps, commands = table[:, 0], table[:, 1:3]
+    stamps = table[:, 0] + delay
+    commands = table[:, 1:3] * np.array([speed_scale, yaw_rate_scale])
     if start_pose is None:
         start_pose = (interpolate_poses(*ground_truth, stamps[:1])[0] if ground_truth is not None
                       else np.zeros(3))
@@ -133,12 +149,17 @@ def load_measurements(folder: Path | str, robot: int
             wrap_angle(rows[:, 3]), counts)
 
 
-def load_mrclam(folder: Path | str, robot: int, use_ids: bool = True) -> Recording:
-    """Convert one robot of an MRCLAM dataset folder (either variant) to a :class:`Recording`."""
+def load_mrclam(folder: Path | str, robot: int, use_ids: bool = True,
+                delay: float = COMMAND_DELAY, speed_scale: float = SPEED_SCALE,
+                yaw_rate_scale: float = YAW_RATE_SCALE) -> Recording:
+    """Convert one robot of an MRCLAM dataset folder (either variant) to a :class:`Recording`
+    (odometry commands corrected as in :func:`load_odometry`)."""
     folder = Path(folder)
     gt_stamps, gt_poses, counts = load_ground_truth(folder, robot)
     odom_stamps, odom_poses, _, negative = load_odometry(folder, robot,
-                                                         ground_truth=(gt_stamps, gt_poses))
+                                                         ground_truth=(gt_stamps, gt_poses),
+                                                         delay=delay, speed_scale=speed_scale,
+                                                         yaw_rate_scale=yaw_rate_scale)
     meas_stamps, subjects, ranges, bearings, meas_counts = load_measurements(folder, robot)
     labels = subjects if use_ids else np.full_like(subjects, -1)
     scan_stamps, scan_points, scan_ids = group_by_stamp(
@@ -161,7 +182,7 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
     """
     folder = Path(folder)
     range_residuals, bearing_residuals, odometry_steps, true_steps = [], [], [], []
-    true_ranges, walk_rows = [], []
+    true_ranges, walk_rows, command_rows = [], [], []
     positions, ids = load_landmarks(folder)
     for robot in robots:
         gt_stamps, gt_poses, _ = load_ground_truth(folder, robot)
@@ -175,6 +196,10 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
         bearing_residuals.append(wrap_angle(bearings[inside] - np.arctan2(delta[:, 1], delta[:, 0])
                                             + poses[:, 2]))
 
+        raw_stamps, raw_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3),
+                                                    delay=0.0, speed_scale=1.0,
+                                                    yaw_rate_scale=1.0)
+        command_rows.append((raw_stamps, raw_poses, gt_stamps, gt_poses))
         odom_stamps, odom_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3))
         grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]), step)
         odometry_steps.append(relative_motion(interpolate_poses(odom_stamps, odom_poses, grid)))
@@ -188,8 +213,46 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
             "sigma_bearing": robust_std(bearing_residuals),
             "sigma_range_q90": float(np.quantile(np.abs(range_residuals), 0.9) / 1.645),
             "sigma_bearing_q90": float(np.quantile(np.abs(bearing_residuals), 0.9) / 1.645),
+            **fit_command_correction(command_rows, step),
             **fit_alphas(np.concatenate(odometry_steps), np.concatenate(true_steps)),
             **fit_random_walk(np.concatenate(walk_rows))}
+
+
+def fit_command_correction(runs: list, step: float = 1.0,
+                           delays: np.ndarray = np.arange(0.0, 0.45, 0.05)) -> dict[str, float]:
+    """Drive latency and gains of the logged commands against the Vicon ground truth.
+
+    ``runs``: (odometry stamps, poses integrated from the raw commands, ground-truth stamps,
+    poses) per robot. For each candidate delay, the heading changes and distances of ``step``
+    windows of the odometry, taken ``delay`` earlier, are regressed (through the origin) on the
+    ground truth's, pooled over the robots; the delay with the smallest heading residual wins.
+    Returns command_delay, yaw_rate_scale, speed_scale and the heading residual RMS with and
+    without the correction.
+    """
+    best = None
+    for delay in delays:
+        turn_true, turn_odom, dist_true, dist_odom = [], [], [], []
+        for odom_stamps, odom_poses, gt_stamps, gt_poses in runs:
+            grid = np.arange(max(odom_stamps[0] + delay, gt_stamps[0]) + step,
+                             min(odom_stamps[-1] + delay, gt_stamps[-1]) - step, step)
+            truth = interpolate_poses(gt_stamps, gt_poses, grid)
+            odometry = interpolate_poses(odom_stamps, odom_poses, grid - delay)
+            turn_true.append(wrap_angle(np.diff(truth[:, 2])))
+            turn_odom.append(wrap_angle(np.diff(odometry[:, 2])))
+            dist_true.append(np.hypot(*np.diff(truth[:, :2], axis=0).T))
+            dist_odom.append(np.hypot(*np.diff(odometry[:, :2], axis=0).T))
+        turn_true, turn_odom = np.concatenate(turn_true), np.concatenate(turn_odom)
+        dist_true, dist_odom = np.concatenate(dist_true), np.concatenate(dist_odom)
+        keep = np.abs(turn_true - turn_odom) < 0.5          # Vicon dropouts, collisions
+        yaw_scale = float(turn_true[keep] @ turn_odom[keep] / (turn_odom[keep] @ turn_odom[keep]))
+        speed_scale = float(dist_true[keep] @ dist_odom[keep] / (dist_odom[keep] @ dist_odom[keep]))
+        residual = float(np.sqrt(np.mean((turn_true - yaw_scale * turn_odom)[keep] ** 2)))
+        if delay == 0.0:
+            raw = float(np.sqrt(np.mean((turn_true - turn_odom)[keep] ** 2)))
+        if best is None or residual < best[0]:
+            best = (residual, float(delay), yaw_scale, speed_scale)
+    return {"command_delay": best[1], "yaw_rate_scale": best[2], "speed_scale": best[3],
+            "heading_residual_raw": raw, "heading_residual_corrected": best[0]}
 
 
 def random_walk_rows(odom_stamps: np.ndarray, odom_poses: np.ndarray, gt_stamps: np.ndarray,
