@@ -304,14 +304,13 @@ class FastSLAM:
         observation is scored against the particle's landmarks in the working-set columns
         within the sensor's reach (``_columns_in_reach``; so the cost does not grow with the
         map): the terms of a (particle, landmark) pair are computed once and broadcast over the
-        observations. With
-        known ids the only candidate is the landmark carrying the id. Returns choices (K, M),
-        working-set columns or ``association.NEW`` / ``IGNORE`` (also for outliers, with
-        ``outlier_probability`` > 0), the log weight factors (K, M), the robust-likelihood
-        correction of the inliers (``association.reject_outliers``) and log(1 / q) (K, M) of
-        each associated observation, q the probability with which its landmark was drawn (0
-        but with ``monte_carlo``, where it is the log marginal minus the landmark's own log
-        likelihood).
+        observations. With known ids the only candidate is the landmark carrying the id.
+        Returns choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE`` (also
+        for outliers, with ``outlier_probability`` > 0), the log weight factors (K, M), the
+        robust-likelihood correction of the inliers (``association.reject_outliers``) and
+        log(1 / q) (K, M) of each associated observation, q the probability with which its
+        landmark was drawn (0 but with ``monte_carlo``, where it is the log marginal minus the
+        landmark's own log likelihood).
         """
         config = self.config
         count = len(ranges)
