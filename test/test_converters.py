@@ -31,6 +31,20 @@ def test_exact_arc_integration_matches_closed_form():
     np.testing.assert_allclose(np.cos(poses[:, 2]), np.cos(heading), atol=1e-12)
 
 
+
+def test_command_correction_fit_recovers_delay_and_gains():
+    # Vicon moves with the commands 0.2 s late and at 0.9 (turn) / 0.95 (speed) of them.
+    stamps = np.arange(0.0, 120.0, 0.02)
+    speed = 0.2 + 0.1 * np.sin(0.7 * stamps)
+    turn_rate = 0.4 * np.sin(0.9 * stamps) + 0.1
+    commanded = integrate_unicycle(stamps, speed, turn_rate, np.zeros(3))
+    truth = integrate_unicycle(stamps + 0.2, 0.95 * speed, 0.9 * turn_rate, np.zeros(3))
+    fit = mrclam.fit_command_correction([(stamps, commanded, stamps + 0.2, truth)])
+    assert fit["command_delay"] == pytest.approx(0.2)
+    assert fit["yaw_rate_scale"] == pytest.approx(0.9, abs=1e-3)
+    assert fit["speed_scale"] == pytest.approx(0.95, abs=1e-3)
+    assert fit["heading_residual_corrected"] < 1e-3 < fit["heading_residual_raw"]
+
 def test_mrclam_distributed_files(dataset_dir):
     folder = dataset_dir(MRCLAM6)
     recording = mrclam.load_mrclam(folder, robot=1, delay=0.0, speed_scale=1.0,

@@ -505,10 +505,8 @@ class FastSLAM:
         self.num_underflows += int(underflow)
         weights = np.exp(self.log_weights)
         best = int(self.log_weights.argmax())
-        best_choice = choices[:, best] if len(choices) else np.zeros(0, np.int64)
-        associated = best_choice >= 0
-        labels = np.where(associated, ws.label[best, np.maximum(best_choice, 0)], -1)
-        is_new = creating[:, best] if len(choices) else np.zeros(0, bool)
+        best_choice, is_new = choices[:, best], creating[:, best]
+        labels = np.where(best_choice >= 0, ws.label[best, np.maximum(best_choice, 0)], -1)
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
                               effective_sample_size(weights), underflow)
         self._best = best
