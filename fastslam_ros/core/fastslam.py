@@ -146,7 +146,7 @@ class FastSLAM:
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
         self._prior = propagate_gaussian(mean, cov, control, variances)
-        if np.max(self._prior[1][:, 2, 2]) > self.config.max_prior_heading_sigma ** 2:
+        if self._prior[1][:, 2, 2].max() > self.config.max_prior_heading_sigma ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
 

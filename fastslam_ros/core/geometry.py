@@ -16,9 +16,10 @@ def wrap_angle(angle):
     can leave it a hair above pi at large multiples of pi, which the clamp removes. A ceil is
     ~4x cheaper than a modulo, and this sits on hot paths.
     """
-    if np.ndim(angle) == 0:
-        return wrap_scalar(float(angle))
-    angle = np.asarray(angle, dtype=float)
+    if type(angle) is not np.ndarray:
+        if np.ndim(angle) == 0:
+            return wrap_scalar(float(angle))
+        angle = np.asarray(angle, dtype=float)
     turns = angle * (1.0 / TWO_PI)              # in place from here: one temporary, not five
     turns -= 0.5
     np.ceil(turns, out=turns)

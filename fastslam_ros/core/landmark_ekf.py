@@ -54,15 +54,15 @@ def update_landmarks(poses: np.ndarray, mean: np.ndarray, cov_packed: np.ndarray
     k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
     nu0 = ranges - t.range
     nu1 = t.bearing_innovation(bearings)
-    new_mean = mean + np.stack([k00 * nu0 + k01 * nu1, k10 * nu0 + k11 * nu1], -1)
+    new_mean = mean + np.array([k00 * nu0 + k01 * nu1, k10 * nu0 + k11 * nu1]).T
     # Joseph form: A = I - K G.
     a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
     a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
     m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
     m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
-    new_cov = np.stack([m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1,
+    new_cov = np.array([m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1,
                         m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1,
-                        m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1], -1)
+                        m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1]).T
     return new_mean, new_cov
 
 

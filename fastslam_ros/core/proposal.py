@@ -101,15 +101,21 @@ def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_d
         d[2] = wrap_angle(d[2])
         nu -= (g_s * d[:, None, :]).sum(axis=1)
     det = q00 * q11 - q01 * q01
-    q_inv = np.stack([q11, -q01, q00]) * (used / det)                # (xx, xy, yy), 0 unused
-    u = np.stack([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, K, n)
+    q_inv = np.array([q11, -q01, q00])                                  # (xx, xy, yy)
+    q_inv *= used / det                                                 # 0 where unused
+    u = np.array([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, K, n)
                   q_inv[1] * g_s[0] + q_inv[2] * g_s[1]])
+    # The summands, (11, K, n): J's six distinct entries, b, nu^T Q^-1 nu, log det Q.
+    terms = np.empty((11,) + g00.shape)
     row, col = _UPPER
-    info = g_s[0, row] * u[0, col] + g_s[1, row] * u[1, col]         # (6, K, n)
-    b = u[0] * nu[0] + u[1] * nu[1]                                    # (3, K, n)
-    quadratic = nu[0] * (q_inv[0] * nu[0] + 2.0 * q_inv[1] * nu[1]) + q_inv[2] * nu[1] * nu[1]
-    log_det = np.where(used, np.log(det), 0.0)
-    sums = np.concatenate([info, b, quadratic[None], log_det[None]]).sum(axis=1)   # (11, n)
+    np.multiply(g_s[0, row], u[0, col], out=terms[:6])
+    terms[:6] += g_s[1, row] * u[1, col]
+    np.multiply(u[0], nu[0], out=terms[6:9])
+    terms[6:9] += u[1] * nu[1]
+    terms[9] = nu[0] * (q_inv[0] * nu[0] + 2.0 * q_inv[1] * nu[1]) + q_inv[2] * nu[1] * nu[1]
+    np.log(det, out=terms[10])
+    terms[10] *= used                                    # unused pairs: a finite det, times 0
+    sums = terms.sum(axis=1)                                                    # (11, n)
     count = point.shape[0]
     return (sums[_FULL].T.reshape(count, 3, 3), sums[6:9].T, sums[9], sums[10],
             used.sum(axis=0))
@@ -148,4 +154,4 @@ def sample_pose(mean: np.ndarray, cov: np.ndarray, standard_normals: np.ndarray)
     l21 = (c12 - l20 * l10) / l11
     l22 = np.sqrt(np.maximum(c22 - l20 * l20 - l21 * l21, 0.0) + POSE_JITTER)
     n0, n1, n2 = standard_normals[:, 0], standard_normals[:, 1], standard_normals[:, 2]
-    return mean + np.stack([l00 * n0, l10 * n0 + l11 * n1, l20 * n0 + l21 * n1 + l22 * n2], -1)
+    return mean + np.array([l00 * n0, l10 * n0 + l11 * n1, l20 * n0 + l21 * n1 + l22 * n2]).T
