@@ -46,7 +46,7 @@ def associate_maximum_likelihood(candidate_log_lik: np.ndarray, log_p0: float):
     if candidate_log_lik.shape[1] == 0:
         count = candidate_log_lik.shape[0]
         return np.full(count, NEW), np.full(count, log_p0)
-    best = np.argmax(candidate_log_lik, axis=1)
+    best = candidate_log_lik.argmax(axis=1)
     best_log_lik = np.take_along_axis(candidate_log_lik, best[:, None], 1)[:, 0]
     is_new = best_log_lik < log_p0
     return np.where(is_new, NEW, best), np.where(is_new, log_p0, best_log_lik)
@@ -67,7 +67,7 @@ def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray, num_pa
     particle = np.arange(len(log_lik)) % num_particles
     while True:
         pick, log_factor = associate_maximum_likelihood(log_lik, log_p0)
-        rows = np.flatnonzero(pick >= 0)
+        rows = (pick >= 0).nonzero()[0]
         key = particle[rows] * log_lik.shape[1] + pick[rows]
         if len(key) == 0 or np.bincount(key).max() == 1:
             return pick, log_factor

@@ -293,7 +293,7 @@ class FastSLAM:
                                                  == labels[:, None, None])
         if existing == 0:
             return np.full(match.shape[:2] + (1,), -1, np.int64)
-        return np.where(match.any(axis=2), np.argmax(match, axis=2), -1)[:, :, None]
+        return np.where(match.any(axis=2), match.argmax(axis=2), -1)[:, :, None]
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
                    bearings: np.ndarray, labels: np.ndarray):
@@ -337,7 +337,7 @@ class FastSLAM:
         inverse_q = np.zeros(shape[0])
         if mode == "known":
             pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
-            rows = np.flatnonzero(pick >= 0)
+            rows = (pick >= 0).nonzero()[0]
             choice = pick.copy()
             choice[rows] = candidates.reshape(shape)[rows, pick[rows]]
             log_factor = np.where(choice >= 0, log_factor, self._log_p0)
@@ -346,7 +346,7 @@ class FastSLAM:
                 log_lik, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
             choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
-            rows = np.flatnonzero(choice >= 0)
+            rows = (choice >= 0).nonzero()[0]
             inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
@@ -370,7 +370,7 @@ class FastSLAM:
         dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
         near = dx * dx
         near += dy * dy
-        return np.flatnonzero((ws.valid[:, :existing] & (near <= reach * reach)).any(axis=0))
+        return (ws.valid[:, :existing] & (near <= reach * reach)).any(axis=0).nonzero()[0]
 
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
@@ -431,11 +431,11 @@ class FastSLAM:
                 repeated = (creator != np.arange(count))[:, None] & creating
                 creating &= ~repeated
         column = np.full(count, -1, np.int64)
-        creators = np.flatnonzero(creating.any(axis=1))
+        creators = creating.any(axis=1).nonzero()[0]
         column[creators] = first_new + np.arange(len(creators))
         if repeated is not None:
             choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
-        obs, particle = np.nonzero(creating)
+        obs, particle = creating.nonzero()
         if len(obs):
             slot = column[obs]
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
@@ -448,7 +448,7 @@ class FastSLAM:
             ws.is_new[particle, slot] = True
             observed[particle, slot] = True
             choices[obs, particle] = slot
-        obs, particle = np.nonzero((choices >= 0) & ~creating)
+        obs, particle = ((choices >= 0) & ~creating).nonzero()
         if len(obs) == 0:
             return creating
         slot = choices[obs, particle]
@@ -517,7 +517,7 @@ class FastSLAM:
             self._working = self._working.take(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-            self._best = int(np.argmax(indices == best))
+            self._best = int((indices == best).argmax())
             report.resampled = True
         return report
 

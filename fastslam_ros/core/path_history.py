@@ -21,6 +21,7 @@ class PathHistory:
         self._poses: list[np.ndarray] = []
         self._parents: list[np.ndarray] = []
         self.leaf = np.zeros(num_particles, dtype=np.int64)
+        self._identity = np.arange(num_particles)
         self._next_prune = 2 * prune_every
 
     def __len__(self) -> int:
@@ -30,8 +31,8 @@ class PathHistory:
         """Append the particles' current poses as a new generation."""
         self._stamps.append(float(stamp))
         self._poses.append(np.array(poses, dtype=float))
-        self._parents.append(self.leaf.copy())
-        self.leaf = np.arange(self.num_particles)
+        self._parents.append(self.leaf)          # never changed in place: replaced instead
+        self.leaf = self._identity
         if len(self._stamps) >= self._next_prune:
             self._prune()
             # Doubling keeps pruning amortised O(1) even if the particles never coalesce.

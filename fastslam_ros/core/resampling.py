@@ -58,7 +58,7 @@ RESAMPLERS = {
 
 def effective_sample_size(weights: np.ndarray) -> float:
     """N_eff = 1 / sum(w^2) of normalised weights."""
-    return float(1.0 / np.sum(np.square(weights)))
+    return float(1.0 / (weights @ weights))
 
 
 def normalize_log_weights(log_weights: np.ndarray) -> tuple[np.ndarray, bool]:
