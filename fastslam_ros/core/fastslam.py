@@ -19,6 +19,7 @@ once, with no Python loop over particles, landmarks or observations. Per step:
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,6 +84,7 @@ class FastSLAM:
             rng = np.random.default_rng(None if config.seed < 0 else config.seed)
         self.rng = rng
         self.offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
+        self._lever_length = math.hypot(config.sensor_x, config.sensor_y)
         self.noise_diag = np.array([config.sigma_range ** 2, config.sigma_bearing ** 2])
         self.alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
         self.linear_noise = (config.rotation_variance_per_radian,
@@ -176,7 +178,9 @@ class FastSLAM:
         known = self.config.association == "known"
         if known:
             usable &= labels >= 0
-        ranges, bearings, labels = ranges[usable], wrap_angle(bearings[usable]), labels[usable]
+        if not usable.all():
+            ranges, bearings, labels = ranges[usable], bearings[usable], labels[usable]
+        bearings = wrap_angle(bearings)
 
         fastslam2 = self.config.algorithm == "fastslam2"
         self._advance_motion()
@@ -228,7 +232,8 @@ class FastSLAM:
         reach = self._reach(ranges)
         low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
-        box = (*store.cell_of(low), *store.cell_of(high))
+        # Python ints (as LandmarkStore.cell_of computes them): compared on every reading.
+        box = tuple(math.floor(v / store.cell_size) for v in (*low.tolist(), *high.tolist()))
         # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
         label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
                      else None)
@@ -375,7 +380,7 @@ class FastSLAM:
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
         return (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
-                + np.hypot(self.config.sensor_x, self.config.sensor_y))
+                + self._lever_length)
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
