@@ -85,3 +85,22 @@ def test_memory_grows_with_distinct_blocks_not_particles():
     store.resample(np.zeros(100, np.int64))
     record = 6 * 8 + 2 * 8 + 1
     assert store.nbytes() < 0.2 * 100 * 5000 * record
+
+
+def test_deferred_resamplings_compose_like_applied_ones():
+    store = LandmarkStore(4, cell_size=5.0)
+    for particle in range(4):
+        insert(store, particle, np.array([[float(particle), 0.0], [30.0, 10.0 * particle]]))
+    first, second = np.array([3, 3, 0, 1]), np.array([2, 0, 0, 3])
+    store.resample(first)
+    store.resample(second)
+    expected = first[second]                             # particle m now holds first[second[m]]
+    deferred = [store.particle_map(m)[0] for m in range(4)]
+    store.apply_resampling()
+    for particle in range(4):
+        original = np.array([[float(expected[particle]), 0.0], [30.0, 10.0 * expected[particle]]])
+        for mean in (deferred[particle], store.particle_map(particle)[0]):
+            np.testing.assert_array_equal(mean[np.argsort(mean[:, 1])],
+                                          original[np.argsort(original[:, 1])])
+    # Blocks are counted again from the applied tables: maps 0, 3 and 1 survive, 2 blocks each.
+    assert store.rows_in_use() == 6

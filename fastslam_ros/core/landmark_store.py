@@ -3,9 +3,11 @@
 A *block* holds up to ``capacity`` landmarks of one spatial cell (side ``cell_size``). The pool
 arrays (``mean``, ``cov``, ``logodds``, ...) are indexed by block row and slot; ``table[m, c]``
 is the row that particle m uses for cell column c (-1: no landmark of m there). Resampling copies
-only the small ``table``; particles then share rows until one of them changes a landmark, at
-which point that particle gets its own copy of the block (copy-on-write). Memory therefore grows
-with the number of distinct blocks, not with M x N.
+only the ``table`` (and lazily: consecutive resamplings compose into one index array, applied
+when the tables are next read, which the filter does only when the robot reaches other cells);
+particles then share rows until one of them changes a landmark, at which point that particle
+gets its own copy of the block (copy-on-write). Memory therefore grows with the number of
+distinct blocks, not with M x N.
 
 The filter works on a dense *working set*: ``gather`` copies the landmarks of some cells of every
 particle into (M, K) arrays, the filter updates them over as many readings as the robot stays
@@ -121,6 +123,8 @@ class LandmarkStore(RecordViews):
         # Known association: column of the landmark with a given label, per particle.
         self._label_index: dict[int, int] = {}
         self.label_column = np.full((num_particles, 8), -1, dtype=np.int32)
+        # Resampling not yet applied to ``table``, ``label_column`` and ``refcount``.
+        self._resampled: np.ndarray | None = None
 
     # ------------------------------------------------------------------ memory
     @property
@@ -129,6 +133,7 @@ class LandmarkStore(RecordViews):
 
     def rows_in_use(self) -> int:
         """Distinct blocks referenced by at least one particle."""
+        self.apply_resampling()
         return int(np.count_nonzero(self.refcount))
 
     def nbytes(self) -> int:
@@ -138,6 +143,7 @@ class LandmarkStore(RecordViews):
 
     def landmark_counts(self) -> np.ndarray:
         """Number of landmarks of every particle (M,)."""
+        self.apply_resampling()
         rows = self.table[:, :self.num_cells]
         counts = np.where(rows >= 0, self.occupied.sum(axis=1)[np.maximum(rows, 0)], 0)
         return counts.sum(axis=1)
@@ -189,6 +195,7 @@ class LandmarkStore(RecordViews):
     # ------------------------------------------------------------------ labels (known ids)
     def label_columns(self, labels: np.ndarray) -> np.ndarray:
         """(M, len(labels)) column of each particle's landmark with that label, -1 if none."""
+        self.apply_resampling()
         index = self._label_indices(labels, create=False)
         columns = self.label_column[:, np.maximum(index, 0)]
         return np.where(index[None, :] >= 0, columns, -1)
@@ -254,6 +261,7 @@ class LandmarkStore(RecordViews):
     def gather(self, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
         """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set with
         ``num_new_slots`` empty columns for new landmarks."""
+        self.apply_resampling()
         num_particles = self.num_particles
         particle = np.arange(num_particles)[:, None]
         rows = np.where(columns >= 0, self.table[particle, np.maximum(columns, 0)], -1)
@@ -288,6 +296,7 @@ class LandmarkStore(RecordViews):
 
     def scatter(self, ws: WorkingSet, track_labels: bool) -> None:
         """Write changed and new working-set entries back, copying shared blocks first."""
+        self.apply_resampling()
         self._write_existing(ws, track_labels)
         self._insert_new(ws, track_labels)
 
@@ -365,7 +374,18 @@ class LandmarkStore(RecordViews):
 
     # ------------------------------------------------------------------ resampling and queries
     def resample(self, indices: np.ndarray) -> None:
-        """Particle m takes the map of particle ``indices[m]``: tables only, blocks shared."""
+        """Particle m takes the map of particle ``indices[m]``: tables only, blocks shared.
+
+        Deferred: the index arrays of consecutive resamplings compose (O(M)), and the tables,
+        whose size grows with the map, are reindexed once when next read.
+        """
+        self._resampled = indices if self._resampled is None else self._resampled[indices]
+
+    def apply_resampling(self) -> None:
+        """Reindex the tables by the resampling deferred so far and recount block references."""
+        if self._resampled is None:
+            return
+        indices, self._resampled = self._resampled, None
         self.table = self.table[indices]
         self.label_column = self.label_column[indices]
         used = self.table[:, :self.num_cells]
@@ -374,6 +394,8 @@ class LandmarkStore(RecordViews):
     def particle_map(self, particle: int, skip_columns: np.ndarray | None = None):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle,
         leaving out the cell ``skip_columns`` (-1 ignored)."""
+        if self._resampled is not None:
+            particle = int(self._resampled[particle])
         rows = self.table[particle, :self.num_cells].copy()
         if skip_columns is not None:
             rows[skip_columns[skip_columns >= 0]] = -1
