@@ -388,8 +388,9 @@ class LandmarkStore(RecordViews):
         indices, self._resampled = self._resampled, None
         self.table = self.table[indices]
         self.label_column = self.label_column[indices]
-        used = self.table[:, :self.num_cells]
-        self.refcount = np.bincount(used[used >= 0], minlength=self.num_rows).astype(np.int64)
+        # Shifted by one, so that -1 (no block) lands in bin 0: cheaper than masking it out.
+        shifted = self.table[:, :self.num_cells] + 1
+        self.refcount = np.bincount(shifted.ravel(), minlength=self.num_rows + 1)[1:]
 
     def particle_map(self, particle: int, skip_columns: np.ndarray | None = None):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle,
