@@ -223,3 +223,35 @@ def test_keeping_the_working_set_across_readings_changes_nothing(association):
                     np.testing.assert_array_equal(a[order_mine], b[order_theirs])
     # The run exercised both paths: kept across readings and gathered anew.
     assert kept.num_updates - len(gathers) > 50 and len(gathers) > 3
+
+
+def test_fastslam2_known_ids_without_outlier_model_weighs_like_the_scored_path():
+    """Without an outlier model, FastSLAM 2.0 with known ids skips scoring the observations
+    (the proposal's joint likelihood replaces their factors): the weights must equal those of
+    the scored path (eps = 1e-300 takes it and changes nothing measurable), also where only
+    some particles create a landmark (p0) because the others still hold it."""
+    world = make_world(seed=3, num_steps=150, detection_probability=0.6)
+    harsh = dict(algorithm="fastslam2", association="known", num_particles=30,
+                 logodds_missed=-2.0, logodds_remove=-0.5, alpha1=0.05, alpha3=0.05)
+    skipped = FastSLAM(config(**harsh, outlier_probability=0.0),
+                       rng=np.random.default_rng(7), initial_pose=world.steps[0].truth)
+    scored = FastSLAM(config(**harsh, outlier_probability=1e-300),
+                      rng=np.random.default_rng(7), initial_pose=world.steps[0].truth)
+    mixed = []
+    apply_to_map = skipped._apply_to_map
+
+    def recording(*args):
+        creating = apply_to_map(*args)
+        mixed.append(bool((creating.any(axis=1) & ~creating.all(axis=1)).any()))
+        return creating
+    skipped._apply_to_map = recording
+    previous = world.steps[0].odometry
+    for k, step in enumerate(world.steps[1:]):
+        keep = step.ids >= 0
+        for slam in (skipped, scored):
+            slam.predict(previous, step.odometry)
+            slam.update(step.ranges[keep], step.bearings[keep], step.ids[keep], stamp=float(k))
+        previous = step.odometry
+        np.testing.assert_allclose(skipped.poses, scored.poses, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(skipped.log_weights, scored.log_weights, atol=1e-9, rtol=0)
+    assert any(mixed)

@@ -322,6 +322,12 @@ class FastSLAM:
         mode = config.association
         if mode == "known":
             candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
+            if cov is not None and config.outlier_probability == 0.0:
+                # FastSLAM 2.0 weighs the associated observations by the proposal's joint
+                # likelihood, and no outlier test needs theirs: nothing to score.
+                choice = candidates[..., 0]                                  # -1 is NEW
+                zeros = np.zeros(choice.shape)
+                return choice, np.where(choice >= 0, 0.0, self._log_p0), zeros, zeros
             landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
