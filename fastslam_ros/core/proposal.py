@@ -25,8 +25,9 @@ not a loop over observations. The linearisation point starts at s_hat; with ``it
 the Jacobians are re-taken at the refined mean (Gauss-Newton, as in an iterated EKF), which
 matters when P is wide (the innovation is then z - h(s_i) - G_k (s_hat - s_i)).
 
-The per-observation products are written out component by component: numpy's stacked matmul,
-inv and det cost ~30x more per tiny matrix than a few elementwise operations.
+The per-observation 2x2 terms are written out component by component (numpy's stacked inv and
+det cost ~30x more per tiny matrix than a few elementwise operations), and one ``einsum`` each
+forms and sums J, b and the quadratic form over the observations.
 """
 from __future__ import annotations
 
@@ -64,10 +65,6 @@ def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarra
     return point, sigma, log_weight
 
 
-_UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
-"""Row and column of the six distinct entries of a symmetric 3x3 matrix."""
-_FULL = np.array([0, 1, 2, 1, 3, 4, 2, 4, 5])
-"""Those six entries laid out as the nine of the full matrix (row-major)."""
 # Cofactor C_ij = a[p] a[q] - a[r] a[s] of a row-major 3x3 matrix, in row-major (i, j) order.
 _COF_P, _COF_Q = np.array([4, 5, 3, 2, 0, 1, 1, 2, 0]), np.array([8, 6, 7, 7, 8, 6, 5, 3, 4])
 _COF_R, _COF_S = np.array([5, 3, 4, 1, 2, 0, 2, 0, 1]), np.array([7, 8, 6, 8, 6, 7, 4, 5, 3])
@@ -77,8 +74,8 @@ def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_d
     """Sums over each particle's used observations, linearised at ``point`` (n, 3):
     J (n, 3, 3), b (n, 3), nu^T Q^-1 nu and log det Q (n,), and the number of them (n,).
 
-    The per-pair terms are stacked into one (11, K, n) array and summed over observations at
-    once; unused pairs are given a harmless landmark 1 m ahead and contribute zero.
+    The per-pair terms are formed on the dense (K, n) layout and summed over the observations
+    by ``einsum``; unused pairs are given a harmless landmark 1 m ahead and contribute zero.
     """
     landmark_x = np.where(used, landmarks[..., 0], point[:, 0] + 1.0)
     landmark_y = np.where(used, landmarks[..., 1], point[:, 1])
@@ -101,24 +98,16 @@ def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_d
         d[2] = wrap_angle(d[2])
         nu -= (g_s * d[:, None, :]).sum(axis=1)
     det = q00 * q11 - q01 * q01
-    q_inv = np.array([q11, -q01, q00])                                  # (xx, xy, yy)
-    q_inv *= used / det                                                 # 0 where unused
-    u = np.array([q_inv[0] * g_s[0] + q_inv[1] * g_s[1],               # Q^-1 G_s (2, 3, K, n)
-                  q_inv[1] * g_s[0] + q_inv[2] * g_s[1]])
-    # The summands, (11, K, n): J's six distinct entries, b, nu^T Q^-1 nu, log det Q.
-    terms = np.empty((11,) + g00.shape)
-    row, col = _UPPER
-    np.multiply(g_s[0, row], u[0, col], out=terms[:6])
-    terms[:6] += g_s[1, row] * u[1, col]
-    np.multiply(u[0], nu[0], out=terms[6:9])
-    terms[6:9] += u[1] * nu[1]
-    terms[9] = nu[0] * (q_inv[0] * nu[0] + 2.0 * q_inv[1] * nu[1]) + q_inv[2] * nu[1] * nu[1]
-    np.log(det, out=terms[10])
-    terms[10] *= used                                    # unused pairs: a finite det, times 0
-    sums = terms.sum(axis=1)                                                    # (11, n)
-    count = point.shape[0]
-    return (sums[_FULL].T.reshape(count, 3, 3), sums[6:9].T, sums[9], sums[10],
-            used.sum(axis=0))
+    q_inv = np.array([[q11, -q01], [-q01, q00]])                       # Q^-1 (2, 2, K, n)
+    q_inv *= used / det                                                # 0 where unused
+    u = np.einsum("ijkn,jlkn->ilkn", q_inv, g_s)                       # Q^-1 G_s (2, 3, K, n)
+    # Summed over the observations k: J = G_s^T Q^-1 G_s, b = G_s^T Q^-1 nu, nu^T Q^-1 nu.
+    info = np.einsum("jikn,jlkn->nil", g_s, u)                         # (n, 3, 3)
+    b = np.einsum("jikn,jkn->ni", u, nu)                               # (n, 3)
+    quadratic = np.einsum("ikn,ijkn,jkn->n", nu, q_inv, nu)
+    log_det = np.log(det)
+    log_det *= used                                  # unused pairs: a finite det, times 0
+    return info, b, quadratic, log_det.sum(axis=0), used.sum(axis=0)
 
 
 def _combine(cov, info, b, quadratic, log_det_q, pairs):
