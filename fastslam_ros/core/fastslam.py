@@ -232,8 +232,7 @@ class FastSLAM:
         reach = self._reach(ranges)
         low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.landmarks
-        # Python ints (as LandmarkStore.cell_of computes them): compared on every reading.
-        box = tuple(math.floor(v / store.cell_size) for v in (*low.tolist(), *high.tolist()))
+        box = store.cell_box(low, high)
         # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
         label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
                      else None)

@@ -17,6 +17,7 @@ packed as (xx, xy, yy), so they are symmetric by construction.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,10 +155,15 @@ class LandmarkStore(RecordViews):
         cells = np.floor(points / self.cell_size).astype(np.int64)
         return cells[..., 0], cells[..., 1]
 
+    def cell_box(self, low: np.ndarray, high: np.ndarray) -> tuple[int, int, int, int]:
+        """(lowest x, lowest y, highest x, highest y) cell of the axis-aligned box [low, high],
+        as Python ints (the filter compares boxes on every reading)."""
+        return tuple(math.floor(v / self.cell_size) for v in (*np.asarray(low).tolist(),
+                                                                *np.asarray(high).tolist()))
+
     def columns_in_box(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """Columns of the known cells that intersect the axis-aligned box [low, high]."""
-        lo_x, lo_y = np.floor(np.asarray(low) / self.cell_size).astype(np.int64)
-        hi_x, hi_y = np.floor(np.asarray(high) / self.cell_size).astype(np.int64)
+        lo_x, lo_y, hi_x, hi_y = self.cell_box(low, high)
         ix, iy = self.cell_ix[:self.num_cells], self.cell_iy[:self.num_cells]
         return np.flatnonzero((ix >= lo_x) & (ix <= hi_x) & (iy >= lo_y) & (iy <= hi_y))
 

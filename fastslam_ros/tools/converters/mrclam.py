@@ -242,8 +242,9 @@ def fit_command_correction(runs: list, step: float = 1.0,
     fits = {float(delay): fit(float(delay)) for delay in delays}
     delay = min(fits, key=lambda candidate: fits[candidate][0])
     residual, yaw_scale, speed_scale, _ = fits[delay]
+    uncorrected = fits[0.0] if 0.0 in fits else fit(0.0)
     return {"command_delay": delay, "yaw_rate_scale": yaw_scale, "speed_scale": speed_scale,
-            "heading_residual_raw": fit(0.0)[3], "heading_residual_corrected": residual}
+            "heading_residual_raw": uncorrected[3], "heading_residual_corrected": residual}
 
 
 def _window_changes(runs: list, delay: float, step: float):
