@@ -44,7 +44,9 @@ def test_sim_replay_eval_chain(tmp_path, capsys):
     metrics = json.loads(metrics_path.read_text())
     assert metrics["estimate"]["samples"] == 150
     assert metrics["landmarks"]["truth"] + metrics["landmarks_never_observed"] == 85
-    assert metrics["landmarks"]["match_method"] == "id"
+    # The recommended file associates by maximum likelihood: the map is matched by position.
+    assert metrics["params"]["association"] == "ml"
+    assert metrics["landmarks"]["match_method"] == "assignment"
     assert metrics["association"]["checked"] > 0
     assert metrics["runtime"]["bag_duration"] == pytest.approx(30.0)
     assert metrics["params"]["num_particles"] == 20

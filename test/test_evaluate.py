@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries
-from fastslam_ros.tools.evaluate import (RunData, Transform2D, align_se2, error_stats,
-                                         evaluate_run, evaluate_trajectory,
+from fastslam_ros.tools.evaluate import (LandmarkEstimate, RunData, Transform2D, align_se2,
+                                         error_stats, evaluate_run, evaluate_trajectory,
                                          interpolate_positions, json_ready, landmark_metrics,
-                                         match_landmarks, markdown_table, ospa)
+                                         match_landmarks, markdown_table, matches_by_id, ospa)
 
 RNG = np.random.default_rng(7)
 
@@ -92,6 +92,35 @@ def test_landmarks_without_ids_use_optimal_assignment():
     rows, cols, method = match_landmarks(estimate, np.full(2, -1), truth, np.full(2, -1), 2.0)
     assert method == "assignment"
     assert sorted(zip(rows.tolist(), cols.tolist())) == [(0, 0), (1, 1)]
+
+
+def test_unknown_association_maps_are_matched_by_position_not_by_creation_labels():
+    # Labels of an unknown-association map name the observation that created each landmark:
+    # here a misread barcode labelled the landmark at (5, 0) with id 0.
+    truth = LandmarkSet(np.array([[0.0, 0.0], [5.0, 0.0]]), np.array([0, 1]))
+    landmarks = LandmarkEstimate(np.array([[0.1, 0.0], [5.0, 0.2]]), np.zeros((2, 2, 2)),
+                                 np.array([0, 0]), np.ones(2))
+    stamps = np.arange(3.0)
+    poses = np.zeros((3, 3))
+
+    def landmark_result(params, match="auto"):
+        run = RunData(PoseSeries(stamps, poses), None, None, PoseSeries(stamps, poses),
+                      landmarks, truth, {"params": params}, {})
+        return evaluate_run(run, match=match).metrics["landmarks"]
+
+    by_position = landmark_result({"association": "monte_carlo"})
+    assert by_position["match_method"] == "assignment"
+    assert (by_position["matched"], by_position["spurious"]) == (2, 0)
+    assert by_position["rmse"] == pytest.approx(math.sqrt((0.01 + 0.04) / 2))
+    by_label = landmark_result({"association": "known"})
+    assert by_label["match_method"] == "id"
+    assert (by_label["matched"], by_label["missed"], by_label["spurious"]) == (1, 1, 1)
+    assert landmark_result({"association": "ml"}, match="id")["match_method"] == "id"
+    assert landmark_result({}, match="assignment")["match_method"] == "assignment"
+    # A recording without the replay's parameters (a live node) keeps its ids.
+    assert landmark_result({})["match_method"] == "id"
+    with pytest.raises(ValueError, match="match"):
+        matches_by_id({}, "nearest")
 
 
 def test_a_reference_point_off_the_base_is_compared_at_that_point():

@@ -16,9 +16,12 @@ alignment (rotation and translation, no scale). Only positions are compared, so 
 reference (GPS) works.
 
 The landmark map is put in the ground-truth frame with the final path's alignment (the map
-belongs to that particle), then matched to the truth: by id when both carry ids, otherwise by
-optimal assignment; a pair farther apart than ``cutoff`` counts as one missed and one spurious
-landmark. OSPA uses cut-off c = 2 m and order p = 2:
+belongs to that particle), then matched to the truth: by id when the filter associated by id
+(``association: known``) and both carry ids, otherwise by optimal assignment of the distances; a
+pair farther apart than ``cutoff`` counts as one missed and one spurious landmark. With unknown
+association a landmark's label is only that of the observation that created it (a misread
+barcode or a merged pair of close landmarks gives it a label that names another place), so the
+map is judged by where its landmarks are, not by their labels. OSPA uses cut-off c = 2 m and order p = 2:
 ``OSPA = ((min_assignment sum min(d, c)^p + c^p |n - m|) / max(n, m))^(1/p)``.
 """
 from __future__ import annotations
@@ -53,6 +56,8 @@ OSPA_ORDER = 2
 """OSPA order p."""
 DEFAULT_MAX_GAP = 1.0
 """Ground truth is not interpolated across gaps longer than this (s)."""
+LANDMARK_MATCHES = ("auto", "id", "assignment")
+"""How estimated landmarks are paired with the truth (see ``matches_by_id``)."""
 
 
 # ---------------------------------------------------------------- metric functions
@@ -189,11 +194,13 @@ def ospa(estimate: np.ndarray, truth: np.ndarray, cutoff: float = OSPA_CUTOFF,
 
 
 def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.ndarray,
-                    truth_ids: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray, str]:
+                    truth_ids: np.ndarray, cutoff: float,
+                    by_id: bool = True) -> tuple[np.ndarray, np.ndarray, str]:
     """Pairs ``(estimate index, truth index)`` closer than ``cutoff`` and the method used.
 
-    By id when both sides carry ids (the nearest estimate of each truth id; estimates without
-    an id are then unmatched); otherwise by optimal assignment of the distances.
+    By id when ``by_id`` and both sides carry ids (the nearest estimate of each truth id;
+    estimates without an id are then unmatched); otherwise by optimal assignment of the
+    distances.
     """
     estimate = np.asarray(estimate, dtype=float).reshape(-1, 2)
     truth = np.asarray(truth, dtype=float).reshape(-1, 2)
@@ -201,7 +208,7 @@ def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.nd
     if len(estimate) == 0 or len(truth) == 0:
         return empty, empty, "none"
     distance = np.linalg.norm(estimate[:, None] - truth[None], axis=2)
-    if np.any(np.asarray(estimate_ids) >= 0) and np.any(np.asarray(truth_ids) >= 0):
+    if by_id and np.any(np.asarray(estimate_ids) >= 0) and np.any(np.asarray(truth_ids) >= 0):
         method = "id"
         pairs = []
         for truth_index, truth_id in enumerate(truth_ids):
@@ -219,10 +226,10 @@ def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.nd
 
 
 def landmark_metrics(estimate: np.ndarray, estimate_ids: np.ndarray, truth: LandmarkSet,
-                     cutoff: float = OSPA_CUTOFF) -> dict[str, Any]:
+                     cutoff: float = OSPA_CUTOFF, by_id: bool = True) -> dict[str, Any]:
     """RMSE of matched landmarks, missed / spurious counts and OSPA (positions in map frame)."""
     rows, cols, method = match_landmarks(estimate, estimate_ids, truth.positions, truth.ids,
-                                         cutoff)
+                                         cutoff, by_id)
     errors = np.linalg.norm(np.asarray(estimate).reshape(-1, 2)[rows] - truth.positions[cols],
                             axis=1)
     return {"rmse": float(np.sqrt(np.mean(errors**2))) if len(errors) else math.nan,
@@ -352,13 +359,26 @@ class Evaluation:
     landmark_alignment: Transform2D | None
 
 
+def matches_by_id(params: dict[str, Any], match: str = "auto") -> bool:
+    """Whether landmarks are matched by id: ``match`` is ``id``, ``assignment`` or ``auto``
+    (by id unless the run's parameters name an association other than ``known``; a recording
+    without them, e.g. from a live node, keeps its ids)."""
+    if match not in LANDMARK_MATCHES:
+        raise ValueError(f"match must be one of {LANDMARK_MATCHES}, not {match!r}")
+    if match != "auto":
+        return match == "id"
+    return params.get("association", "known") == "known"
+
+
 def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
                  max_gap: float = DEFAULT_MAX_GAP, min_existence: float = 0.0,
-                 at_base: bool = False) -> Evaluation:
+                 at_base: bool = False, match: str = "auto") -> Evaluation:
     """Compute every metric of a loaded run.
 
     Poses are compared at the point the ground truth measures (``reference_offset``, e.g. a
-    GPS antenna); ``at_base`` compares the robot base instead."""
+    GPS antenna); ``at_base`` compares the robot base instead. ``match`` chooses how
+    landmarks are paired with the truth (see ``matches_by_id``)."""
+    by_id = matches_by_id(run.replay_info.get("params", {}), match)
     trajectories: dict[str, TrajectoryResult] = {}
     metrics: dict[str, Any] = {}
     if run.ground_truth is not None:
@@ -392,8 +412,8 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
                 metrics["landmarks_never_observed"] = int(np.count_nonzero(~seen))
                 truth = LandmarkSet(truth.positions[seen], truth.ids[seen])
             metrics["landmarks"] = landmark_metrics(landmark_alignment.apply(positions), ids,
-                                                    truth, cutoff)
-            metrics["landmarks_raw"] = landmark_metrics(positions, ids, truth, cutoff)
+                                                    truth, cutoff, by_id)
+            metrics["landmarks_raw"] = landmark_metrics(positions, ids, truth, cutoff, by_id)
     checked = run.diagnostics.get("associations_checked")
     correct = run.diagnostics.get("associations_correct")
     if checked is not None and correct is not None and int(float(checked)) > 0:
@@ -411,7 +431,8 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
 
 def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
              cutoff: float = OSPA_CUTOFF, max_gap: float = DEFAULT_MAX_GAP,
-             min_existence: float = 0.0, at_base: bool = False) -> dict[str, Any]:
+             min_existence: float = 0.0, at_base: bool = False,
+             match: str = "auto") -> dict[str, Any]:
     """Metrics of a recorded run (JSON-ready).
 
     Keys, each present when its inputs are: ``estimate``, ``final_path``, ``dead_reckoning``
@@ -425,7 +446,7 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
     ``stats`` (node counters); ``params``; ``ground_truth_position_only``.
     """
     run = load_run(out_path, ground_truth_path)
-    return evaluate_run(run, cutoff, max_gap, min_existence, at_base).metrics
+    return evaluate_run(run, cutoff, max_gap, min_existence, at_base, match).metrics
 
 
 def json_ready(value: Any) -> Any:
@@ -505,6 +526,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--at-base", action="store_true",
                         help="compare the robot base even when the ground truth measures another "
                              "point of the robot (/tf_static), e.g. to see what that point costs")
+    parser.add_argument("--match", choices=LANDMARK_MATCHES, default="auto",
+                        help="pair landmarks with the truth by id or by optimal assignment of "
+                             "the distances; auto: by id only for a run with known association "
+                             "[auto]")
     args = parser.parse_args(argv)
     try:
         run = load_run(args.out, args.ground_truth)
@@ -518,7 +543,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fastslam-eval: no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}",
               file=sys.stderr)
         return 1
-    evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence, args.at_base)
+    evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence, args.at_base,
+                              args.match)
     print(markdown_table(evaluation.metrics))
     if args.json:
         args.json.write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")

@@ -213,7 +213,9 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
         reader = cleanup.enter_context(_open_input(bag_path))
         node = _create_node(context, merged)
         cleanup.callback(node.destroy_node)
-        used_params = {name: node.get_parameter(name).value for name in sorted(merged)}
+        # The association is always recorded: the evaluation matches landmarks by it.
+        used_params = {name: node.get_parameter(name).value
+                       for name in sorted(set(merged) | {"algorithm", "association"})}
         recorder = None
         if out_path is not None:
             writer = open_writer(out_path, "mcap", overwrite)
