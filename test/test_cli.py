@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -160,3 +161,16 @@ def test_bench_prints_and_writes_its_figures(tmp_path, capsys):
         assert row["runs"] == 2 and row["obs_per_s_best"] >= row["obs_per_s_median"] > 0
     assert [r["landmarks"] for r in results["memory"]] == [10000, 50000]
     assert all(r["ratio"] < 1.0 for r in results["memory"])
+
+
+def test_benchmark_plan_resolves_the_shipped_association_per_family():
+    mrclam = benchmark.Sequence("mrclam", "MRCLAM_Dataset6 R1", Path("unused"))
+    park = benchmark.Sequence("victoria-park", "VictoriaPark", Path("unused"), has_ids=False)
+    specs = benchmark.plan([mrclam, park], ["fastslam2"], ["known", "config", "ml"], [100], 2)
+    runs = [(spec.sequence.kind, spec.association, spec.seed) for spec in specs]
+    # MRCLAM's file names monte_carlo; Victoria Park's names ml, which is then planned once,
+    # and it has no ids, so no known association.
+    assert runs == [("mrclam", "known", 1), ("mrclam", "known", 2),
+                    ("mrclam", "monte_carlo", 1), ("mrclam", "monte_carlo", 2),
+                    ("mrclam", "ml", 1), ("mrclam", "ml", 2),
+                    ("victoria-park", "ml", 1), ("victoria-park", "ml", 2)]

@@ -3,8 +3,9 @@
 Datasets are looked for under ``--datasets`` (default ``../shared/datasets``): MRCLAM folders
 (``MRCLAM_Dataset*``, one sequence per robot), Victoria Park (``rfs_slam_txt``) and the Freiburg
 course world. Each sequence runs with its shipped parameter file (``config/<family>.yaml``) for
-FastSLAM 1.0 and 2.0, known and unknown (``ml``) association (Victoria Park has no ids: unknown
-only), for every ``--particles`` count and ``--seeds`` seeds. Converted bags are kept in
+FastSLAM 1.0 and 2.0, known association and the unknown association that file names
+(``config``: ``monte_carlo`` for MRCLAM, ``ml`` for the others; Victoria Park has no ids, so no
+known association), for every ``--particles`` count and ``--seeds`` seeds. Converted bags are kept in
 ``OUT_DIR/bags`` and reused. The table (one row per run, then the mean and worst row of every
 group) goes to stdout and to ``OUT_DIR/benchmark.md``, the raw metrics to ``benchmark.json``.
 """
@@ -24,6 +25,8 @@ from fastslam_ros.tools import convert
 
 FAMILY_CONFIGS = {"mrclam": "mrclam.yaml", "victoria-park": "victoria_park.yaml",
                   "freiburg": "freiburg.yaml"}
+SHIPPED_ASSOCIATION = "config"
+"""``--associations`` entry meaning the association the sequence's parameter file names."""
 QUICK_DURATION = 300.0
 """Seconds of each sequence that ``--quick`` keeps."""
 
@@ -203,13 +206,26 @@ def markdown(rows: list[dict[str, Any]], baselines: dict[str, dict[str, Any]]) -
     return "\n".join(lines)
 
 
+def shipped_association(kind: str) -> str:
+    """The association named by a family's shipped parameter file."""
+    from fastslam_ros.tools.replay import load_params_file
+
+    return load_params_file(config_dir() / FAMILY_CONFIGS[kind]).get("association", "ml")
+
+
 def plan(sequences: list[Sequence], algorithms: list[str], associations: list[str],
          particles: list[int], seeds: int) -> list[RunSpec]:
-    """Every run: the product of the options, without known association where ids are absent."""
-    return [RunSpec(sequence, algorithm, association, count, seed)
-            for sequence in sequences for algorithm in algorithms
-            for association in associations if association != "known" or sequence.has_ids
-            for count in particles for seed in range(1, seeds + 1)]
+    """Every run: the product of the options (``config`` resolved per sequence, each
+    association once), without known association where ids are absent."""
+    specs = []
+    for sequence in sequences:
+        resolved = [shipped_association(sequence.kind) if name == SHIPPED_ASSOCIATION else name
+                    for name in associations]
+        usable = [name for name in dict.fromkeys(resolved) if name != "known" or sequence.has_ids]
+        specs += [RunSpec(sequence, algorithm, association, count, seed)
+                  for algorithm in algorithms for association in usable
+                  for count in particles for seed in range(1, seeds + 1)]
+    return specs
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -222,8 +238,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="particle counts (default 100; add 1000 where time allows)")
     parser.add_argument("--algorithms", nargs="+", default=["fastslam1", "fastslam2"],
                         choices=["fastslam1", "fastslam2"])
-    parser.add_argument("--associations", nargs="+", default=["known", "ml"],
-                        choices=["known", "ml", "monte_carlo", "two_gate"])
+    parser.add_argument("--associations", nargs="+", default=["known", SHIPPED_ASSOCIATION],
+                        choices=["known", "ml", "monte_carlo", "two_gate", SHIPPED_ASSOCIATION],
+                        help="known ids and/or unknown association rules; config: the one the "
+                             "sequence's parameter file names (default: known config)")
     parser.add_argument("--seeds", type=int, default=1, help="seeds 1..N per configuration")
     parser.add_argument("--only", default=None,
                         help="run only sequences whose name contains this text")
