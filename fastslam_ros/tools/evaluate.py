@@ -21,7 +21,8 @@ belongs to that particle), then matched to the truth: by id when the filter asso
 pair farther apart than ``cutoff`` counts as one missed and one spurious landmark. With unknown
 association a landmark's label is only that of the observation that created it (a misread
 barcode or a merged pair of close landmarks gives it a label that names another place), so the
-map is judged by where its landmarks are, not by their labels. OSPA uses cut-off c = 2 m and order p = 2:
+map is judged by where its landmarks are, not by their labels. OSPA uses cut-off c = 2 m and
+order p = 2:
 ``OSPA = ((min_assignment sum min(d, c)^p + c^p |n - m|) / max(n, m))^(1/p)``.
 """
 from __future__ import annotations
