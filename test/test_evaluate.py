@@ -47,6 +47,18 @@ def test_ate_of_a_constant_offset():
     assert metrics["samples"] == len(stamps)
 
 
+def test_jumps_count_error_steps_beyond_the_threshold_not_the_motion():
+    stamps = np.arange(0.0, 10.0)
+    truth = PoseSeries(stamps, np.stack([3.0 * stamps, np.zeros(10), np.zeros(10)], axis=1))
+    estimate = truth.poses[:, :2].copy()          # follows the truth, 3 m per step
+    estimate[4] += (0.0, 2.0)                     # one excursion: out 2 m and back
+    estimate[7:] += (0.4, 0.0)                    # one step under the threshold
+    jumps = evaluate_trajectory(stamps, estimate, truth).metrics()["jumps"]
+    assert jumps == {"threshold": 0.5, "count": 2, "max_step": pytest.approx(2.0)}
+    table = markdown_table({"estimate": evaluate_trajectory(stamps, estimate, truth).metrics()})
+    assert table.splitlines()[2].endswith("| 2 |")
+
+
 def test_ground_truth_is_interpolated_but_not_across_gaps():
     stamps = np.array([0.0, 1.0, 2.0, 10.0])
     positions = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 4.0], [0.0, 0.0]])

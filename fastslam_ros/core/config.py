@@ -113,6 +113,12 @@ class FastSLAMConfig:
     """``systematic``, ``stratified``, ``residual`` or ``multinomial``."""
     resample_threshold: float = 0.5
     """Resample when N_eff < resample_threshold * M (1.0: every update)."""
+    best_switch_margin: float = 0.0
+    """The particle reported as the best (its pose, map and path) is replaced only by one whose
+    log weight exceeds its own by more than this (nats); 0: always the highest weight. Particles
+    whose whole map and path are turned against each other (a freedom the observations do not
+    fix) weigh about the same, and without a margin the outputs can flip between them from one
+    reading to the next."""
     cell_size: float = 10.0
     """Side (m) of the spatial cells that index each particle's map."""
     seed: int = -1
@@ -161,6 +167,7 @@ class FastSLAMConfig:
         need(self.logodds_remove < self.logodds_observed, "logodds_remove", "< logodds_observed")
         need(self.logodds_max >= self.logodds_observed, "logodds_max", ">= logodds_observed")
         need(0.0 < self.resample_threshold <= 1.0, "resample_threshold", "in (0, 1]")
+        need(self.best_switch_margin >= 0.0, "best_switch_margin", ">= 0")
         need(self.cell_size > 0.0, "cell_size", "> 0")
         need(isinstance(self.seed, int) and self.seed >= -1, "seed", "an integer >= -1")
         return self

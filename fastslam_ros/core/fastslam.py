@@ -514,7 +514,7 @@ class FastSLAM:
         self.log_weights, underflow = normalize_log_weights(self.log_weights)
         self.num_underflows += int(underflow)
         weights = np.exp(self.log_weights)
-        best = int(self.log_weights.argmax())
+        best = self._select_best()
         best_choice, is_new = choices[:, best], creating[:, best]
         labels = np.where(best_choice >= 0, ws.label[best, np.maximum(best_choice, 0)], -1)
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
@@ -527,9 +527,20 @@ class FastSLAM:
             self._working = self._working.take(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-            self._best = int((indices == best).argmax())
+            copies = (indices == best).nonzero()[0]
+            # The best particle has no copy only when a margin kept a light one: take the
+            # heaviest particle drawn instead.
+            self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
             report.resampled = True
         return report
+
+    def _select_best(self) -> int:
+        """The highest weight, unless the current best is within ``best_switch_margin`` of it."""
+        best = int(self.log_weights.argmax())
+        margin = self.config.best_switch_margin
+        if margin > 0.0 and self.log_weights[self._best] + margin >= self.log_weights[best]:
+            return self._best
+        return best
 
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:

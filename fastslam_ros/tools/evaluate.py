@@ -57,6 +57,9 @@ OSPA_ORDER = 2
 """OSPA order p."""
 DEFAULT_MAX_GAP = 1.0
 """Ground truth is not interpolated across gaps longer than this (s)."""
+JUMP_THRESHOLD = 0.5
+"""An estimate jumps (m) when its error changes by more than this from one sample to the next:
+it moved that much further than the truth did, e.g. when another particle became the best."""
 LANDMARK_MATCHES = ("auto", "id", "assignment")
 """How estimated landmarks are paired with the truth (see ``matches_by_id``)."""
 
@@ -142,13 +145,23 @@ class TrajectoryResult:
     raw_errors: np.ndarray
     aligned_errors: np.ndarray
 
+    def error_steps(self) -> np.ndarray:
+        """(N - 1,) change of the position error between consecutive samples (m): how much
+        further than the truth the estimate moved."""
+        return np.linalg.norm(np.diff(self.estimate - self.reference, axis=0), axis=1)
+
     def metrics(self) -> dict[str, Any]:
-        """ATE statistics (m) raw and aligned, the alignment, and the number of samples."""
+        """ATE statistics (m) raw and aligned, the alignment, the number of samples and the
+        jumps (error steps above ``JUMP_THRESHOLD``: how many, and the largest step)."""
+        steps = self.error_steps()
         return {"raw": error_stats(self.raw_errors), "aligned": error_stats(self.aligned_errors),
                 "alignment": {"yaw": self.alignment.yaw,
                               "x": float(self.alignment.translation[0]),
                               "y": float(self.alignment.translation[1])},
-                "samples": int(len(self.stamps))}
+                "samples": int(len(self.stamps)),
+                "jumps": {"threshold": JUMP_THRESHOLD,
+                          "count": int(np.count_nonzero(steps > JUMP_THRESHOLD)),
+                          "max_step": float(steps.max()) if len(steps) else 0.0}}
 
 
 def reference_positions(poses: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
@@ -438,8 +451,8 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
 
     Keys, each present when its inputs are: ``estimate``, ``final_path``, ``dead_reckoning``
     (each ``{"raw": {"rmse", "max", "final"}, "aligned": {...}, "alignment": {"yaw", "x", "y"},
-    "samples"}``, metres); ``landmarks`` (after the final path's alignment) and
-    ``landmarks_raw``, each ``{"rmse", "ospa", "matched", "missed", "spurious", "estimated",
+    "samples", "jumps": {"threshold", "count", "max_step"}}``, metres); ``landmarks`` (after
+    the final path's alignment) and ``landmarks_raw``, each ``{"rmse", "ospa", "matched", "missed", "spurious", "estimated",
     "truth", "match_method", "cutoff"}``; ``landmarks_never_observed`` (truth landmarks left out
     because no input cloud labels them); ``landmarks_estimated``; ``association``
     (``{"checked", "correct", "accuracy"}`` from the last ``/diagnostics``); ``runtime``
@@ -470,8 +483,8 @@ def _number(value: float, digits: int = 3) -> str:
 def markdown_table(metrics: dict[str, Any]) -> str:
     """The summary as Markdown: one row per trajectory, then landmarks, association, runtime."""
     lines = ["| trajectory | ATE RMSE (m) | max (m) | final (m) | aligned RMSE (m) | "
-             "aligned max (m) | aligned final (m) |",
-             "|---|---|---|---|---|---|---|"]
+             f"aligned max (m) | aligned final (m) | jumps > {JUMP_THRESHOLD:g} m |",
+             "|---|---|---|---|---|---|---|---|"]
     labels = {"estimate": "estimate (at the time)", "final_path": "best particle, final path",
               "dead_reckoning": "dead reckoning"}
     for key, label in labels.items():
@@ -479,7 +492,8 @@ def markdown_table(metrics: dict[str, Any]) -> str:
             raw, aligned = metrics[key]["raw"], metrics[key]["aligned"]
             lines.append(f"| {label} | {_number(raw['rmse'])} | {_number(raw['max'])} | "
                          f"{_number(raw['final'])} | {_number(aligned['rmse'])} | "
-                         f"{_number(aligned['max'])} | {_number(aligned['final'])} |")
+                         f"{_number(aligned['max'])} | {_number(aligned['final'])} | "
+                         f"{metrics[key]['jumps']['count']} |")
     summary = []
     if "landmarks" in metrics:
         lm = metrics["landmarks"]
