@@ -174,3 +174,15 @@ def test_benchmark_plan_resolves_the_shipped_association_per_family():
                     ("mrclam", "monte_carlo", 1), ("mrclam", "monte_carlo", 2),
                     ("mrclam", "ml", 1), ("mrclam", "ml", 2),
                     ("victoria-park", "ml", 1), ("victoria-park", "ml", 2)]
+
+
+def test_benchmark_table_gives_the_jumps_of_each_run_and_their_mean():
+    rows = [{"sequence": f"MRCLAM_Dataset6 R{robot}", "algorithm": "fastslam2",
+             "association": "known", "particles": 100, "seed": 1, "estimate_aligned": ate,
+             "estimate_jumps": jumps} for robot, ate, jumps in ((1, 0.2, 3), (2, 0.4, 6))]
+    lines = benchmark.markdown(rows, {}).splitlines()
+    header = [cell.strip() for cell in lines[0].strip("|").split("|")]
+    column = header.index("jumps")
+    assert header[column - 1] == "ATE aligned (m)"
+    cells = [[cell.strip() for cell in line.strip("|").split("|")] for line in lines[2:6]]
+    assert [row[column] for row in cells] == ["3", "6", "4.5", "6.0"]   # runs, mean, worst

@@ -141,6 +141,8 @@ def run_one(spec: RunSpec, bag: Path, out_dir: Path) -> dict[str, Any]:
         if key in metrics:
             row[f"{key}_raw"] = metrics[key]["raw"]["rmse"]
             row[f"{key}_aligned"] = metrics[key]["aligned"]["rmse"]
+    if "estimate" in metrics:
+        row["estimate_jumps"] = metrics["estimate"]["jumps"]["count"]
     if "landmarks" in metrics:
         landmarks = metrics["landmarks"]
         row.update(landmark_rmse=landmarks["rmse"], spurious=landmarks["spurious"],
@@ -160,6 +162,7 @@ def _cell(value: Any, digits: int = 3) -> str:
 COLUMNS = (("sequence", "sequence", 0), ("algorithm", "algorithm", 0),
            ("association", "assoc.", 0), ("particles", "M", 0), ("seed", "seed", 0),
            ("estimate_raw", "ATE raw (m)", 3), ("estimate_aligned", "ATE aligned (m)", 3),
+           ("estimate_jumps", "jumps", 1),
            ("final_path_raw", "final path raw (m)", 3),
            ("final_path_aligned", "final path aligned (m)", 3),
            ("landmark_rmse", "landmark RMSE (m)", 3), ("spurious", "spurious", 1),
