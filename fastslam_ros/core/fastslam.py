@@ -62,7 +62,7 @@ class LandmarkMap:
 
 @dataclass
 class UpdateReport:
-    """What one ``update`` did, seen from the particle with the highest weight."""
+    """What one ``update`` did, seen from the best particle (``best_index``)."""
 
     num_observations: int
     associated_ids: np.ndarray
@@ -544,7 +544,8 @@ class FastSLAM:
 
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:
-        """The particle with the highest weight (after resampling: a copy of it)."""
+        """The particle with the highest weight, or the previous best while no other outweighs
+        it by more than ``best_switch_margin`` (after resampling: a copy of it)."""
         return self._best
 
     def particle_poses(self) -> np.ndarray:
