@@ -167,8 +167,8 @@ def test_best_particle_changes_only_beyond_the_switch_margin():
     assert sticky.best_index() == 0                  # 0.5 / 0.2 < e: particle 0 stays
     reweigh(sticky, [0.1, 0.5, 0.2, 0.2])
     assert sticky.best_index() == 1                  # 0.5 / 0.1 > e
-    reweigh(sticky, [0.3, 0.4, 0.15, 0.15])
-    assert sticky.best_index() == 1                  # now 1 is the one to beat
+    reweigh(sticky, [0.4, 0.3, 0.15, 0.15])
+    assert sticky.best_index() == 1                  # now 1 stays: 0.4 / 0.3 < e
     # Resampling keeps the best particle as one of its copies (systematic resampling draws a
     # weight >= 1 / M at least once) ...
     every = filter_with(resample_threshold=1.0, best_switch_margin=1.0)

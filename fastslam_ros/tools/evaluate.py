@@ -452,8 +452,8 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
     Keys, each present when its inputs are: ``estimate``, ``final_path``, ``dead_reckoning``
     (each ``{"raw": {"rmse", "max", "final"}, "aligned": {...}, "alignment": {"yaw", "x", "y"},
     "samples", "jumps": {"threshold", "count", "max_step"}}``, metres); ``landmarks`` (after
-    the final path's alignment) and ``landmarks_raw``, each ``{"rmse", "ospa", "matched", "missed", "spurious", "estimated",
-    "truth", "match_method", "cutoff"}``; ``landmarks_never_observed`` (truth landmarks left out
+    the final path's alignment) and ``landmarks_raw``, each ``{"rmse", "ospa", "matched",
+    "missed", "spurious", "estimated", "truth", "match_method", "cutoff"}``; ``landmarks_never_observed`` (truth landmarks left out
     because no input cloud labels them); ``landmarks_estimated``; ``association``
     (``{"checked", "correct", "accuracy"}`` from the last ``/diagnostics``); ``runtime``
     (``{"wall_time", "cpu_time", "bag_duration", "real_time_factor"}`` from the replay);
