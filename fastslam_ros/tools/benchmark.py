@@ -6,8 +6,9 @@ course world. Each sequence runs with its shipped parameter file (``config/<fami
 FastSLAM 1.0 and 2.0, known association and the unknown association that file names
 (``config``: ``monte_carlo`` for MRCLAM, ``ml`` for the others; Victoria Park has no ids, so no
 known association), for every ``--particles`` count and ``--seeds`` seeds. Converted bags are
-kept in ``OUT_DIR/bags`` and reused. The table (one row per run, then the mean and worst row of every
-group) goes to stdout and to ``OUT_DIR/benchmark.md``, the raw metrics to ``benchmark.json``.
+kept in ``OUT_DIR/bags`` and reused. The table (one row per run, then the mean and worst row of
+every group) goes to stdout and to ``OUT_DIR/benchmark.md``, the raw metrics to
+``benchmark.json``.
 """
 from __future__ import annotations
 

@@ -453,8 +453,9 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
     (each ``{"raw": {"rmse", "max", "final"}, "aligned": {...}, "alignment": {"yaw", "x", "y"},
     "samples", "jumps": {"threshold", "count", "max_step"}}``, metres); ``landmarks`` (after
     the final path's alignment) and ``landmarks_raw``, each ``{"rmse", "ospa", "matched",
-    "missed", "spurious", "estimated", "truth", "match_method", "cutoff"}``; ``landmarks_never_observed`` (truth landmarks left out
-    because no input cloud labels them); ``landmarks_estimated``; ``association``
+    "missed", "spurious", "estimated", "truth", "match_method", "cutoff"}``;
+    ``landmarks_never_observed`` (truth landmarks left out because no input cloud labels them);
+    ``landmarks_estimated``; ``association``
     (``{"checked", "correct", "accuracy"}`` from the last ``/diagnostics``); ``runtime``
     (``{"wall_time", "cpu_time", "bag_duration", "real_time_factor"}`` from the replay);
     ``stats`` (node counters); ``params``; ``ground_truth_position_only``.
