@@ -180,6 +180,39 @@ def test_best_particle_changes_only_beyond_the_switch_margin():
     np.testing.assert_allclose(wide.best_pose(), poses[2])
 
 
+def test_central_best_particle_is_nearest_the_weighted_mean_position():
+    """Two heavy particles at the ends of the spread and a light one between them: the heaviest
+    is an end, the central one the middle (closed form: the weighted mean is (1.9, 0.17))."""
+    poses = np.array([[0, 0, 0.4], [4, 0, -0.4], [2, 0.2, 0], [2, 3, 0]], float)
+    weights = np.array([0.45, 0.4, 0.1, 0.05])
+    mean = weights @ poses[:, :2]
+    np.testing.assert_allclose(mean, [1.9, 0.17])
+
+    def filter_with(**changes) -> FastSLAM:
+        slam = FastSLAM(config(num_particles=4, resample_threshold=0.1, **changes))
+        slam.poses = poses.copy()
+        slam.log_weights = np.log(weights)
+        assert not slam.update([], []).resampled
+        return slam
+
+    assert filter_with().best_index() == 0
+    central = filter_with(best_particle="central")
+    assert central.best_index() == 2
+    np.testing.assert_allclose(central.best_pose(), poses[2])
+    # After resampling, the central particle of the drawn set. Weights in quarters draw
+    # particles 0, 0, 1, 2 (systematic); the nearly weightless particle 3 sits on the mean
+    # (1.5, 0.25), so it is central before and gone after: the drawn set's central one is 2.
+    resampled = FastSLAM(config(num_particles=4, resample_threshold=1.0,
+                                best_particle="central"))
+    resampled.poses = np.array([[0, 0, 0], [4, 0, 0], [2, 1, 0], [1.5, 0.25, 0]], float)
+    resampled.log_weights = np.log([0.5, 0.25, 0.25, 1e-12])
+    assert resampled.update([], []).resampled
+    np.testing.assert_allclose(np.sort(resampled.poses[:, 0]), [0, 0, 2, 4])
+    np.testing.assert_allclose(resampled.best_pose(), [2, 1, 0])
+    with pytest.raises(ValueError, match="best_particle"):
+        config(best_particle="lightest")
+
+
 def test_mean_pose_and_covariance_of_known_particles():
     slam = FastSLAM(config(num_particles=4), initial_pose=(0, 0, 0))
     slam.poses = np.array([[0, 0, np.pi - 0.1], [2, 0, -np.pi + 0.1], [0, 2, np.pi - 0.1],

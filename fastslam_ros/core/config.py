@@ -13,6 +13,7 @@ from dataclasses import dataclass
 ALGORITHMS = ("fastslam1", "fastslam2")
 ASSOCIATION_MODES = ("known", "ml", "monte_carlo", "two_gate")
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
+BEST_PARTICLE_RULES = ("heaviest", "central")
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,12 @@ class FastSLAMConfig:
     whose whole map and path are turned against each other (a freedom the observations do not
     fix) weigh about the same, and without a margin the outputs can flip between them from one
     reading to the next."""
+    best_particle: str = "heaviest"
+    """Which particle is reported (its pose, map and path): ``heaviest``, the highest weight
+    (with ``best_switch_margin``), or ``central``, the one nearest the weighted mean position,
+    i.e. the particle with the least expected squared position error under the particle
+    posterior. When particles with turned maps weigh about the same, the heaviest one can sit
+    at either end of the spread; the central one sits where most of the weight is."""
     cell_size: float = 10.0
     """Side (m) of the spatial cells that index each particle's map."""
     seed: int = -1
@@ -168,6 +175,8 @@ class FastSLAMConfig:
         need(self.logodds_max >= self.logodds_observed, "logodds_max", ">= logodds_observed")
         need(0.0 < self.resample_threshold <= 1.0, "resample_threshold", "in (0, 1]")
         need(self.best_switch_margin >= 0.0, "best_switch_margin", ">= 0")
+        need(self.best_particle in BEST_PARTICLE_RULES, "best_particle",
+             f"one of {BEST_PARTICLE_RULES}")
         need(self.cell_size > 0.0, "cell_size", "> 0")
         need(isinstance(self.seed, int) and self.seed >= -1, "seed", "an integer >= -1")
         return self

@@ -527,15 +527,24 @@ class FastSLAM:
             self._working = self._working.take(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-            copies = (indices == best).nonzero()[0]
-            # The best particle has no copy only when a margin kept a light one: take the
-            # heaviest particle drawn instead.
-            self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
+            if self.config.best_particle == "central":
+                self._best = self._select_best()
+            else:
+                # The best particle has no copy only when a margin kept a light one: take the
+                # heaviest particle drawn instead.
+                copies = (indices == best).nonzero()[0]
+                self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
             report.resampled = True
         return report
 
     def _select_best(self) -> int:
-        """The highest weight, unless the current best is within ``best_switch_margin`` of it."""
+        """The particle to report (``best_particle``): nearest the weighted mean position
+        (``central``), or the highest weight unless the current best is within
+        ``best_switch_margin`` of it (``heaviest``). Weights are normalised."""
+        if self.config.best_particle == "central":
+            positions = self.poses[:, :2]
+            offsets = positions - np.exp(self.log_weights) @ positions
+            return int(np.einsum("ij,ij->i", offsets, offsets).argmin())
         best = int(self.log_weights.argmax())
         margin = self.config.best_switch_margin
         if margin > 0.0 and self.log_weights[self._best] + margin >= self.log_weights[best]:
@@ -544,8 +553,9 @@ class FastSLAM:
 
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:
-        """The particle with the highest weight, or the previous best while no other outweighs
-        it by more than ``best_switch_margin`` (after resampling: a copy of it)."""
+        """The reported particle (``best_particle``): the highest weight, or the previous best
+        while no other outweighs it by more than ``best_switch_margin``; or the one nearest the
+        weighted mean position. After resampling: a copy of it."""
         return self._best
 
     def particle_poses(self) -> np.ndarray:
