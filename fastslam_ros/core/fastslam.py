@@ -554,8 +554,9 @@ class FastSLAM:
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:
         """The reported particle (``best_particle``): the highest weight, or the previous best
-        while no other outweighs it by more than ``best_switch_margin``; or the one nearest the
-        weighted mean position. After resampling: a copy of it."""
+        while no other outweighs it by more than ``best_switch_margin`` (after resampling: a
+        copy of it); or the one nearest the weighted mean position (after resampling: of the
+        drawn set)."""
         return self._best
 
     def particle_poses(self) -> np.ndarray:
