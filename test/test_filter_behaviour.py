@@ -211,6 +211,8 @@ def test_central_best_particle_is_nearest_the_weighted_mean_position():
     np.testing.assert_allclose(resampled.best_pose(), [2, 1, 0])
     with pytest.raises(ValueError, match="best_particle"):
         config(best_particle="lightest")
+    with pytest.raises(ValueError, match="best_switch_margin"):
+        config(best_particle="central", best_switch_margin=2.0)
 
 
 def test_mean_pose_and_covariance_of_known_particles():

@@ -122,10 +122,10 @@ class FastSLAMConfig:
     reading to the next."""
     best_particle: str = "heaviest"
     """Which particle is reported (its pose, map and path): ``heaviest``, the highest weight
-    (with ``best_switch_margin``), or ``central``, the one nearest the weighted mean position,
-    i.e. the particle with the least expected squared position error under the particle
-    posterior. When particles with turned maps weigh about the same, the heaviest one can sit
-    at either end of the spread; the central one sits where most of the weight is."""
+    (with ``best_switch_margin``), or ``central`` (margin 0), the one nearest the weighted mean
+    position, i.e. the particle with the least expected squared position error under the
+    particle posterior. When particles with turned maps weigh about the same, the heaviest one
+    can sit at either end of the spread; the central one sits where most of the weight is."""
     cell_size: float = 10.0
     """Side (m) of the spatial cells that index each particle's map."""
     seed: int = -1
@@ -177,6 +177,8 @@ class FastSLAMConfig:
         need(self.best_switch_margin >= 0.0, "best_switch_margin", ">= 0")
         need(self.best_particle in BEST_PARTICLE_RULES, "best_particle",
              f"one of {BEST_PARTICLE_RULES}")
+        need(self.best_particle == "heaviest" or self.best_switch_margin == 0.0,
+             "best_switch_margin", "0 with best_particle central (the margin applies to heaviest)")
         need(self.cell_size > 0.0, "cell_size", "> 0")
         need(isinstance(self.seed, int) and self.seed >= -1, "seed", "an integer >= -1")
         return self
