@@ -103,6 +103,7 @@ CORE_RANGES = {
 exact (also exclusive and cross-parameter) rules."""
 CORE_CHOICES = {"algorithm": "fastslam1 | fastslam2",
                 "association": "known | ml | monte_carlo | two_gate",
+                "monte_carlo_weight": "marginal | sampled",
                 "resampling": "systematic | stratified | residual | multinomial"}
 
 

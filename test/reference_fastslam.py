@@ -188,7 +188,8 @@ class ReferenceFastSLAM:
                     # A sampled association (monte_carlo) also weighs 1 / q, q = its own
                     # likelihood over the marginal that ``factor`` holds.
                     factor[j][m] = value + (at_association[j][m] - self.chosen_ll[j][m]
-                                            if c.association == "monte_carlo" else 0.0)
+                                            if c.association == "monte_carlo"
+                                            and c.monte_carlo_weight == "marginal" else 0.0)
                 motion[m] = (mean, cov)
             for j in range(K):   # robust likelihood (1 - eps) N + eps u, N at association
                 if self.eps > 0.0 and (isinstance(choice[j][m], int)
@@ -375,6 +376,9 @@ class ReferenceFastSLAM:
             draw = uniforms[j, m] * cumulative[-1]
             k = min(int(np.sum(cumulative <= draw)), len(scores))
             log_marginal = peak + math.log(cumulative[-1])
+            if c.monte_carlo_weight == "sampled":   # the drawn option's own likelihood
+                return ((scores[k][0], scores[k][1]) if k < len(scores)
+                        else ("new", self.log_p0))
             return (scores[k][0] if k < len(scores) else "new"), log_marginal
         if not scores:
             return "new", self.log_p0

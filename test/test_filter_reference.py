@@ -20,6 +20,9 @@ CASES = [
     # Association repeated at the proposal mean.
     ("fastslam2", "ml", 0.3, 1, 2), ("fastslam2", "monte_carlo", 5.0, 2, 3),
 ]
+SAMPLED_WEIGHT_CASES = [("fastslam1", "monte_carlo", 5.0, 1, 1),
+                        ("fastslam2", "monte_carlo", 5.0, 1, 1)]
+"""``monte_carlo_weight: sampled``: the drawn landmark's likelihood instead of the marginal."""
 ROBUST_CASES = [("fastslam1", "known", 5.0), ("fastslam2", "known", 5.0),
                 ("fastslam2", "ml", 0.3), ("fastslam2", "ml", 5.0), ("fastslam1", "ml", 5.0)]
 """Range noise growing with the range, the outlier-robust likelihood, random-walk motion noise."""
@@ -48,17 +51,21 @@ def sorted_map(means, covs, logodds, labels):
     return means[order], covs[order], logodds[order], labels[order]
 
 
-@pytest.mark.parametrize("algorithm,association,flush,iterations,passes,robust",
-                         [case + (False,) for case in CASES]
-                         + [case + (1, 1, True) for case in ROBUST_CASES]
-                         + [("fastslam2", "ml", 0.3, 2, 2, True)])
+SAMPLED = {"monte_carlo_weight": "sampled"}
+
+
+@pytest.mark.parametrize("algorithm,association,flush,iterations,passes,extra",
+                         [case + (None,) for case in CASES]
+                         + [case + (1, 1, ROBUST) for case in ROBUST_CASES]
+                         + [("fastslam2", "ml", 0.3, 2, 2, ROBUST)]
+                         + [case + (SAMPLED,) for case in SAMPLED_WEIGHT_CASES]
+                         + [("fastslam2", "monte_carlo", 5.0, 1, 1, {**ROBUST, **SAMPLED})])
 def test_vectorized_filter_matches_reference(algorithm, association, flush,
-                                             iterations, passes, robust):
+                                             iterations, passes, extra):
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
-    config = small_config(algorithm, association, flush, iterations, passes,
-                          ROBUST if robust else None)
+    config = small_config(algorithm, association, flush, iterations, passes, extra)
     start = world.steps[0].truth
     fast = FastSLAM(config, rng=np.random.default_rng(11), initial_pose=start)
     slow = ReferenceFastSLAM(config, np.random.default_rng(11), start)
@@ -100,4 +107,4 @@ def test_vectorized_filter_matches_reference(algorithm, association, flush,
                 np.testing.assert_allclose(g, w, atol=1e-9, rtol=0)
     # The run must have exercised what it claims to test: creation, elimination, resampling.
     assert created > 0 and resampled > 0 and slow.removed > 0
-    assert slow.outliers > 0 or not robust
+    assert slow.outliers > 0 or "outlier_probability" not in (extra or {})

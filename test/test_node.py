@@ -472,7 +472,8 @@ def test_exception_inside_a_callback_is_counted_not_raised(context):
 
 @pytest.mark.parametrize("name, value", [
     ("num_particles", 0), ("sigma_range", -0.1), ("sigma_range", 1), ("algorithm", "fastslam3"),
-    ("association", "nearest"), ("new_landmark_gate", 1.0), ("resample_threshold", 0.0),
+    ("association", "nearest"), ("monte_carlo_weight", "max"), ("new_landmark_gate", 1.0),
+    ("resample_threshold", 0.0),
     ("pose_estimate", "median"), ("max_observation_wait", -1.0), ("map_frame", ""),
 ])
 def test_bad_parameter_stops_the_start_naming_it(context, name, value):

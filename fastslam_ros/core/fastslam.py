@@ -313,8 +313,9 @@ class FastSLAM:
         for outliers, with ``outlier_probability`` > 0), the log weight factors (K, M), the
         robust-likelihood correction of the inliers (``association.reject_outliers``) and
         log(1 / q) (K, M) of each associated observation, q the probability with which its
-        landmark was drawn (0 but with ``monte_carlo``, where it is the log marginal minus the
-        landmark's own log likelihood).
+        landmark was drawn (0 but with ``monte_carlo`` and ``monte_carlo_weight: marginal``,
+        where it is the log marginal minus the landmark's own log likelihood; with ``sampled``
+        the factor is the drawn landmark's own likelihood, p0 for a new one).
         """
         config = self.config
         count = len(ranges)
@@ -357,7 +358,11 @@ class FastSLAM:
         elif mode == "monte_carlo":
             choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
             rows = (choice >= 0).nonzero()[0]
-            inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
+            if config.monte_carlo_weight == "sampled":
+                log_factor = np.full(shape[0], self._log_p0)
+                log_factor[rows] = log_lik[rows, choice[rows]]
+            else:
+                inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
             choice, log_factor = assoc.associate_two_gates(
@@ -404,9 +409,10 @@ class FastSLAM:
 
         The associated observations' factors are replaced by their joint likelihood
         N(z; z_hat, L) (put on the first row) times 1 / q, q the probability of their sampled
-        association (``monte_carlo``; 1 otherwise): the importance weight of the association
-        draw, which makes a single observation weigh the marginal over associations, as in
-        FastSLAM 1.0. New / ignored observations keep p0 (the marginal, when sampled) / 1.
+        association (``monte_carlo`` with ``monte_carlo_weight: marginal``; 1 otherwise): the
+        importance weight of the association draw, which makes a single observation weigh the
+        marginal over associations, as in FastSLAM 1.0. New / ignored observations keep p0 (the
+        marginal, when sampled with that weight) / 1.
         """
         mean, cov, joint = proposal
         self._prior = (mean, cov)
