@@ -185,8 +185,8 @@ class ReferenceFastSLAM:
             if motion:
                 mean, cov, factors = proposals[m]
                 for j, value in factors.items():
-                    # A sampled association (monte_carlo) also weighs 1 / q, q = its own
-                    # likelihood over the marginal that ``factor`` holds.
+                    # A sampled association (monte_carlo, marginal weight) also weighs 1 / q,
+                    # q = its own likelihood over the marginal that ``factor`` holds.
                     factor[j][m] = value + (at_association[j][m] - self.chosen_ll[j][m]
                                             if c.association == "monte_carlo"
                                             and c.monte_carlo_weight == "marginal" else 0.0)

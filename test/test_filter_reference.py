@@ -23,6 +23,7 @@ CASES = [
 SAMPLED_WEIGHT_CASES = [("fastslam1", "monte_carlo", 5.0, 1, 1),
                         ("fastslam2", "monte_carlo", 5.0, 1, 1)]
 """``monte_carlo_weight: sampled``: the drawn landmark's likelihood instead of the marginal."""
+SAMPLED = {"monte_carlo_weight": "sampled"}
 ROBUST_CASES = [("fastslam1", "known", 5.0), ("fastslam2", "known", 5.0),
                 ("fastslam2", "ml", 0.3), ("fastslam2", "ml", 5.0), ("fastslam1", "ml", 5.0)]
 """Range noise growing with the range, the outlier-robust likelihood, random-walk motion noise."""
@@ -49,9 +50,6 @@ def small_config(algorithm: str, association: str, flush: float, iterations: int
 def sorted_map(means, covs, logodds, labels):
     order = np.lexsort((means[:, 1], means[:, 0]))
     return means[order], covs[order], logodds[order], labels[order]
-
-
-SAMPLED = {"monte_carlo_weight": "sampled"}
 
 
 @pytest.mark.parametrize("algorithm,association,flush,iterations,passes,extra",
