@@ -38,6 +38,7 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from fastslam_ros.core import config as config_rules
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
 
 try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same transform anyway.
@@ -101,10 +102,12 @@ CORE_RANGES = {
 }
 """Inclusive ROS ranges of core parameters; other numbers are >= 0. ``validate()`` adds the
 exact (also exclusive and cross-parameter) rules."""
-CORE_CHOICES = {"algorithm": "fastslam1 | fastslam2",
-                "association": "known | ml | monte_carlo | two_gate",
-                "monte_carlo_weight": "marginal | sampled",
-                "resampling": "systematic | stratified | residual | multinomial"}
+CORE_CHOICES = {name: " | ".join(choices) for name, choices in (
+    ("algorithm", config_rules.ALGORITHMS), ("association", config_rules.ASSOCIATION_MODES),
+    ("monte_carlo_weight", config_rules.MONTE_CARLO_WEIGHTS),
+    ("resampling", config_rules.RESAMPLING_SCHEMES),
+    ("best_particle", config_rules.BEST_PARTICLE_RULES))}
+"""The allowed values of the core's string parameters, from the tuples ``validate()`` checks."""
 
 
 @dataclass(frozen=True)

@@ -516,6 +516,10 @@ def test_every_parameter_is_declared_with_a_description(context):
     names = [field.name for field in dataclasses.fields(FastSLAMConfig)] + list(ROS_PARAMETERS)
     for descriptor in node.describe_parameters(names):
         assert len(descriptor.description) > 10, descriptor.name
+    # Every string parameter names its allowed values.
+    strings = [field.name for field in dataclasses.fields(FastSLAMConfig) if field.type == "str"]
+    for descriptor in node.describe_parameters(strings):
+        assert "One of: " in descriptor.description, descriptor.name
     number = node.describe_parameters(["num_particles", "resample_threshold"])
     assert number[0].integer_range[0].from_value == 1
     assert number[1].floating_point_range[0].to_value == 1.0
