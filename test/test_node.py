@@ -517,7 +517,9 @@ def test_every_parameter_is_declared_with_a_description(context):
     for descriptor in node.describe_parameters(names):
         assert len(descriptor.description) > 10, descriptor.name
     # Every string parameter names its allowed values.
-    strings = [field.name for field in dataclasses.fields(FastSLAMConfig) if field.type == "str"]
+    strings = [field.name for field in dataclasses.fields(FastSLAMConfig)
+               if field.type in ("str", str)]
+    assert {"algorithm", "association", "best_particle"} <= set(strings)
     for descriptor in node.describe_parameters(strings):
         assert "One of: " in descriptor.description, descriptor.name
     number = node.describe_parameters(["num_particles", "resample_threshold"])

@@ -81,12 +81,13 @@ def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray, num_pa
 
 
 def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
-                          rng: np.random.Generator):
+                          rng: np.random.Generator, weight: str = "marginal"):
     """Sample the association in proportion to the likelihoods (p0 for a new landmark).
 
     Options are laid out most likely first (then "new"), so the draw does not depend on how
-    the map happens to be stored. Sampling the association makes the importance weight the sum
-    of the likelihoods (the marginal over associations), not the likelihood of the sampled one.
+    the map happens to be stored. The log factor is the importance weight of the draw, the sum
+    of the likelihoods and p0 (the marginal over associations; ``weight="marginal"``), or the
+    likelihood of the option drawn (p0 for new; ``weight="sampled"``).
     """
     count, width = candidate_log_lik.shape
     order = np.argsort(-candidate_log_lik, axis=1, kind="stable")
@@ -99,7 +100,9 @@ def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
     log_marginal = peak[:, 0] + np.log(cumulative[:, -1])
     chosen = np.take_along_axis(order, np.minimum(picked, max(width - 1, 0))[:, None], 1)[:, 0] \
         if width else picked
-    return np.where(picked == width, NEW, chosen), log_marginal
+    log_factor = (log_marginal if weight == "marginal"
+                  else np.take_along_axis(log_options, picked[:, None], 1)[:, 0])
+    return np.where(picked == width, NEW, chosen), log_factor
 
 
 def associate_two_gates(candidate_log_lik: np.ndarray, candidate_mahalanobis: np.ndarray,

@@ -356,12 +356,10 @@ class FastSLAM:
             choice, log_factor = assoc.associate_exclusive_maximum_likelihood(
                 log_lik, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
-            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
-            rows = (choice >= 0).nonzero()[0]
-            if config.monte_carlo_weight == "sampled":
-                log_factor = np.full(shape[0], self._log_p0)
-                log_factor[rows] = log_lik[rows, choice[rows]]
-            else:
+            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng,
+                                                             config.monte_carlo_weight)
+            if config.monte_carlo_weight == "marginal":
+                rows = (choice >= 0).nonzero()[0]
                 inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
