@@ -15,7 +15,6 @@ import dataclasses
 import inspect
 import math
 import sys
-from collections import deque
 from dataclasses import dataclass
 from typing import Callable
 
@@ -39,7 +38,8 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core import config as config_rules
-from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
+from fastslam_ros.core.geometry import compose, relative_pose
+from fastslam_ros.core.timing import OdometryHistory, Throttle
 
 try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same transform anyway.
     from tf2_ros import TransformBroadcaster
@@ -157,76 +157,6 @@ class Observation:
     ids: np.ndarray | None
     arrival: float
     """Node-clock time (s) at which the cloud arrived, for the max_observation_wait bound."""
-
-
-class OdometryHistory:
-    """Odometry after the filter's time, to interpolate poses at observation stamps.
-
-    ``anchor`` is the odometry pose at the filter's time (the end of the last prediction);
-    ``advance(t)`` returns the consecutive (from, to) odometry pose pairs that carry the filter
-    from there to ``t`` and moves the anchor to ``t``.
-    """
-
-    def __init__(self) -> None:
-        self.anchor_stamp: float | None = None
-        self.anchor_pose: np.ndarray | None = None
-        self._stamps: deque[float] = deque()
-        self._poses: deque[np.ndarray] = deque()
-
-    @property
-    def latest_stamp(self) -> float | None:
-        """Stamp of the newest odometry, None before the first one."""
-        return self._stamps[-1] if self._stamps else self.anchor_stamp
-
-    def append(self, stamp: float, pose: np.ndarray) -> None:
-        """Add a pose newer than every pose held (the first one becomes the anchor)."""
-        if self.anchor_stamp is None:
-            self.anchor_stamp, self.anchor_pose = stamp, pose
-        else:
-            self._stamps.append(stamp)
-            self._poses.append(pose)
-
-    def covers(self, stamp: float) -> bool:
-        """Whether odometry up to ``stamp`` has arrived."""
-        return self.latest_stamp is not None and self.latest_stamp >= stamp
-
-    def advance(self, stamp: float) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Pose pairs from the anchor to ``stamp`` (to the newest odometry if it ends earlier)."""
-        steps = []
-        while self._stamps and self._stamps[0] <= stamp:
-            steps.append((self.anchor_pose, self._poses[0]))
-            self.anchor_stamp, self.anchor_pose = self._stamps.popleft(), self._poses.popleft()
-        if self._stamps and stamp > self.anchor_stamp:
-            pose = interpolate_pose(self.anchor_stamp, self.anchor_pose,
-                                    self._stamps[0], self._poses[0], stamp)
-            steps.append((self.anchor_pose, pose))
-            self.anchor_stamp, self.anchor_pose = stamp, pose
-        return steps
-
-
-def interpolate_pose(stamp0: float, pose0: np.ndarray, stamp1: float, pose1: np.ndarray,
-                     stamp: float) -> np.ndarray:
-    """Pose at ``stamp`` between two timed poses: linear in x, y; shortest way round in theta."""
-    fraction = (stamp - stamp0) / (stamp1 - stamp0)
-    x, y = pose0[:2] + fraction * (pose1[:2] - pose0[:2])
-    return np.array([x, y, wrap_angle(pose0[2] + fraction * wrap_angle(pose1[2] - pose0[2]))])
-
-
-class Throttle:
-    """Lets an output through at most once per period of node time (rate 0: never)."""
-
-    def __init__(self, rate: float) -> None:
-        self.rate = rate
-        self._last: float | None = None
-
-    def due(self, now: float) -> bool:
-        """True, and restart the period, when the output may be published at ``now``."""
-        if self.rate <= 0.0:
-            return False
-        if self._last is None or now - self._last >= 1.0 / self.rate or now < self._last:
-            self._last = now
-            return True
-        return False
 
 
 def config_field_descriptions() -> dict[str, str]:

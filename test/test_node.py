@@ -34,8 +34,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAMConfig
-from fastslam_ros.node import (ROS_PARAMETERS, FastSLAMNode, OdometryHistory, ParameterError,
-                               interpolate_pose)
+from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
+from fastslam_ros.node import ROS_PARAMETERS, FastSLAMNode, ParameterError
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 100 + os.getpid() % 100
