@@ -9,17 +9,18 @@ run. See docs/node.md for the interface and the parameters.
 """
 from __future__ import annotations
 
-import ast
 import bisect
 import dataclasses
-import inspect
 import math
+import re
 import sys
 from dataclasses import dataclass
+from os import PathLike
 from typing import Callable
 
 import numpy as np
 import rclpy
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry, Path
@@ -28,7 +29,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
@@ -37,7 +38,8 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
-from fastslam_ros.core import config as config_rules
+from fastslam_ros.core.params import (ParameterValueError, Spec, check_fields, parameter,
+                                      specs)
 from fastslam_ros.core.geometry import compose, relative_pose
 from fastslam_ros.core.timing import OdometryHistory, Throttle
 
@@ -87,60 +89,58 @@ COUNTERS = (
 POSE_ESTIMATES = ("best", "mean")
 REQUIRED_STRINGS = ("odom_frame", "map_frame", "base_frame", "map_file")
 THROTTLED_OUTPUTS = ("particles_rate", "markers_rate", "path_rate")
-FLOAT_MAX = float("inf")
-CORE_RANGES = {
-    "num_particles": (1, 1_000_000),
-    "seed": (-1, 2**31 - 1),
-    "resample_threshold": (0.0, 1.0),
-    "outlier_probability": (0.0, 1.0),
-    "field_of_view": (0.0, 2.0 * math.pi),
-    "sensor_yaw": (-math.pi, math.pi),
-    "logodds_missed": (-FLOAT_MAX, 0.0),
-    "logodds_remove": (-FLOAT_MAX, FLOAT_MAX),
-    "sensor_x": (-FLOAT_MAX, FLOAT_MAX),
-    "sensor_y": (-FLOAT_MAX, FLOAT_MAX),
-}
-"""Inclusive ROS ranges of core parameters; other numbers are >= 0. ``validate()`` adds the
-exact (also exclusive and cross-parameter) rules."""
-CORE_CHOICES = {name: " | ".join(choices) for name, choices in (
-    ("algorithm", config_rules.ALGORITHMS), ("association", config_rules.ASSOCIATION_MODES),
-    ("monte_carlo_weight", config_rules.MONTE_CARLO_WEIGHTS),
-    ("resampling", config_rules.RESAMPLING_SCHEMES),
-    ("best_particle", config_rules.BEST_PARTICLE_RULES))}
-"""The allowed values of the core's string parameters, from the tuples ``validate()`` checks."""
+INT64_LIMITS = (-2**63, 2**63 - 1)
+GRAPH_PARAMETER_PREFIXES = ("qos_overrides.",)
+"""Parameters rclpy declares itself when asked (QoS overrides): never reported as unknown."""
 
 
 @dataclass(frozen=True)
-class RosParameter:
-    """A ROS-side parameter: default, description and inclusive range (numbers only)."""
+class NodeSettings:
+    """The ROS side of the node: frames, output rates and files (may change at runtime)."""
 
-    default: object
-    description: str
-    limits: tuple[float, float] | None = None
+    odom_frame: str = parameter(
+        "odom", "Odometry frame (REP 105): odometry must be stamped in it ('' accepted). "
+        "Not empty.")
+    map_frame: str = parameter(
+        "map", "Frame of ~/pose, ~/path, ~/particles, ~/landmarks and ~/map_cloud. Not empty.")
+    base_frame: str = parameter(
+        "base_link", "Robot frame (REP 105): odometry must have it as child_frame_id ('' "
+        "accepted). Not empty.")
+    sensor_frame: str = parameter(
+        "", "Frame the landmark clouds must be in; '' accepts any frame.")
+    pose_estimate: str = parameter(
+        "best", "~/pose is the reported particle's pose (best) or the weighted mean (mean).",
+        choices=POSE_ESTIMATES)
+    particles_rate: float = parameter(
+        2.0, "Maximum rate of ~/particles (Hz of node time; 0: never).", low=0.0, high=1000.0)
+    markers_rate: float = parameter(
+        1.0, "Maximum rate of ~/landmarks and ~/map_cloud (Hz; 0: never).", low=0.0,
+        high=1000.0)
+    path_rate: float = parameter(
+        1.0, "Maximum rate of ~/path (Hz of node time; 0: never).", low=0.0, high=1000.0)
+    max_observation_wait: float = parameter(
+        0.5, "How long (s of node time) a cloud waits for odometry that covers its stamp; also "
+        "how late (s of stamps) a cloud may arrive and still get its exact interpolated pose.",
+        low=0.0, high=60.0)
+    map_file: str = parameter(
+        "fastslam_map.yaml", "File written by ~/save_map: .csv is CSV, anything else YAML. "
+        "Not empty.")
+    publish_tf: bool = parameter(
+        True, "Broadcast map -> odom on /tf (when tf2_ros is installed).")
+
+    def validate(self) -> "NodeSettings":
+        """Raise ``ParameterValueError`` naming the bad setting; return self when all are good."""
+        check_fields(self)
+        for name in REQUIRED_STRINGS:
+            if not getattr(self, name):
+                raise ParameterValueError(name, "must not be empty")
+        return self
 
 
-ROS_PARAMETERS = {
-    "odom_frame": RosParameter("odom", "Odometry frame (REP 105): odometry must be stamped in it "
-                                       "('' accepted)."),
-    "map_frame": RosParameter("map", "Frame of the pose, path, particles and map outputs."),
-    "base_frame": RosParameter("base_link", "Robot frame (REP 105): odometry must have it as "
-                                            "child_frame_id ('' accepted)."),
-    "sensor_frame": RosParameter("", "Frame the landmark clouds must be in; '' accepts any frame."),
-    "pose_estimate": RosParameter("best", "~/pose is the 'best' particle or the weighted 'mean'."),
-    "particles_rate": RosParameter(2.0, "Maximum rate of ~/particles (Hz, node time; 0: never).",
-                                   (0.0, 1000.0)),
-    "markers_rate": RosParameter(1.0, "Maximum rate of ~/landmarks and ~/map_cloud (Hz; 0: never).",
-                                 (0.0, 1000.0)),
-    "path_rate": RosParameter(1.0, "Maximum rate of ~/path (Hz, node time; 0: never).",
-                              (0.0, 1000.0)),
-    "max_observation_wait": RosParameter(
-        0.5, "How long (s, node time) a cloud waits for odometry that covers its stamp; also how "
-             "late (s of stamps) a cloud may arrive and still get its exact interpolated pose.",
-        (0.0, 60.0)),
-    "map_file": RosParameter("fastslam_map.yaml", "File written by ~/save_map: .csv is CSV, "
-                                                  "anything else YAML."),
-    "publish_tf": RosParameter(True, "Broadcast map -> odom on /tf (when tf2_ros is installed)."),
-}
+CORE_PARAMETERS = specs(FastSLAMConfig)
+"""{name: (default, spec)} of the filter's parameters, fixed at start."""
+NODE_PARAMETERS = specs(NodeSettings)
+"""{name: (default, spec)} of the ROS-side parameters, which may change at runtime."""
 
 
 class ParameterError(ValueError):
@@ -159,35 +159,40 @@ class Observation:
     """Node-clock time (s) at which the cloud arrived, for the max_observation_wait bound."""
 
 
-def config_field_descriptions() -> dict[str, str]:
-    """Docstrings written under the fields of ``FastSLAMConfig`` (one source for both layers)."""
-    try:
-        tree = ast.parse(inspect.getsource(FastSLAMConfig))
-    except (OSError, TypeError):  # no source installed: descriptions fall back to the name
-        return {}
-    body = tree.body[0].body
-    descriptions = {}
-    for statement, following in zip(body, body[1:]):
-        if (isinstance(statement, ast.AnnAssign) and isinstance(following, ast.Expr)
-                and isinstance(following.value, ast.Constant)
-                and isinstance(following.value.value, str)):
-            descriptions[statement.target.id] = " ".join(following.value.value.split())
-    return descriptions
-
-
-def parameter_descriptor(description: str, default: object,
-                         limits: tuple[float, float] | None) -> ParameterDescriptor:
-    """ParameterDescriptor with a description and, for numbers, an inclusive range."""
-    descriptor = ParameterDescriptor(description=description)
-    if limits is None or isinstance(default, bool):
+def parameter_descriptor(default: object, spec: Spec, note: str = "") -> ParameterDescriptor:
+    """The ROS descriptor of a parameter from its spec: the description (with the choices of a
+    string, the exact rule of a number) and, for numbers, the inclusive range."""
+    description = spec.description
+    if spec.choices is not None:
+        description += f" One of: {' | '.join(spec.choices)}."
+    descriptor = ParameterDescriptor(description=description + note)
+    if isinstance(default, bool) or not isinstance(default, (int, float)):
         return descriptor
+    descriptor.description = f"{description} Valid: {spec.rule()}.{note}"
     if isinstance(default, int):
-        descriptor.integer_range = [IntegerRange(from_value=int(limits[0]), to_value=int(limits[1]),
-                                                 step=0)]
-    elif isinstance(default, float):
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=float(limits[0]), to_value=float(limits[1]), step=0.0)]
+        low = INT64_LIMITS[0] if spec.low is None else int(spec.low)
+        high = INT64_LIMITS[1] if spec.high is None else int(spec.high)
+        descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+    else:
+        low = -math.inf if spec.low is None else float(spec.low)
+        high = math.inf if spec.high is None else float(spec.high)
+        descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high,
+                                                              step=0.0)]
     return descriptor
+
+
+def parameter_error(error: ParameterValueError) -> "ParameterError":
+    """A ParameterError that names the parameter(s) as the user typed them."""
+    quoted = ", ".join(f"'{name}'" for name in error.names)
+    return ParameterError(f"parameter{'s' if len(error.names) > 1 else ''} {quoted}: "
+                          f"{error.reason}")
+
+
+class _NothingToDestroy:
+    """Stands in for a part that a failed ``Node.__init__`` never made."""
+
+    def destroy(self) -> None:
+        pass
 
 
 class FastSLAMNode(Node):
@@ -199,7 +204,15 @@ class FastSLAMNode(Node):
         A failed start destroys the half-built node at once: left to the garbage collector, its
         DDS participant would be torn down at some later, arbitrary point (Fast DDS can then
         block the whole process)."""
-        super().__init__(NODE_NAME, **node_kwargs)
+        try:
+            super().__init__(NODE_NAME, **node_kwargs)
+        except ParameterException as error:  # e.g. use_sim_time given as a string
+            if getattr(self, "_Node__node", None) is not None:
+                # Node.__init__ stopped before it made its type description service.
+                if not hasattr(self, "_type_description_service"):
+                    self._type_description_service = _NothingToDestroy()
+                Node.destroy_node(self)
+            raise ParameterError(f"{error}") from None
         try:
             self._set_up()
         except BaseException:
@@ -217,6 +230,7 @@ class FastSLAMNode(Node):
         self._throttles: dict[str, Throttle] = {}
         self.config = self._declare_core_parameters()
         self._declare_ros_parameters()
+        self._check_unknown_parameters()
         self.add_on_set_parameters_callback(self._check_parameter_change)
         self.add_post_set_parameters_callback(self._apply_parameter_change)
 
@@ -253,69 +267,67 @@ class FastSLAMNode(Node):
 
     # --- parameters ----------------------------------------------------------------------------
 
-    def _declare(self, name: str, default: object, descriptor: ParameterDescriptor) -> object:
-        """Declare one parameter; a value of the wrong type or range raises ParameterError."""
+    def _declare(self, name: str, default: object, spec: Spec, note: str = "") -> object:
+        """Declare one parameter from its spec; a value of the wrong type or outside the
+        descriptor's range raises ParameterError."""
         try:
-            return self.declare_parameter(name, default, descriptor).value
+            return self.declare_parameter(name, default,
+                                          parameter_descriptor(default, spec, note)).value
         except ParameterException as error:
             raise ParameterError(f"parameter '{name}': {error}") from None
 
     def _declare_core_parameters(self) -> FastSLAMConfig:
         """One parameter per FastSLAMConfig field; the validated config built from them."""
-        descriptions = config_field_descriptions()
-        values = {}
-        for field in dataclasses.fields(FastSLAMConfig):
-            default = field.default
-            description = descriptions.get(field.name, field.name)
-            if field.name in CORE_CHOICES:
-                description += f" One of: {CORE_CHOICES[field.name]}."
-            limits = CORE_RANGES.get(field.name,
-                                     (0.0, FLOAT_MAX) if isinstance(default, float) else None)
-            values[field.name] = self._declare(field.name, default, parameter_descriptor(
-                description + " Fixed at start (restart to change).", default, limits))
+        values = {name: self._declare(name, default, spec, " Fixed at start (restart to change).")
+                  for name, (default, spec) in CORE_PARAMETERS.items()}
         try:
             return FastSLAMConfig(**values).validate()
-        except ValueError as error:  # validate() starts its message with the field's name
-            name, _, reason = str(error).partition(":")
-            raise ParameterError(f"parameter '{name}':{reason}") from None
+        except ParameterValueError as error:
+            raise parameter_error(error) from None
 
     def _declare_ros_parameters(self) -> None:
         """Frames, rates and the rest of the ROS side, cached in ``self.settings``."""
-        for name, spec in ROS_PARAMETERS.items():
-            self._declare(name, spec.default, parameter_descriptor(spec.description, spec.default,
-                                                                    spec.limits))
-        parameters = [self.get_parameter(name) for name in ROS_PARAMETERS]
-        problem = self._ros_parameter_problem(parameters)
-        if problem:
-            raise ParameterError(problem)
-        self._apply_parameter_change(parameters)
+        values = {name: self._declare(name, default, spec)
+                  for name, (default, spec) in NODE_PARAMETERS.items()}
+        try:
+            NodeSettings(**values).validate()
+        except ParameterValueError as error:
+            raise parameter_error(error) from None
+        self._apply_parameter_change([self.get_parameter(name) for name in NODE_PARAMETERS])
 
-    @staticmethod
-    def _ros_parameter_problem(parameters: list[Parameter]) -> str:
-        """Why these ROS-side values are invalid ('' when they are fine)."""
-        for parameter in parameters:
-            if parameter.name == "pose_estimate" and parameter.value not in POSE_ESTIMATES:
-                return (f"parameter 'pose_estimate': must be one of {POSE_ESTIMATES} "
-                        f"(got {parameter.value!r})")
-            if parameter.name in REQUIRED_STRINGS and not parameter.value:
-                return f"parameter '{parameter.name}': must not be empty"
-        return ""
+    def _check_unknown_parameters(self) -> None:
+        """Fail on a parameter given (command line, file) that the node does not declare, e.g.
+        a misspelled name, which would otherwise be ignored silently."""
+        unknown = sorted(name for name in self._parameter_overrides
+                         if not self.has_parameter(name)
+                         and not name.startswith(GRAPH_PARAMETER_PREFIXES))
+        if unknown:
+            raise ParameterError(f"unknown parameter{'s' if len(unknown) > 1 else ''} "
+                                 f"{', '.join(repr(name) for name in unknown)} (not declared "
+                                 f"by {self.get_name()}; misspelled?)")
 
     def _check_parameter_change(self, parameters: list[Parameter]) -> SetParametersResult:
         """Accept runtime changes of ROS-side parameters; core ones need a restart."""
-        core_names = {field.name for field in dataclasses.fields(FastSLAMConfig)}
+        changes = {}
         for parameter in parameters:
-            if parameter.name in core_names:
+            if parameter.name in CORE_PARAMETERS:
                 return SetParametersResult(successful=False, reason=(
                     f"{parameter.name}: core parameters are fixed while the filter runs; restart "
                     "the node with the new value"))
-        problem = self._ros_parameter_problem(parameters)
-        return SetParametersResult(successful=not problem, reason=problem)
+            if parameter.name in NODE_PARAMETERS:
+                changes[parameter.name] = parameter.value
+        current = {name: self.settings.get(name, default)
+                   for name, (default, _) in NODE_PARAMETERS.items()}
+        try:
+            NodeSettings(**{**current, **changes}).validate()
+        except ParameterValueError as error:
+            return SetParametersResult(successful=False, reason=str(parameter_error(error)))
+        return SetParametersResult(successful=True)
 
     def _apply_parameter_change(self, parameters: list[Parameter]) -> None:
         """Cache the ROS-side values the callbacks read; a new rate restarts its throttle."""
         for parameter in parameters:
-            if parameter.name in ROS_PARAMETERS:
+            if parameter.name in NODE_PARAMETERS:
                 self.settings[parameter.name] = parameter.value
             if parameter.name in THROTTLED_OUTPUTS:
                 self._throttles[parameter.name] = Throttle(parameter.value)
@@ -653,9 +665,65 @@ class FastSLAMNode(Node):
         self.get_logger().info(f"input summary: {counts or 'no input received'}")
 
 
+def read_params_file(path: str | PathLike, node_name: str = f"/{NODE_NAME}") -> dict[str, object]:
+    """{name: value} that a ROS 2 parameter file gives the node ``node_name`` (fully
+    qualified), read with rclpy's own parser: the ``/**`` section first, then every section
+    whose key matches the node (``fastslam``, ``/robot1/fastslam``, ``/**/fastslam``).
+
+    Raises ParameterError naming the file when it cannot be read or is no parameter file.
+    """
+    try:
+        with open(path, encoding="utf-8") as stream:
+            document = yaml.safe_load(stream)
+        if not isinstance(document, dict):
+            raise RuntimeError("no 'NODE: ros__parameters:' sections")
+        sections = [key for key in document
+                    if key != "/**" and _section_matches(str(key), node_name)]
+        if "/**" not in document and not sections:
+            return {}
+        messages = parameter_dict_from_yaml_file(str(path), use_wildcard=True,
+                                                 target_nodes=sections)
+    except OSError as error:
+        raise ParameterError(f"parameter file '{path}': {error.strerror or error}") from None
+    except (yaml.YAMLError, RuntimeError, AttributeError, TypeError) as error:
+        reason = " ".join(str(error).split())
+        raise ParameterError(f"parameter file '{path}': not a ROS 2 parameter file "
+                             f"({reason})") from None
+    values = {name: Parameter.from_parameter_msg(msg).value for name, msg in messages.items()}
+    # rclpy re-reads str(value) as YAML 1.1, where the 1e-05 that 1.0e-5 prints as is a string;
+    # rcl (the node) reads the file's number as a double, and so does this.
+    for key in ["/**", *sections]:
+        for name, raw in (document.get(key) or {}).get("ros__parameters", {}).items():
+            if isinstance(raw, float) and isinstance(values.get(name), str):
+                values[name] = raw
+    return values
+
+
+def _section_matches(key: str, node_name: str) -> bool:
+    """Whether a parameter file section key (rcl wildcards ``*`` and ``**``) names the node."""
+    pattern = re.escape(key.strip("/")).replace(r"\*\*/", "(.*/)?")
+    pattern = pattern.replace(r"\*\*", ".*").replace(r"\*", "[^/]*")
+    return re.fullmatch(pattern, node_name.strip("/")) is not None
+
+
+def _params_files(args: list[str]) -> list[str]:
+    """The files given with ``--params-file`` after ``--ros-args``."""
+    ros_args = args[args.index("--ros-args") + 1:] if "--ros-args" in args else []
+    return [value for flag, value in zip(ros_args, ros_args[1:]) if flag == "--params-file"]
+
+
 def main(args: list[str] | None = None) -> int:
-    """Console entry point ``fastslam_node``; exit status 1 on a bad parameter."""
-    rclpy.init(args=args)
+    """Console entry point ``fastslam_node``; exit status 1 on a bad parameter or file."""
+    try:
+        for path in _params_files(sys.argv if args is None else args):
+            read_params_file(path)  # a one-line error instead of rcl's failure to init
+        rclpy.init(args=args)
+    except ParameterError as error:
+        print(f"fastslam_node: {error}", file=sys.stderr)
+        return 1
+    except RuntimeError as error:  # rcl could not parse the arguments
+        print(f"fastslam_node: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
+        return 1
     try:
         node = FastSLAMNode()
     except ParameterError as error:

@@ -35,7 +35,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
-from fastslam_ros.node import ROS_PARAMETERS, FastSLAMNode, ParameterError
+from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 100 + os.getpid() % 100
@@ -473,12 +473,29 @@ def test_exception_inside_a_callback_is_counted_not_raised(context):
 @pytest.mark.parametrize("name, value", [
     ("num_particles", 0), ("sigma_range", -0.1), ("sigma_range", 1), ("algorithm", "fastslam3"),
     ("association", "nearest"), ("monte_carlo_weight", "max"), ("new_landmark_gate", 1.0),
-    ("resample_threshold", 0.0),
+    ("resample_threshold", 0.0), ("cell_size", 1e-300), ("num_particle", 50),
     ("pose_estimate", "median"), ("max_observation_wait", -1.0), ("map_frame", ""),
 ])
 def test_bad_parameter_stops_the_start_naming_it(context, name, value):
     with pytest.raises(ParameterError, match=f"'{name}'"):
         make_node(context, **{name: value})
+
+
+def test_a_rule_between_two_parameters_names_both(context):
+    with pytest.raises(ParameterError, match="'min_range', 'max_range'"):
+        make_node(context, min_range=40.0, max_range=30.0)
+
+
+def test_unknown_name_in_a_parameter_file_stops_the_start(tmp_path):
+    path = tmp_path / "typo.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    sigma_rang: 0.2\n    num_particles: 5\n")
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=DOMAIN_ID, args=["--ros-args", "--params-file", str(path)])
+    try:
+        with pytest.raises(ParameterError, match="unknown parameter 'sigma_rang'"):
+            FastSLAMNode(context=ctx)
+    finally:
+        rclpy.shutdown(context=ctx)
 
 
 def test_a_failed_start_leaves_no_node_behind(context):
@@ -513,15 +530,18 @@ def test_runtime_parameter_changes(context):
 
 def test_every_parameter_is_declared_with_a_description(context):
     node = make_node(context)
-    names = [field.name for field in dataclasses.fields(FastSLAMConfig)] + list(ROS_PARAMETERS)
-    for descriptor in node.describe_parameters(names):
-        assert len(descriptor.description) > 10, descriptor.name
-    # Every string parameter names its allowed values.
-    strings = [field.name for field in dataclasses.fields(FastSLAMConfig)
-               if field.type in ("str", str)]
-    assert {"algorithm", "association", "best_particle"} <= set(strings)
-    for descriptor in node.describe_parameters(strings):
-        assert "One of: " in descriptor.description, descriptor.name
+    specs = {**CORE_PARAMETERS, **NODE_PARAMETERS}
+    for descriptor in node.describe_parameters(list(specs)):
+        default, spec = specs[descriptor.name]
+        assert descriptor.description.startswith(spec.description), descriptor.name
+        # Every string parameter with choices names them; every number carries its range.
+        if spec.choices is not None:
+            assert f"One of: {' | '.join(spec.choices)}." in descriptor.description
+        elif isinstance(default, int) and not isinstance(default, bool):
+            ranges = descriptor.integer_range or descriptor.floating_point_range
+            assert (ranges[0].from_value, ranges[0].to_value) == (spec.low, spec.high)
+    assert {"algorithm", "association", "best_particle", "pose_estimate"} <= {
+        name for name, (_, spec) in specs.items() if spec.choices}
     number = node.describe_parameters(["num_particles", "resample_threshold"])
     assert number[0].integer_range[0].from_value == 1
     assert number[1].floating_point_range[0].to_value == 1.0
@@ -531,10 +551,9 @@ def test_yaml_file_lists_every_parameter_and_loads_in_a_namespace(tmp_path):
     yaml = pytest.importorskip("yaml")
     text = (REPO / "config" / "fastslam.yaml").read_text()
     (key, content), = yaml.safe_load(text).items()
-    names = {field.name for field in dataclasses.fields(FastSLAMConfig)} | set(ROS_PARAMETERS)
-    assert set(content["ros__parameters"]) == names
+    assert list(content["ros__parameters"]) == [*CORE_PARAMETERS, *NODE_PARAMETERS]
     changed = tmp_path / "changed.yaml"
-    changed.write_text(text.replace("num_particles: 100 ", "num_particles: 7 "))
+    changed.write_text(text.replace("num_particles: 100\n", "num_particles: 7\n"))
     ctx = Context()
     rclpy.init(context=ctx, domain_id=DOMAIN_ID, args=["--ros-args", "--params-file", str(changed)])
     try:
@@ -548,13 +567,37 @@ def test_yaml_file_lists_every_parameter_and_loads_in_a_namespace(tmp_path):
         rclpy.shutdown(context=ctx)
 
 
-def test_main_exits_non_zero_with_a_message_naming_the_parameter():
+def test_a_shipped_file_applies_to_a_namespaced_node():
+    yaml = pytest.importorskip("yaml")
+    path = REPO / "config" / "mrclam.yaml"
+    (key, content), = yaml.safe_load(path.read_text()).items()
+    assert key == "/**"
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=DOMAIN_ID, args=["--ros-args", "--params-file", str(path)])
+    try:
+        node = FastSLAMNode(context=ctx, namespace="robot1")
+        for name, value in content["ros__parameters"].items():
+            assert node.get_parameter(name).value == pytest.approx(value), name
+        assert node.config.association == "monte_carlo"
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=ctx)
+
+
+@pytest.mark.parametrize("arguments, named", [
+    (["-p", "sigma_bearing:=-1.0"], "sigma_bearing"),
+    (["-p", "num_particle:=50"], "num_particle"),
+    (["-p", 'use_sim_time:="true"'], "use_sim_time"),
+    (["--params-file", "/nonexistent/params.yaml"], "/nonexistent/params.yaml"),
+])
+def test_main_exits_non_zero_with_one_line_naming_the_parameter(arguments, named):
     result = subprocess.run(
-        [sys.executable, "-m", "fastslam_ros.node", "--ros-args", "-p", "sigma_bearing:=-1.0"],
+        [sys.executable, "-m", "fastslam_ros.node", "--ros-args", *arguments],
         capture_output=True, text=True, timeout=60,
         env={**os.environ, "ROS_DOMAIN_ID": str(DOMAIN_ID)})
     assert result.returncode == 1
-    assert "sigma_bearing" in result.stderr and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and named in lines[0], result.stderr
 
 
 # --- over DDS ----------------------------------------------------------------------------------

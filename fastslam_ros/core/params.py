@@ -14,6 +14,16 @@ from typing import Any
 SPEC_KEY = "fastslam_spec"
 
 
+class ParameterValueError(ValueError):
+    """A bad parameter value; ``names`` are the parameters at fault (two for a rule between
+    them), and the message starts with them."""
+
+    def __init__(self, names: str | tuple[str, ...], reason: str) -> None:
+        self.names = (names,) if isinstance(names, str) else tuple(names)
+        self.reason = reason
+        super().__init__(f"{', '.join(self.names)}: {reason}")
+
+
 @dataclass(frozen=True)
 class Spec:
     """What a parameter accepts and means (numbers: a range; strings: a set of choices)."""
@@ -27,6 +37,11 @@ class Spec:
     high_exclusive: bool = False
     choices: tuple[str, ...] | None = None
 
+    @staticmethod
+    def _number(value: float) -> str:
+        """A bound as people write it: 1000000, not 1e+06; 3.14159 for pi."""
+        return str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else f"{value:g}"
+
     def rule(self) -> str:
         """The accepted values in words, as an error message or a table states them."""
         if self.choices is not None:
@@ -34,11 +49,11 @@ class Spec:
         if self.low is not None and self.high is not None:
             left = "(" if self.low_exclusive else "["
             right = ")" if self.high_exclusive else "]"
-            return f"in {left}{self.low:g}, {self.high:g}{right}"
+            return f"in {left}{self._number(self.low)}, {self._number(self.high)}{right}"
         if self.low is not None:
-            return ("> " if self.low_exclusive else ">= ") + f"{self.low:g}"
+            return ("> " if self.low_exclusive else ">= ") + self._number(self.low)
         if self.high is not None:
-            return ("< " if self.high_exclusive else "<= ") + f"{self.high:g}"
+            return ("< " if self.high_exclusive else "<= ") + self._number(self.high)
         return "any value"
 
     def problem(self, value: Any) -> str | None:
@@ -69,14 +84,14 @@ def specs(settings: type | object) -> dict[str, tuple[Any, Spec]]:
 
 
 def check_fields(settings: object) -> None:
-    """Raise ``ValueError`` naming the first field whose type, range or choice is wrong."""
+    """Raise ``ParameterValueError`` naming the first field whose type, range or choice is wrong."""
     for name, (default, spec) in specs(settings).items():
         value = getattr(settings, name)
         kind = type(default)
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            raise ValueError(f"{name}: must be a {kind.__name__} (got {value!r})")
+            raise ParameterValueError(name, f"must be a {kind.__name__} (got {value!r})")
         problem = spec.problem(value)
         if problem is not None:
-            raise ValueError(f"{name}: must be {problem} (got {value!r})")
+            raise ParameterValueError(name, f"must be {problem} (got {value!r})")

@@ -13,7 +13,6 @@ the parameters used), so OUT alone is enough for ``fastslam-eval``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib
 import json
 import math
@@ -35,8 +34,8 @@ from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.rosbag2 import Writer
 from std_msgs.msg import String
 
-from fastslam_ros.core.config import FastSLAMConfig
-from fastslam_ros.node import ROS_PARAMETERS, FastSLAMNode, ParameterError
+from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
+                               read_params_file)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TYPESTORE, SchemaError,
                                            open_writer)
@@ -45,8 +44,6 @@ INFO_TOPIC = "/fastslam_replay/info"
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
-NODE_SECTIONS = ("/**", "**", "fastslam", "/fastslam")
-"""Sections of a ROS 2 parameter file that apply to the node, later ones winning."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
 
@@ -88,18 +85,12 @@ def ros_msgtype(msg: Any) -> str:
 
 
 def load_params_file(path: str | Path) -> dict[str, Any]:
-    """The node's parameters from a ROS 2 YAML file (``/**`` and ``fastslam`` sections)."""
-    with open(path, encoding="utf-8") as stream:
-        document = yaml.safe_load(stream) or {}
-    if not isinstance(document, dict):
-        raise ValueError(f"{path}: not a ROS 2 parameter file")
-    params: dict[str, Any] = {}
-    for section in NODE_SECTIONS:
-        values = (document.get(section) or {}).get("ros__parameters") or {}
-        params.update(values)
-    if not params and document:
-        raise ValueError(f"{path}: no 'fastslam:' or '/**:' section with ros__parameters")
-    return params
+    """The node's parameters from a ROS 2 parameter file, read as the node reads it (rclpy's
+    parser, the sections that match ``/fastslam``); ValueError names the file."""
+    try:
+        return read_params_file(path)
+    except ParameterError as error:
+        raise ValueError(str(error)) from None
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
@@ -119,10 +110,8 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 
 def _declared_float_names() -> set[str]:
     """Parameters declared as doubles: an integer given for them is converted."""
-    names = {item.name for item in dataclasses.fields(FastSLAMConfig)
-             if isinstance(item.default, float)}
-    return names | {name for name, spec in ROS_PARAMETERS.items()
-                    if isinstance(spec.default, float)}
+    return {name for name, (default, _) in {**CORE_PARAMETERS, **NODE_PARAMETERS}.items()
+            if isinstance(default, float)}
 
 
 def node_parameters(params: dict[str, Any]) -> list[Parameter]:
@@ -265,10 +254,6 @@ def _create_node(context: Context, params: dict[str, Any]) -> FastSLAMNode:
                             enable_rosout=False)
     except ParameterError as error:
         raise ValueError(str(error)) from None
-    unknown = sorted(name for name in params if not node.has_parameter(name))
-    if unknown:
-        node.destroy_node()
-        raise ValueError(f"unknown parameter(s): {', '.join(unknown)}")
     # Nobody listens over DDS in a replay: outputs go only to the recorder.
     node.publish_to_dds = False
     return node
@@ -331,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("bag", type=Path, help="schema-v1 rosbag2 folder (mcap or sqlite3)")
     parser.add_argument("--params", type=Path, default=None,
-                        help="ROS 2 parameter file (fastslam: or /**: ros__parameters)")
+                        help="ROS 2 parameter file (its /** and fastslam sections)")
     parser.add_argument("--set", dest="assignments", action="append", default=[],
                         metavar="NAME=VALUE", help="override one parameter (repeatable)")
     parser.add_argument("--seed", type=int, default=None, help="random seed of the filter")

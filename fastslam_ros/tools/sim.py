@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
@@ -299,26 +300,15 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
             for name, value in params.items()}
 
 
-def _yaml_scalar(value: float | int | str) -> str:
-    """A YAML scalar that every YAML 1.1 reader takes for the right type (``1.0e-06``, not
-    ``1e-06``, which reads as a string)."""
-    if isinstance(value, float):
-        text = repr(value)
-        mantissa, exponent_mark, exponent = text.partition("e")
-        if exponent_mark and "." not in mantissa:
-            text = f"{mantissa}.0e{exponent}"
-        return text
-    return str(value)
-
-
 def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
                       comment: str) -> Path:
-    """A ROS 2 parameter file (``fastslam: ros__parameters:``) holding ``params``."""
+    """A ROS 2 parameter file holding ``params``, keyed ``/**`` so that it applies to the node
+    under any name and namespace."""
     lines = [f"# {line}" for line in comment.splitlines()]
-    lines += ["fastslam:", "  ros__parameters:"]
-    lines += [f"    {name}: {_yaml_scalar(value)}" for name, value in params.items()]
+    body = yaml.safe_dump({"/**": {"ros__parameters": params}}, default_flow_style=False,
+                          sort_keys=False)
     path = Path(path)
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n" + body)
     return path
 
 
