@@ -10,7 +10,6 @@ run. See docs/node.md for the interface and the parameters.
 from __future__ import annotations
 
 import bisect
-import dataclasses
 import math
 import re
 import sys
@@ -309,13 +308,13 @@ class FastSLAMNode(Node):
     def _check_parameter_change(self, parameters: list[Parameter]) -> SetParametersResult:
         """Accept runtime changes of ROS-side parameters; core ones need a restart."""
         changes = {}
-        for parameter in parameters:
-            if parameter.name in CORE_PARAMETERS:
+        for changed in parameters:
+            if changed.name in CORE_PARAMETERS:
                 return SetParametersResult(successful=False, reason=(
-                    f"{parameter.name}: core parameters are fixed while the filter runs; restart "
+                    f"{changed.name}: core parameters are fixed while the filter runs; restart "
                     "the node with the new value"))
-            if parameter.name in NODE_PARAMETERS:
-                changes[parameter.name] = parameter.value
+            if changed.name in NODE_PARAMETERS:
+                changes[changed.name] = changed.value
         current = {name: self.settings.get(name, default)
                    for name, (default, _) in NODE_PARAMETERS.items()}
         try:
@@ -326,11 +325,11 @@ class FastSLAMNode(Node):
 
     def _apply_parameter_change(self, parameters: list[Parameter]) -> None:
         """Cache the ROS-side values the callbacks read; a new rate restarts its throttle."""
-        for parameter in parameters:
-            if parameter.name in NODE_PARAMETERS:
-                self.settings[parameter.name] = parameter.value
-            if parameter.name in THROTTLED_OUTPUTS:
-                self._throttles[parameter.name] = Throttle(parameter.value)
+        for changed in parameters:
+            if changed.name in NODE_PARAMETERS:
+                self.settings[changed.name] = changed.value
+            if changed.name in THROTTLED_OUTPUTS:
+                self._throttles[changed.name] = Throttle(changed.value)
 
     # --- inputs --------------------------------------------------------------------------------
 

@@ -8,13 +8,13 @@ Planar poses are ``(x, y, theta)`` arrays: metres and radians, theta wrapped to 
 from __future__ import annotations
 
 import csv
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol, Sequence
 
 import numpy as np
+import yaml
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
                                Quaternion, TransformStamped)
@@ -23,7 +23,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core import geometry
 
 # sensor_msgs/PointField datatype codes -> numpy scalar types.
 POINT_FIELD_DTYPES = {PointField.INT8: np.int8, PointField.UINT8: np.uint8,
@@ -43,8 +43,6 @@ MAP_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i
 
 ELLIPSE_NAMESPACE = "covariance"
 LABEL_NAMESPACE = "id"
-ELLIPSE_SIGMA = 2.0
-"""Covariance ellipses are drawn at 2 sigma (86 % of the probability mass in 2-D)."""
 ELLIPSE_HEIGHT = 0.02
 LABEL_HEIGHT = 0.3
 LABEL_LIFT = 0.3
@@ -99,17 +97,18 @@ def seconds_to_stamp(seconds: float) -> Time:
 
 
 def yaw_to_quaternion(yaw: float) -> Quaternion:
-    """Rotation by ``yaw`` about z as a unit quaternion."""
-    return Quaternion(z=math.sin(0.5 * yaw), w=math.cos(0.5 * yaw))
+    """Rotation by ``yaw`` about z as a Quaternion message."""
+    x, y, z, w = geometry.yaw_to_quaternion(yaw)
+    return Quaternion(x=x, y=y, z=z, w=w)
 
 
 def quaternion_to_yaw(q) -> float:
-    """Yaw (rotation about z, in (-pi, pi]) of any non-zero quaternion; roll and pitch dropped."""
-    x, y, z, w = q.x, q.y, q.z, q.w
-    norm_squared = x * x + y * y + z * z + w * w
-    if not math.isfinite(norm_squared) or norm_squared < 1e-12:
-        raise InvalidQuaternionError(f"quaternion ({x}, {y}, {z}, {w}) has no orientation")
-    return wrap_angle(math.atan2(2.0 * (w * z + x * y), norm_squared - 2.0 * (y * y + z * z)))
+    """Yaw of a Quaternion message (``geometry.quaternion_to_yaw``); InvalidQuaternionError
+    when it has no orientation."""
+    try:
+        return geometry.quaternion_to_yaw(q.x, q.y, q.z, q.w)
+    except ValueError as error:
+        raise InvalidQuaternionError(str(error)) from None
 
 
 def odometry_pose(msg) -> np.ndarray:
@@ -272,15 +271,6 @@ def transform(header: Header, child_frame_id: str, pose: Sequence[float]) -> Tra
 
 # --- markers -----------------------------------------------------------------------------------
 
-def ellipse_axes(covariances: np.ndarray, sigma: float = ELLIPSE_SIGMA):
-    """Diameters (N,), (N,) along the major and minor axes and the major axis angle (N,)."""
-    eigenvalues, eigenvectors = np.linalg.eigh(covariances)  # ascending eigenvalues
-    diameters = 2.0 * sigma * np.sqrt(np.clip(eigenvalues, 0.0, None))
-    diameters = np.maximum(diameters, MIN_MARKER_SCALE)
-    angles = np.arctan2(eigenvectors[:, 1, 1], eigenvectors[:, 0, 1])
-    return diameters[:, 1], diameters[:, 0], angles
-
-
 def landmark_markers(header: Header, landmark_map: LandmarkMapLike,
                      removed_keys: Sequence[int] = ()) -> MarkerArray:
     """2-sigma ellipse (CYLINDER) and id label per landmark, DELETE for each removed key.
@@ -290,7 +280,8 @@ def landmark_markers(header: Header, landmark_map: LandmarkMapLike,
     """
     markers = []
     if len(landmark_map.means):
-        major, minor, angles = ellipse_axes(landmark_map.covariances)
+        major, minor, angles = geometry.ellipse_axes(landmark_map.covariances)
+        major, minor = np.maximum(major, MIN_MARKER_SCALE), np.maximum(minor, MIN_MARKER_SCALE)
     for index, key in enumerate(landmark_map.keys):
         key = int(key)
         x, y = float(landmark_map.means[index, 0]), float(landmark_map.means[index, 1])
@@ -336,23 +327,62 @@ def write_map_file(file_path: str | Path, landmark_map: LandmarkMapLike, frame_i
             writer.writerow(MAP_FILE_COLUMNS)
             writer.writerows(rows)
     else:
-        lines = ["# fastslam_ros landmark map of the best particle",
-                 f"frame_id: {json.dumps(frame_id)}", f"stamp: {stamp:.9f}", f"count: {len(rows)}",
-                 "landmarks:" if rows else "landmarks: []"]
-        lines += ["  - {" + ", ".join(f"{name}: {_yaml_scalar(value)}" for name, value in
-                                      zip(MAP_FILE_COLUMNS, row)) + "}" for row in rows]
-        file_path.write_text("\n".join(lines) + "\n")
+        document = {"frame_id": frame_id, "stamp": float(stamp), "count": len(rows),
+                    "landmarks": [dict(zip(MAP_FILE_COLUMNS, row)) for row in rows]}
+        file_path.write_text("# fastslam_ros landmark map of the best particle\n" + yaml.safe_dump(
+            document, sort_keys=False, default_flow_style=None, width=1000))
     return file_path
 
 
-def _yaml_scalar(value: int | float) -> str:
-    """A number as YAML 1.1 and 1.2 both read it back (``1e-05`` is a string to YAML 1.1)."""
-    if isinstance(value, int):
-        return str(value)
-    if not math.isfinite(value):
-        return ".nan" if math.isnan(value) else (".inf" if value > 0 else "-.inf")
-    text = repr(value)
-    if "e" in text and "." not in text:
-        mantissa, exponent = text.split("e")
-        text = f"{mantissa}.0e{exponent}"
-    return text
+@dataclass
+class MapFile:
+    """A landmark map read back from a ``write_map_file`` file (YAML or CSV)."""
+
+    means: np.ndarray
+    """(N, 2) positions (m)."""
+    covariances: np.ndarray
+    """(N, 2, 2) position covariances (m^2)."""
+    ids: np.ndarray
+    """(N,) external ids (-1 unknown)."""
+    frame_id: str = ""
+    """The map's frame ('' when the file does not say, as CSV)."""
+
+
+class MapFileError(ValueError):
+    """A map file that cannot be read; the message names the file."""
+
+
+def read_map_file(file_path: str | Path) -> MapFile:
+    """Read a map written by ``write_map_file`` (``.csv``: CSV, else YAML); MapFileError names
+    the file and what is wrong with it."""
+    file_path = Path(file_path).expanduser()
+    try:
+        if file_path.suffix.lower() == ".csv":
+            with file_path.open(newline="") as stream:
+                rows = list(csv.DictReader(stream))
+            frame_id = ""
+        else:
+            document = yaml.safe_load(file_path.read_text())
+            if not isinstance(document, dict) or not isinstance(document.get("landmarks"), list):
+                raise MapFileError(f"map file '{file_path}': no 'landmarks:' list")
+            rows, frame_id = document["landmarks"], str(document.get("frame_id", ""))
+        table = np.array([[float(row[name]) for name in MAP_FILE_COLUMNS] for row in rows],
+                         dtype=float).reshape(-1, len(MAP_FILE_COLUMNS))
+    except OSError as error:
+        raise MapFileError(f"map file '{file_path}': {error.strerror or error}") from None
+    except (yaml.YAMLError, KeyError, TypeError, ValueError) as error:
+        if isinstance(error, MapFileError):
+            raise
+        raise MapFileError(f"map file '{file_path}': not a landmark map "
+                           f"({type(error).__name__}: {error})") from None
+    column = {name: table[:, index] for index, name in enumerate(MAP_FILE_COLUMNS)}
+    covariances = np.stack([np.stack([column["cov_xx"], column["cov_xy"]], -1),
+                            np.stack([column["cov_xy"], column["cov_yy"]], -1)], -2)
+    means = np.column_stack([column["x"], column["y"]])
+    if not (np.isfinite(means).all() and np.isfinite(covariances).all()):
+        raise MapFileError(f"map file '{file_path}': non-finite landmark values")
+    determinants = column["cov_xx"] * column["cov_yy"] - column["cov_xy"] ** 2
+    if ((column["cov_xx"] <= 0.0) | (determinants <= 0.0)).any():
+        raise MapFileError(f"map file '{file_path}': a landmark covariance is not positive "
+                           "definite")
+    return MapFile(means, covariances, column["id"].astype(np.int64), frame_id)

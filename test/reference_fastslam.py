@@ -8,9 +8,8 @@ association, one uniform for systematic resampling). Each particle owns a deep c
 Semantics mirrored from the core (documented there): the association of every observation of a
 reading is decided at the pose before the reading is used (FastSLAM 1.0: the sampled pose;
 FastSLAM 2.0: the predicted mean, scored with L = G_s P G_s^T + Q); FastSLAM 2.0 then refines
-the proposal with each associated observation in turn, every Jacobian taken at one linearisation
-point (the predicted mean, then the refined mean when ``proposal_iterations`` > 1), and samples
-the pose once.
+the proposal with each associated observation in turn, every Jacobian taken at the predicted
+mean, and samples the pose once.
 """
 from __future__ import annotations
 
@@ -46,9 +45,14 @@ def log_gauss(innovation, cov) -> float:
                  - math.log(2 * math.pi) - 0.5 * math.log(np.linalg.det(cov)))
 
 
+LOGODDS_MAX = 10.0
+"""Existence log-odds saturate here (the core's constant)."""
+
+
 class ReferenceFastSLAM:
-    def __init__(self, config, rng, initial_pose):
+    def __init__(self, config, rng, initial_pose, max_prior_heading_sigma=0.3):
         self.c = config
+        self.max_prior_heading_sigma = max_prior_heading_sigma
         self.rng = rng
         self.M = config.num_particles
         self.poses = [np.array(initial_pose, float) for _ in range(self.M)]
@@ -107,7 +111,7 @@ class ReferenceFastSLAM:
             f[1, 2] = trans * math.cos(mean[2] + rot1)
             self.prior.append((self._move(mean, *u),
                                f @ cov @ f.T + self._motion_cov(mean, u, var)))
-        if max(cov[2, 2] for _, cov in self.prior) > self.c.max_prior_heading_sigma ** 2:
+        if max(cov[2, 2] for _, cov in self.prior) > self.max_prior_heading_sigma ** 2:
             self.poses = self._sample_prior()
 
     def _sample_prior(self):
@@ -176,20 +180,15 @@ class ReferenceFastSLAM:
         choice, factor = self._associate(points, covs, z_all, labels)
         if motion:
             proposals = [self._proposal(motion[m], choice, z_all, m) for m in range(self.M)]
-            for _ in range(c.association_passes - 1):
-                # Again at the proposal means, with the prior covariances.
-                choice, factor = self._associate([p[0] for p in proposals], covs, z_all, labels)
-                proposals = [self._proposal(motion[m], choice, z_all, m) for m in range(self.M)]
         at_association = [row[:] for row in factor]
         for m in range(self.M):
             if motion:
                 mean, cov, factors = proposals[m]
                 for j, value in factors.items():
-                    # A sampled association (monte_carlo, marginal weight) also weighs 1 / q,
-                    # q = its own likelihood over the marginal that ``factor`` holds.
+                    # A sampled association (monte_carlo) also weighs 1 / q, q = its own
+                    # likelihood over the marginal that ``factor`` holds.
                     factor[j][m] = value + (at_association[j][m] - self.chosen_ll[j][m]
-                                            if c.association == "monte_carlo"
-                                            and c.monte_carlo_weight == "marginal" else 0.0)
+                                            if c.association == "monte_carlo" else 0.0)
                 motion[m] = (mean, cov)
             for j in range(K):   # robust likelihood (1 - eps) N + eps u, N at association
                 if self.eps > 0.0 and (isinstance(choice[j][m], int)
@@ -225,7 +224,7 @@ class ReferenceFastSLAM:
                     lm["mean"] = lm["mean"] + gain @ nu
                     a = np.eye(2) - gain @ g_m
                     lm["cov"] = a @ lm["cov"] @ a.T + gain @ r @ gain.T
-                    lm["logodds"] = min(lm["logodds"] + c.logodds_observed, c.logodds_max)
+                    lm["logodds"] = min(lm["logodds"] + c.logodds_observed, LOGODDS_MAX)
                     observed.add(id(lm))
                 elif n == "new":
                     x, y, theta = self.poses[m]
@@ -307,30 +306,27 @@ class ReferenceFastSLAM:
     def _proposal(self, prior, choice, z_all, m):
         """Particle m's proposal (mean, cov) from its prior and associated observations, and
         the weight factor of each of them {j: log N(nu; 0, L)}."""
-        prior_mean, prior_cov = prior
-        point = prior_mean
+        point, cov = prior
+        mean = point
         factors = {}
-        for _ in range(self.c.proposal_iterations):
-            # Sequential updates, every Jacobian taken at the same ``point``.
-            mean, cov = prior_mean, prior_cov
-            for j, z in enumerate(z_all):
-                n = choice[j][m]
-                if not isinstance(n, int):
-                    continue
-                lm = self.maps[m][n]
-                z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
-                step = mean - point
-                step[2] = wrap(step[2])
-                q = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
-                big_l = g_s @ cov @ g_s.T + q
-                nu = z - (z_point + g_s @ step)
-                nu[1] = wrap(nu[1])
-                # Textbook information form (P invertible in these tests).
-                sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
-                mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
-                cov = sigma
-                factors[j] = log_gauss(nu, big_l)
-            point = mean
+        # Sequential updates, every Jacobian taken at the predicted mean ``point``.
+        for j, z in enumerate(z_all):
+            n = choice[j][m]
+            if not isinstance(n, int):
+                continue
+            lm = self.maps[m][n]
+            z_point, g_s, g_m = measure(point, lm["mean"], self.offset)
+            step = mean - point
+            step[2] = wrap(step[2])
+            q = g_m @ lm["cov"] @ g_m.T + self.noise(z[0])
+            big_l = g_s @ cov @ g_s.T + q
+            nu = z - (z_point + g_s @ step)
+            nu[1] = wrap(nu[1])
+            # Textbook information form (P invertible in these tests).
+            sigma = np.linalg.inv(g_s.T @ np.linalg.inv(q) @ g_s + np.linalg.inv(cov))
+            mean = mean + sigma @ g_s.T @ np.linalg.inv(q) @ nu
+            cov = sigma
+            factors[j] = log_gauss(nu, big_l)
         mean = mean.copy()
         mean[2] = wrap(mean[2])
         return mean, cov, factors
@@ -376,9 +372,6 @@ class ReferenceFastSLAM:
             draw = uniforms[j, m] * cumulative[-1]
             k = min(int(np.sum(cumulative <= draw)), len(scores))
             log_marginal = peak + math.log(cumulative[-1])
-            if c.monte_carlo_weight == "sampled":   # the drawn option's own likelihood
-                return ((scores[k][0], scores[k][1]) if k < len(scores)
-                        else ("new", self.log_p0))
             return (scores[k][0] if k < len(scores) else "new"), log_marginal
         if not scores:
             return "new", self.log_p0

@@ -63,7 +63,8 @@ def test_ground_truth_is_interpolated_but_not_across_gaps():
     stamps = np.array([0.0, 1.0, 2.0, 10.0])
     positions = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 4.0], [0.0, 0.0]])
     query = np.array([-0.5, 0.25, 1.5, 2.0, 5.0, 10.0, 11.0])
-    values, valid = interpolate_positions(stamps, positions, query, max_gap=1.0)
+    poses = np.column_stack([positions, np.zeros(len(stamps))])
+    values, valid = interpolate_positions(stamps, poses, query, max_gap=1.0)
     np.testing.assert_array_equal(valid, [False, True, True, True, False, True, False])
     np.testing.assert_allclose(values[valid], [[0.5, 0.0], [2.0, 2.0], [2.0, 4.0], [0.0, 0.0]])
 

@@ -147,37 +147,24 @@ def test_best_path_follows_the_best_particle_and_grows_per_update():
     assert stored < 0.3 * slam.num_particles * slam.num_updates
 
 
-def test_best_particle_changes_only_beyond_the_switch_margin():
+def test_heaviest_best_particle_is_reported_and_kept_through_resampling():
     """Empty readings leave the weights as set here, so they alone decide the best particle."""
     poses = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], float)
 
-    def filter_with(**changes) -> FastSLAM:
-        slam = FastSLAM(config(num_particles=4, **changes))
+    def reweigh(threshold, weights) -> FastSLAM:
+        slam = FastSLAM(config(num_particles=4, resample_threshold=threshold))
         slam.poses = poses.copy()
+        slam.log_weights = np.log(np.asarray(weights, float))
+        slam.resampled = slam.update([], []).resampled
         return slam
 
-    def reweigh(slam, weights) -> bool:
-        slam.log_weights = np.log(np.asarray(weights, float))
-        return slam.update([], []).resampled
-
-    plain = filter_with(resample_threshold=0.1)
-    sticky = filter_with(resample_threshold=0.1, best_switch_margin=1.0)
-    assert not reweigh(plain, [0.2, 0.5, 0.15, 0.15]) and plain.best_index() == 1
-    reweigh(sticky, [0.2, 0.5, 0.15, 0.15])
-    assert sticky.best_index() == 0                  # 0.5 / 0.2 < e: particle 0 stays
-    reweigh(sticky, [0.1, 0.5, 0.2, 0.2])
-    assert sticky.best_index() == 1                  # 0.5 / 0.1 > e
-    reweigh(sticky, [0.4, 0.3, 0.15, 0.15])
-    assert sticky.best_index() == 1                  # now 1 stays: 0.4 / 0.3 < e
+    plain = reweigh(0.1, [0.2, 0.5, 0.15, 0.15])
+    assert not plain.resampled and plain.best_index() == 1
     # Resampling keeps the best particle as one of its copies (systematic resampling draws a
-    # weight >= 1 / M at least once) ...
-    every = filter_with(resample_threshold=1.0, best_switch_margin=1.0)
-    assert reweigh(every, [0.26, 0.2, 0.34, 0.2])
-    np.testing.assert_allclose(every.best_pose(), poses[0])
-    # ... or, when a wide margin kept one too light to be drawn, takes the heaviest drawn.
-    wide = filter_with(resample_threshold=1.0, best_switch_margin=10.0)
-    assert reweigh(wide, [0.001, 0.4, 0.598, 0.001])
-    np.testing.assert_allclose(wide.best_pose(), poses[2])
+    # weight >= 1 / M at least once).
+    every = reweigh(1.0, [0.2, 0.26, 0.34, 0.2])
+    assert every.resampled
+    np.testing.assert_allclose(every.best_pose(), poses[2])
 
 
 def test_central_best_particle_is_nearest_the_weighted_mean_position():
@@ -211,8 +198,6 @@ def test_central_best_particle_is_nearest_the_weighted_mean_position():
     np.testing.assert_allclose(resampled.best_pose(), [2, 1, 0])
     with pytest.raises(ValueError, match="best_particle"):
         config(best_particle="lightest")
-    with pytest.raises(ValueError, match="best_switch_margin"):
-        config(best_particle="central", best_switch_margin=2.0)
 
 
 def test_mean_pose_and_covariance_of_known_particles():

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from fastslam_ros.core.landmark_store import LandmarkStore
+from model_helpers import landmark_counts
 
 
 def insert(store, particle, points, labels=None):
@@ -48,7 +49,7 @@ def test_removed_landmark_disappears_only_for_its_particle():
     ws.valid[1, 0] = False
     ws.dirty[1, 0] = True
     store.scatter(ws, track_labels=False)
-    np.testing.assert_array_equal(store.landmark_counts(), [2, 1, 2])
+    np.testing.assert_array_equal(landmark_counts(store), [2, 1, 2])
 
 
 def test_full_cells_overflow_into_new_columns_and_keep_every_landmark():

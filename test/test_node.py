@@ -7,7 +7,6 @@ for messages with bounded spin loops and assert on content, never on timing.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import subprocess
@@ -33,7 +32,6 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io
-from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
 
@@ -472,7 +470,7 @@ def test_exception_inside_a_callback_is_counted_not_raised(context):
 
 @pytest.mark.parametrize("name, value", [
     ("num_particles", 0), ("sigma_range", -0.1), ("sigma_range", 1), ("algorithm", "fastslam3"),
-    ("association", "nearest"), ("monte_carlo_weight", "max"), ("new_landmark_gate", 1.0),
+    ("association", "nearest"), ("resampling", "best"), ("new_landmark_gate", 1.0),
     ("resample_threshold", 0.0), ("cell_size", 1e-300), ("num_particle", 50),
     ("pose_estimate", "median"), ("max_observation_wait", -1.0), ("map_frame", ""),
 ])

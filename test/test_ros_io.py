@@ -13,6 +13,7 @@ from std_msgs.msg import Header
 from visualization_msgs.msg import Marker
 
 from fastslam_ros import ros_io
+from fastslam_ros.core import geometry
 
 HEADER = Header(frame_id="map", stamp=ros_io.seconds_to_stamp(12.5))
 
@@ -154,7 +155,7 @@ def test_pose_with_covariance_uses_ros_6x6_layout():
 
 
 def test_ellipse_axes_are_two_sigma_diameters_along_eigenvectors():
-    major, minor, angle = ros_io.ellipse_axes(example_map().covariances)
+    major, minor, angle = geometry.ellipse_axes(example_map().covariances)
     assert (major[0], minor[0]) == pytest.approx((8.0, 4.0))  # 2 * 2 sigma, sigma = 2 and 1
     assert math.sin(angle[0]) == pytest.approx(0.0, abs=1e-12)
     assert (major[1], minor[1]) == pytest.approx((1.2, 0.4))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import LOG_TWO_PI
 from .landmark_ekf import innovation_covariance
 from .observation import heading_column
 
@@ -18,7 +19,6 @@ NEW = -1
 IGNORE = -2
 """The observation is not used: ambiguous (two_gate) or an outlier (``reject_outliers``)."""
 
-LOG_TWO_PI = float(np.log(2.0 * np.pi))
 
 
 def gaussian_log_likelihood(innovation_range, innovation_bearing, cov_xx, cov_xy, cov_yy):
@@ -81,13 +81,12 @@ def associate_exclusive_maximum_likelihood(candidate_log_lik: np.ndarray, num_pa
 
 
 def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
-                          rng: np.random.Generator, weight: str = "marginal"):
+                          rng: np.random.Generator):
     """Sample the association in proportion to the likelihoods (p0 for a new landmark).
 
     Options are laid out most likely first (then "new"), so the draw does not depend on how
     the map happens to be stored. The log factor is the importance weight of the draw, the sum
-    of the likelihoods and p0 (the marginal over associations; ``weight="marginal"``), or the
-    likelihood of the option drawn (p0 for new; ``weight="sampled"``).
+    of the likelihoods and p0 (the marginal over associations).
     """
     count, width = candidate_log_lik.shape
     order = np.argsort(-candidate_log_lik, axis=1, kind="stable")
@@ -100,9 +99,7 @@ def associate_monte_carlo(candidate_log_lik: np.ndarray, log_p0: float,
     log_marginal = peak[:, 0] + np.log(cumulative[:, -1])
     chosen = np.take_along_axis(order, np.minimum(picked, max(width - 1, 0))[:, None], 1)[:, 0] \
         if width else picked
-    log_factor = (log_marginal if weight == "marginal"
-                  else np.take_along_axis(log_options, picked[:, None], 1)[:, 0])
-    return np.where(picked == width, NEW, chosen), log_factor
+    return np.where(picked == width, NEW, chosen), log_marginal
 
 
 def associate_two_gates(candidate_log_lik: np.ndarray, candidate_mahalanobis: np.ndarray,

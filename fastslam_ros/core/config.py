@@ -18,9 +18,10 @@ ALGORITHMS = ("fastslam1", "fastslam2")
 ASSOCIATION_MODES = ("known", "ml", "monte_carlo", "two_gate")
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 BEST_PARTICLE_RULES = ("heaviest", "central")
-MONTE_CARLO_WEIGHTS = ("marginal", "sampled")
 
 TWO_PI = 2.0 * math.pi
+LOGODDS_MAX = 10.0
+"""Existence log-odds saturate here, so a landmark that disappears can still be removed."""
 MIN_CELL_SIZE = 0.5
 """Smallest map cell side (m). Cells only index the map (a reading gathers the whole cells
 within the sensor's reach), so a cell far below the spacing of landmarks and the sensor's
@@ -44,9 +45,6 @@ class FastSLAMConfig:
         1e-4, "p0 (1/(m rad)): likelihood density below which an observation starts a new "
         "landmark; the weight of a particle that creates one is multiplied by p0.",
         low=0.0, low_exclusive=True, high=1e3)
-    monte_carlo_weight: str = parameter(
-        "marginal", "monte_carlo: weight factor of a sampled association, the marginal over "
-        "associations or the sampled landmark's likelihood.", choices=MONTE_CARLO_WEIGHTS)
     association_gate: float = parameter(
         9.21, "two_gate: squared Mahalanobis distance inside which an observation may be "
         "associated (chi-square, 2 dof; 9.21 = 99 %).", low=0.0, low_exclusive=True, high=1e4)
@@ -88,14 +86,6 @@ class FastSLAMConfig:
     max_pending_rotation: float = parameter(
         0.5, "Same bound for accumulated rotation (rad).",
         low=0.0, low_exclusive=True, high=math.pi)
-    max_prior_heading_sigma: float = parameter(
-        0.3, "fastslam2: odometry is kept as one Gaussian per particle until its heading "
-        "standard deviation exceeds this (rad); then the particles are sampled from it.",
-        low=0.0, low_exclusive=True, high=math.pi)
-    proposal_iterations: int = parameter(
-        1, "fastslam2: linearisations of the proposal per reading.", low=1, high=10)
-    association_passes: int = parameter(
-        1, "fastslam2: association passes per reading.", low=1, high=5)
     sigma_range: float = parameter(0.1, "Range measurement standard deviation (m).",
                                    low=0.0, low_exclusive=True, high=100.0)
     sigma_bearing: float = parameter(0.0175, "Bearing measurement standard deviation (rad).",
@@ -124,23 +114,17 @@ class FastSLAMConfig:
         low=0.0, low_exclusive=True, high=TWO_PI)
     logodds_observed: float = parameter(
         1.0, "tau+: existence log-odds added when a landmark is observed (and given to a new "
-        "one).", low=0.0, low_exclusive=True, high=100.0)
+        "one); they saturate at 10.", low=0.0, low_exclusive=True, high=LOGODDS_MAX)
     logodds_missed: float = parameter(
         -0.5, "tau-: log-odds added when a landmark inside the perceptual range is not "
         "observed.", low=-100.0, high=0.0)
     logodds_remove: float = parameter(
         -1.5, "A landmark whose log-odds fall below this bound is removed. < logodds_observed.",
         low=-100.0, high=100.0)
-    logodds_max: float = parameter(
-        10.0, "Log-odds saturate here, so a landmark that disappears can still be removed.",
-        low=0.0, low_exclusive=True, high=100.0)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",
         low=0.0, low_exclusive=True, high=1.0)
-    best_switch_margin: float = parameter(
-        0.0, "heaviest: the reported particle changes only when another outweighs it by more "
-        "than this (nats).", low=0.0, high=1e3)
     best_particle: str = parameter(
         "heaviest", "Which particle is reported (pose, map, path): heaviest, the highest "
         "weight; central, the one nearest the weighted mean position (least expected squared "
@@ -171,11 +155,6 @@ class FastSLAMConfig:
              "min_range < max_range")
         need(self.logodds_remove < self.logodds_observed, ("logodds_remove", "logodds_observed"),
              "logodds_remove < logodds_observed")
-        need(self.logodds_max >= self.logodds_observed, ("logodds_observed", "logodds_max"),
-             "logodds_observed <= logodds_max")
-        need(self.best_particle == "heaviest" or self.best_switch_margin == 0.0,
-             ("best_particle", "best_switch_margin"),
-             "best_switch_margin 0 with best_particle central (the margin applies to heaviest)")
         return self
 
     def replace(self, **changes) -> "FastSLAMConfig":

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import association as assoc
-from .config import FastSLAMConfig
+from .config import LOGODDS_MAX, FastSLAMConfig
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
@@ -39,6 +39,10 @@ REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
 within which landmarks join the working set and are scored against the observations: a
 landmark whose mean lies farther out is no plausible match for any observation."""
+MAX_PRIOR_HEADING_SIGMA = 0.3
+"""FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so the
+proposal sees all of its uncertainty; once its heading standard deviation exceeds this (rad)
+the particles are sampled from it, before the proposal's linearisation fails."""
 NEW_SLOTS_PER_OBSERVATION = 3
 """Free working-set columns per observation of the reading that gathers it: each observation
 that creates a landmark (in any particle) takes one, and a full working set is gathered
@@ -148,7 +152,7 @@ class FastSLAM:
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
         self._prior = propagate_gaussian(mean, cov, control, variances)
-        if self._prior[1][:, 2, 2].max() > self.config.max_prior_heading_sigma ** 2:
+        if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
 
@@ -193,13 +197,6 @@ class FastSLAM:
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if fastslam2 and proposal_cov is not None:
             proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
-            for _ in range(self.config.association_passes - 1):
-                # Associate again where this reading's observations put the robot; the
-                # prior covariance is kept (the refined one already holds these observations).
-                choices, log_factors, robust, inverse_q = self._associate(
-                    ws, proposal[0], proposal_cov, ranges, bearings, labels)
-                proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges,
-                                          bearings)
             log_factors = self._sample_proposal(proposal, choices, log_factors, inverse_q)
         log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
@@ -313,9 +310,8 @@ class FastSLAM:
         for outliers, with ``outlier_probability`` > 0), the log weight factors (K, M), the
         robust-likelihood correction of the inliers (``association.reject_outliers``) and
         log(1 / q) (K, M) of each associated observation, q the probability with which its
-        landmark was drawn (0 but with ``monte_carlo`` and ``monte_carlo_weight: marginal``,
-        where it is the log marginal minus the landmark's own log likelihood; with ``sampled``
-        the factor is the drawn landmark's own likelihood, p0 for a new one).
+        landmark was drawn (0 but with ``monte_carlo``, where it is the log marginal minus the
+        landmark's own log likelihood).
         """
         config = self.config
         count = len(ranges)
@@ -356,11 +352,9 @@ class FastSLAM:
             choice, log_factor = assoc.associate_exclusive_maximum_likelihood(
                 log_lik, self.num_particles, self._log_p0)
         elif mode == "monte_carlo":
-            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng,
-                                                             config.monte_carlo_weight)
-            if config.monte_carlo_weight == "marginal":
-                rows = (choice >= 0).nonzero()[0]
-                inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
+            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
+            rows = (choice >= 0).nonzero()[0]
+            inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
         else:
             mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
             choice, log_factor = assoc.associate_two_gates(
@@ -399,7 +393,7 @@ class FastSLAM:
             return mean, cov, np.zeros(self.num_particles)
         return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
                                     bearings[:, None], used, self.offset,
-                                    self._noise(ranges[:, None]), self.config.proposal_iterations)
+                                    self._noise(ranges[:, None]))
 
     def _sample_proposal(self, proposal, choices: np.ndarray, log_factors: np.ndarray,
                          inverse_q: np.ndarray) -> np.ndarray:
@@ -407,10 +401,9 @@ class FastSLAM:
 
         The associated observations' factors are replaced by their joint likelihood
         N(z; z_hat, L) (put on the first row) times 1 / q, q the probability of their sampled
-        association (``monte_carlo`` with ``monte_carlo_weight: marginal``; 1 otherwise): the
-        importance weight of the association draw, which makes a single observation weigh the
-        marginal over associations, as in FastSLAM 1.0. New / ignored observations keep p0 (the
-        marginal, when sampled with that weight) / 1.
+        association (``monte_carlo``; 1 otherwise): the importance weight of the association
+        draw, which makes a single observation weigh the marginal over associations, as in
+        FastSLAM 1.0. New / ignored observations keep p0 (the marginal, when sampled) / 1.
         """
         mean, cov, joint = proposal
         self._prior = (mean, cov)
@@ -485,7 +478,7 @@ class FastSLAM:
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self._noise(ranges[j]))
             state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + config.logodds_observed,
-                                           config.logodds_max)
+                                           LOGODDS_MAX)
             ws.state[p, s] = state
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
@@ -534,7 +527,7 @@ class FastSLAM:
             if self.config.best_particle == "central":
                 self._best = self._select_best()
             else:
-                # The best particle has no copy only when a margin kept a light one: take the
+                # Multinomial resampling may draw no copy of the heaviest particle: take the
                 # heaviest particle drawn instead.
                 copies = (indices == best).nonzero()[0]
                 self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
@@ -543,23 +536,17 @@ class FastSLAM:
 
     def _select_best(self) -> int:
         """The particle to report (``best_particle``): nearest the weighted mean position
-        (``central``), or the highest weight unless the current best is within
-        ``best_switch_margin`` of it (``heaviest``). Weights are normalised."""
+        (``central``) or the highest weight (``heaviest``). Weights are normalised."""
         if self.config.best_particle == "central":
             positions = self.poses[:, :2]
             offsets = positions - np.exp(self.log_weights) @ positions
             return int(np.einsum("ij,ij->i", offsets, offsets).argmin())
-        best = int(self.log_weights.argmax())
-        margin = self.config.best_switch_margin
-        if margin > 0.0 and self.log_weights[self._best] + margin >= self.log_weights[best]:
-            return self._best
-        return best
+        return int(self.log_weights.argmax())
 
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:
-        """The reported particle (``best_particle``): the highest weight, or the previous best
-        while no other outweighs it by more than ``best_switch_margin`` (after resampling: a
-        copy of it); or the one nearest the weighted mean position (after resampling: of the
+        """The reported particle (``best_particle``): the highest weight (after resampling: a
+        copy of it), or the one nearest the weighted mean position (after resampling: of the
         drawn set)."""
         return self._best
 

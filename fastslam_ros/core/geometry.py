@@ -7,6 +7,33 @@ import numpy as np
 
 
 TWO_PI = 2.0 * math.pi
+LOG_TWO_PI = math.log(TWO_PI)
+ELLIPSE_SIGMA = 2.0
+"""Covariance ellipses are drawn at 2 sigma (86 % of the probability mass in 2-D)."""
+
+
+def yaw_to_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    """Rotation by ``yaw`` about z as a unit quaternion (x, y, z, w)."""
+    return 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+
+
+def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
+    """Yaw (rotation about z, in (-pi, pi]) of any non-zero quaternion; roll and pitch dropped.
+
+    Raises ValueError for a zero or non-finite quaternion, which has no orientation."""
+    norm_squared = x * x + y * y + z * z + w * w
+    if not math.isfinite(norm_squared) or norm_squared < 1e-12:
+        raise ValueError(f"quaternion ({x}, {y}, {z}, {w}) has no orientation")
+    return wrap_scalar(math.atan2(2.0 * (w * z + x * y), norm_squared - 2.0 * (y * y + z * z)))
+
+
+def ellipse_axes(covariances: np.ndarray, sigma: float = ELLIPSE_SIGMA):
+    """Full lengths (m) of the major and minor axes of the ``sigma`` ellipses of (N, 2, 2)
+    covariances, and the major axis angle (rad): three (N,) arrays."""
+    eigenvalues, eigenvectors = np.linalg.eigh(covariances)  # ascending eigenvalues
+    diameters = 2.0 * sigma * np.sqrt(np.clip(eigenvalues, 0.0, None))
+    angles = np.arctan2(eigenvectors[:, 1, 1], eigenvectors[:, 0, 1])
+    return diameters[:, 1], diameters[:, 0], angles
 
 
 def wrap_angle(angle):

@@ -142,13 +142,6 @@ class LandmarkStore(RecordViews):
         arrays = (self.state, self.ident, self.occupied, self.refcount, self.table, self.cell_ix, self.cell_iy, self.label_column)
         return int(sum(a.nbytes for a in arrays))
 
-    def landmark_counts(self) -> np.ndarray:
-        """Number of landmarks of every particle (M,)."""
-        self.apply_resampling()
-        rows = self.table[:, :self.num_cells]
-        counts = np.where(rows >= 0, self.occupied.sum(axis=1)[np.maximum(rows, 0)], 0)
-        return counts.sum(axis=1)
-
     # ------------------------------------------------------------------ cells
     def cell_of(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Integer cell coordinates of points (..., 2)."""

@@ -102,8 +102,3 @@ def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u: OdometryControl,
     moved = np.array([mean[:, 0] + u.trans * cos_h, mean[:, 1] + u.trans * sin_h,
                       wrap_angle(heading + u.rot2)]).T
     return moved, predicted
-
-
-def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:
-    """P_t = V M V^T for every particle (M, 3, 3), V = dh/d(rot1, trans, rot2)."""
-    return propagate_gaussian(poses, np.zeros((len(poses), 3, 3)), u, variances)[1]

@@ -71,37 +71,6 @@ def heading_column(t: ObservationTerms):
             -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0)
 
 
-def observe(pose, landmark, offset: SensorOffset = SensorOffset()) -> np.ndarray:
-    """h(s, m): (range, bearing) of landmarks (..., 2) seen from poses (..., 3)."""
-    pose, landmark = np.asarray(pose, float), np.asarray(landmark, float)
-    t = observation_terms(pose[..., 0], pose[..., 1], pose[..., 2],
-                          landmark[..., 0], landmark[..., 1], offset)
-    return np.stack([t.range, t.bearing], axis=-1)
-
-
-def landmark_jacobian(t: ObservationTerms) -> np.ndarray:
-    """G_m = dh/dm, shape (..., 2, 2)."""
-    r = t.range
-    return np.stack([np.stack([t.dx / r, t.dy / r], -1),
-                     np.stack([-t.dy / t.q, t.dx / t.q], -1)], -2)
-
-
-def pose_jacobian(t: ObservationTerms) -> np.ndarray:
-    """G_s = dh/ds, shape (..., 2, 3); the sensor lever arm makes theta enter both rows."""
-    r = t.range
-    w0, w1 = (np.broadcast_to(w, np.shape(r)) for w in heading_column(t))
-    entries = np.stack([-t.dx / r, -t.dy / r, w0, t.dy / t.q, -t.dx / t.q, w1], -1)
-    return entries.reshape(entries.shape[:-1] + (2, 3))
-
-
-def jacobians(pose, landmark, offset: SensorOffset = SensorOffset()):
-    """(G_s, G_m) at (pose, landmark)."""
-    pose, landmark = np.asarray(pose, float), np.asarray(landmark, float)
-    t = observation_terms(pose[..., 0], pose[..., 1], pose[..., 2],
-                          landmark[..., 0], landmark[..., 1], offset)
-    return pose_jacobian(t), landmark_jacobian(t)
-
-
 def inverse_observe(pose, ranges, bearings, offset: SensorOffset = SensorOffset()) -> np.ndarray:
     """g^-1(z, s): landmark position (..., 2) from a range-bearing observation and a pose."""
     pose = np.asarray(pose, float)

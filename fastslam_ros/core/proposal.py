@@ -21,9 +21,7 @@ inversion and determinant lemmas give from the same 3x3 quantities:
     det L        = prod_k det Q_k * det(I + P J).
 
 So the whole reading costs a fixed number of array operations over (particles, observations),
-not a loop over observations. The linearisation point starts at s_hat; with ``iterations`` > 1
-the Jacobians are re-taken at the refined mean (Gauss-Newton, as in an iterated EKF), which
-matters when P is wide (the innovation is then z - h(s_i) - G_k (s_hat - s_i)).
+not a loop over observations. Every Jacobian is taken at the predicted mean s_hat.
 
 The per-observation 2x2 terms are written out component by component (numpy's stacked inv and
 det cost ~30x more per tiny matrix than a few elementwise operations), and one ``einsum`` each
@@ -33,19 +31,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import wrap_angle
+from .geometry import LOG_TWO_PI, wrap_angle
 from .landmark_ekf import innovation_covariance
 from .observation import SensorOffset, heading_column, observation_terms
 
 POSE_JITTER = 1e-12
 """Variance added to the proposal diagonal before factorising it (sigma 1e-6 m, rad)."""
 
-LOG_TWO_PI = float(np.log(2.0 * np.pi))
-
 
 def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarray,
                          ranges: np.ndarray, bearings: np.ndarray, used: np.ndarray,
-                         offset: SensorOffset, noise_diag, iterations: int = 1):
+                         offset: SensorOffset, noise_diag):
     """The proposal N(mu_s, Sigma_s) and log weight for n particles.
 
     mean (n, 3) and cov (n, 3, 3): the motion prior N(s_hat, P). Observations and particles meet
@@ -56,11 +52,9 @@ def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarra
     (mu_s (n, 3), Sigma_s (n, 3, 3), log N(nu; 0, L) (n,)); a particle without observations
     keeps its prior and gets log weight 0.
     """
-    point = mean
-    for _ in range(max(int(iterations), 1)):
-        terms = _information(point, mean, landmarks, ranges, bearings, used, offset, noise_diag)
-        sigma, shift, log_weight = _combine(cov, *terms)
-        point = mean + shift
+    terms = _information(mean, landmarks, ranges, bearings, used, offset, noise_diag)
+    sigma, shift, log_weight = _combine(cov, *terms)
+    point = mean + shift
     point[:, 2] = wrap_angle(point[:, 2])
     return point, sigma, log_weight
 
@@ -70,7 +64,7 @@ _COF_P, _COF_Q = np.array([4, 5, 3, 2, 0, 1, 1, 2, 0]), np.array([8, 6, 7, 7, 8,
 _COF_R, _COF_S = np.array([5, 3, 4, 1, 2, 0, 2, 0, 1]), np.array([7, 8, 6, 8, 6, 7, 4, 5, 3])
 
 
-def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_diag):
+def _information(point, landmarks, ranges, bearings, used, offset, noise_diag):
     """Sums over each particle's used observations, linearised at ``point`` (n, 3):
     J (n, 3, 3), b (n, 3), nu^T Q^-1 nu and log det Q (n,), and the number of them (n,).
 
@@ -92,11 +86,6 @@ def _information(point, mean, landmarks, ranges, bearings, used, offset, noise_d
     nu = np.empty((2,) + g00.shape)
     np.subtract(ranges, t.range, out=nu[0])
     nu[1] = t.bearing_innovation(bearings)
-    if point is not mean:
-        # Linearised about ``point``: h(s_hat) ~ h(point) + G_s (s_hat - point).
-        d = (mean - point).T
-        d[2] = wrap_angle(d[2])
-        nu -= (g_s * d[:, None, :]).sum(axis=1)
     det = q00 * q11 - q01 * q01
     q_inv = np.array([[q11, -q01], [-q01, q00]])                       # Q^-1 (2, 2, K, n)
     q_inv *= used / det                                                # 0 where unused

@@ -66,6 +66,15 @@ def interpolate_pose(stamp0: float, pose0: np.ndarray, stamp1: float, pose1: np.
     return np.array([x, y, wrap_angle(pose0[2] + fraction * wrap_angle(pose1[2] - pose0[2]))])
 
 
+def interpolate_poses(stamps: np.ndarray, poses: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Poses (N, 3) of a timed series at the stamps ``at`` (N,): linear in x, y and in the
+    unwrapped heading (the shortest way round between samples less than pi apart); clamped
+    at the ends."""
+    heading = np.unwrap(poses[:, 2])
+    return np.column_stack((np.interp(at, stamps, poses[:, 0]), np.interp(at, stamps, poses[:, 1]),
+                            wrap_angle(np.interp(at, stamps, heading))))
+
+
 class Throttle:
     """Lets an output through at most once per period of node time (rate 0: never)."""
 

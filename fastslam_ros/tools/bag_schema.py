@@ -28,6 +28,8 @@ from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
+
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
 GROUND_TRUTH_POSE_TOPIC = "/ground_truth/pose"
@@ -130,16 +132,6 @@ def time_msg_to_stamp(time_msg: Any) -> float:
 def _time_msg(stamp_ns: int) -> Any:
     seconds, nanoseconds = divmod(stamp_ns, 1_000_000_000)
     return TYPESTORE.types["builtin_interfaces/msg/Time"](sec=seconds, nanosec=nanoseconds)
-
-
-def yaw_to_quaternion(yaw: float) -> tuple[float, float, float, float]:
-    """Planar heading -> quaternion (x, y, z, w)."""
-    return 0.0, 0.0, float(np.sin(0.5 * yaw)), float(np.cos(0.5 * yaw))
-
-
-def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
-    """Heading (rad, in (-pi, pi]) of a quaternion, assuming it is (nearly) planar."""
-    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
 
 
 def odometry_to_pose(msg: Any) -> tuple[float, float, float]:

@@ -38,13 +38,13 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from fastslam_ros.core.geometry import compose
+from fastslam_ros.core.geometry import compose, quaternion_to_yaw
+from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC,
                                            LandmarkSet, PoseSeries,
                                            bag_topics, cloud_to_arrays, landmark_cloud_arrays,
-                                           pose_series_from_messages, quaternion_to_yaw,
-                                           read_last, read_topics, time_msg_to_stamp)
+                                           pose_series_from_messages, read_last, read_topics, time_msg_to_stamp)
 
 POSE_TOPIC = "/fastslam/pose"
 PATH_TOPIC = "/fastslam/path"
@@ -110,9 +110,10 @@ def error_stats(errors: np.ndarray) -> dict[str, float]:
             "final": float(errors[-1])}
 
 
-def interpolate_positions(stamps: np.ndarray, positions: np.ndarray, query: np.ndarray,
+def interpolate_positions(stamps: np.ndarray, poses: np.ndarray, query: np.ndarray,
                           max_gap: float = DEFAULT_MAX_GAP) -> tuple[np.ndarray, np.ndarray]:
-    """Positions at ``query`` stamps by linear interpolation, and a mask of the valid ones.
+    """Positions (N, 2) at ``query`` stamps of a pose series (``timing.interpolate_poses``),
+    and a mask of the valid ones.
 
     A query is valid when it lies inside the series and its two neighbours are at most
     ``max_gap`` seconds apart (an exact stamp match is always valid).
@@ -127,11 +128,7 @@ def interpolate_positions(stamps: np.ndarray, positions: np.ndarray, query: np.n
     lower = np.where(exact, upper, lower)
     inside = (query >= stamps[0]) & (query <= stamps[-1])
     valid = inside & (exact | (stamps[upper] - stamps[lower] <= max_gap))
-    span = stamps[upper] - stamps[lower]
-    fraction = np.divide(query - stamps[lower], span, out=np.zeros_like(query), where=span > 0)
-    interpolated = (positions[lower] * (1.0 - fraction)[:, None]
-                    + positions[upper] * fraction[:, None])
-    return interpolated, valid
+    return interpolate_poses(stamps, poses, query)[:, :2], valid
 
 
 @dataclass
@@ -176,7 +173,7 @@ def reference_positions(poses: np.ndarray, offset: np.ndarray | None) -> np.ndar
 def evaluate_trajectory(stamps: np.ndarray, positions: np.ndarray, ground_truth: PoseSeries,
                         max_gap: float = DEFAULT_MAX_GAP) -> TrajectoryResult | None:
     """Match an estimated trajectory to the ground truth; None when no sample overlaps."""
-    reference, valid = interpolate_positions(ground_truth.stamps, ground_truth.poses[:, :2],
+    reference, valid = interpolate_positions(ground_truth.stamps, ground_truth.poses,
                                              stamps, max_gap)
     if not np.any(valid):
         return None

@@ -10,26 +10,13 @@ import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
 
-from fastslam_ros.tools.evaluate import Evaluation, Transform2D  # noqa: E402
-
-ELLIPSE_SIGMA = 2.0
-"""Landmark ellipses are drawn at 2 sigma (86 % of the probability mass in 2-D)."""
+from fastslam_ros.core.geometry import ellipse_axes  # noqa: E402
 
 
-def ellipse_axes(covariances: np.ndarray, sigma: float = ELLIPSE_SIGMA
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Full widths, heights (m) and angles (deg) of the ``sigma`` ellipses of (N, 2, 2) covs."""
-    eigenvalues, eigenvectors = np.linalg.eigh(covariances)
-    eigenvalues = np.clip(eigenvalues, 0.0, None)
-    widths = 2.0 * sigma * np.sqrt(eigenvalues[:, 1])
-    heights = 2.0 * sigma * np.sqrt(eigenvalues[:, 0])
-    angles = np.degrees(np.arctan2(eigenvectors[:, 1, 1], eigenvectors[:, 0, 1]))
-    return widths, heights, angles
-
-
-def plot_evaluation(evaluation: Evaluation, path: str | Path, title: str | None = None) -> Path:
-    """Write the figure: estimated paths after their alignment, ground truth, landmarks with
-    2-sigma ellipses and truth (left); position error over time (right)."""
+def plot_evaluation(evaluation, path: str | Path, title: str | None = None) -> Path:
+    """Write the figure of an ``evaluate.Evaluation``: estimated paths after their alignment,
+    ground truth, landmarks with 2-sigma ellipses and truth (left); position error over time
+    (right). (Read by attribute: this module imports nothing of evaluate, which imports it.)"""
     run = evaluation.run
     trajectories = evaluation.trajectories
     figure, (map_axes, error_axes) = plt.subplots(
@@ -59,7 +46,7 @@ def plot_evaluation(evaluation: Evaluation, path: str | Path, title: str | None 
                          linewidths=0.8, label="landmarks, truth", zorder=3)
     if run.landmarks is not None and len(run.landmarks.positions):
         _draw_landmarks(map_axes, run.landmarks.positions, run.landmarks.covariances,
-                        evaluation.landmark_alignment or Transform2D())
+                        evaluation.landmark_alignment)
     map_axes.set_aspect("equal", adjustable="datalim")
     map_axes.set_xlabel("x (m)")
     map_axes.set_ylabel("y (m)")
@@ -77,15 +64,16 @@ def plot_evaluation(evaluation: Evaluation, path: str | Path, title: str | None 
     return path
 
 
-def _draw_landmarks(axes, positions: np.ndarray, covariances: np.ndarray,
-                    alignment: Transform2D) -> None:
-    """Estimated landmarks (aligned) as dots with their 2-sigma covariance ellipses."""
-    aligned = alignment.apply(positions)
-    rotation = alignment.rotation
-    rotated = rotation @ covariances @ rotation.T
-    widths, heights, angles = ellipse_axes(rotated)
+def _draw_landmarks(axes, positions: np.ndarray, covariances: np.ndarray, alignment) -> None:
+    """Estimated landmarks (aligned by an ``evaluate.Transform2D``, if any) as dots with their
+    2-sigma covariance ellipses."""
+    if alignment is not None:
+        positions = alignment.apply(positions)
+        covariances = alignment.rotation @ covariances @ alignment.rotation.T
+    aligned = positions
+    widths, heights, angles = ellipse_axes(covariances)
     axes.add_collection(EllipseCollection(
-        widths, heights, angles, units="xy", offsets=aligned, offset_transform=axes.transData,
+        widths, heights, np.degrees(angles), units="xy", offsets=aligned, offset_transform=axes.transData,
         facecolors="none", edgecolors="tab:purple", linewidths=0.8))
     axes.scatter(*aligned.T, s=6, color="tab:purple", label="landmarks, estimate (2-sigma)",
                  zorder=4)

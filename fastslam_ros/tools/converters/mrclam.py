@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table,
                                            robust_std)
@@ -93,13 +94,6 @@ def load_ground_truth(folder: Path | str, robot: int) -> tuple[np.ndarray, np.nd
     counts = {"ground_truth_dropped_negative_time": negative,
               "ground_truth_dropped_glitches": int(np.count_nonzero(~keep))}
     return table[keep, 0], poses, counts
-
-
-def interpolate_poses(stamps: np.ndarray, poses: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """Poses linearly interpolated at ``at`` (heading unwrapped first; clamped at the ends)."""
-    heading = np.unwrap(poses[:, 2])
-    return np.column_stack((np.interp(at, stamps, poses[:, 0]), np.interp(at, stamps, poses[:, 1]),
-                            wrap_angle(np.interp(at, stamps, heading))))
 
 
 def load_odometry(folder: Path | str, robot: int, start_pose: np.ndarray | None = None,
