@@ -76,6 +76,7 @@ COUNTERS = (
     "late_observations",      # clouds older than the filter's time: used at the filter's pose
     "stale_observations",     # clouds that waited max_observation_wait: used at the latest odometry
     "resets", "time_jumps",                         # filter resets (service or time going back)
+    "initial_poses",                                # poses given on initialpose
     "associations_checked", "associations_correct",  # clouds with ids, association != known
     # points dropped from a cloud:
     "dropped_nan", "dropped_negative_range", "dropped_out_of_range", "dropped_missing_id",
@@ -86,7 +87,7 @@ COUNTERS = (
 )
 
 POSE_ESTIMATES = ("best", "mean")
-REQUIRED_STRINGS = ("odom_frame", "map_frame", "base_frame", "map_file")
+REQUIRED_STRINGS = ("odom_frame", "map_frame", "base_frame", "save_map_file")
 THROTTLED_OUTPUTS = ("particles_rate", "markers_rate", "path_rate")
 INT64_LIMITS = (-2**63, 2**63 - 1)
 GRAPH_PARAMETER_PREFIXES = ("qos_overrides.",)
@@ -122,6 +123,10 @@ class NodeSettings:
         "how late (s of stamps) a cloud may arrive and still get its exact interpolated pose.",
         low=0.0, high=60.0)
     map_file: str = parameter(
+        "", "Landmark map (the YAML or CSV that ~/save_map writes) read at start and by "
+        "~/load_map; it seeds every particle's map. '' starts with an empty map (needed with "
+        "mode localization).")
+    save_map_file: str = parameter(
         "fastslam_map.yaml", "File written by ~/save_map: .csv is CSV, anything else YAML. "
         "Not empty.")
     publish_tf: bool = parameter(
@@ -236,6 +241,8 @@ class FastSLAMNode(Node):
         self.slam = FastSLAM(self.config)
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
         feeds it."""
+        self._initial_pose: tuple[np.ndarray, np.ndarray] | None = None
+        """A pose given on ``initialpose`` before the first odometry, applied with it."""
         self._odometry = OdometryHistory()
         self._pending: list[Observation] = []
         self._newest_stamp: float | None = None
@@ -257,9 +264,21 @@ class FastSLAMNode(Node):
         self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
         self.create_subscription(Odometry, "odom", self.on_odometry, INPUT_QOS)
         self.create_subscription(PointCloud2, "landmarks", self.on_landmarks, INPUT_QOS)
+        self.create_subscription(PoseWithCovarianceStamped, "initialpose", self.on_initial_pose,
+                                 LATEST_QOS)
         self.create_service(Trigger, "~/reset", self._on_reset)
         self.create_service(Trigger, "~/save_map", self._on_save_map)
+        self.create_service(Trigger, "~/load_map", self._on_load_map)
         self.create_timer(DIAGNOSTICS_PERIOD, self._on_timer)
+        if self.settings["map_file"]:
+            try:
+                self._load_map(self.settings["map_file"])
+                self._publish_map()  # latched: RViz shows the loaded map at once
+            except ros_io.MapFileError as error:
+                raise ParameterError(f"parameter 'map_file': {error}") from None
+        elif self.config.mode == "localization":
+            raise ParameterError("parameters 'mode', 'map_file': mode localization needs a "
+                                 "map_file to localize on")
         self.get_logger().info(
             f"FastSLAM {self.config.algorithm}, {self.config.num_particles} particles, "
             f"association {self.config.association}; map frame '{self.settings['map_frame']}'")
@@ -349,6 +368,37 @@ class FastSLAMNode(Node):
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"landmarks callback failed: {error!r}")
 
+    def on_initial_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        """Subscription callback (RViz "2D Pose Estimate"): redraw the particles around the
+        given map-frame pose with its covariance."""
+        try:
+            self._handle_initial_pose(msg)
+        except Exception as error:  # noqa: BLE001 - a callback must never raise
+            self._drop("internal_error", f"initialpose callback failed: {error!r}")
+
+    def _handle_initial_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        if not self._frame_ok("map_frame", msg.header.frame_id, "initialpose"):
+            return
+        try:
+            pose = ros_io.odometry_pose(msg)
+        except ros_io.InvalidQuaternionError as error:
+            return self._drop("invalid_quaternion", f"initialpose dropped: {error}")
+        except ros_io.NonFiniteError as error:
+            return self._drop("nan", f"initialpose dropped: {error}")
+        covariance = ros_io.planar_covariance(msg.pose.covariance)
+        if covariance is None:
+            return self._drop("nan", "initialpose dropped: covariance not finite and "
+                                     "positive semi-definite in x, y, yaw")
+        self.stats["initial_poses"] += 1
+        self.get_logger().info(f"initial pose ({pose[0]:.2f}, {pose[1]:.2f}, {pose[2]:.2f}): "
+                               "particles redrawn around it")
+        if self._odometry.latest_stamp is None:
+            self._initial_pose = (pose, covariance)  # the first odometry would reset it
+        else:
+            self._process_ready(self._now(), force=True)
+            self.slam.initialize_pose(pose, covariance)
+        self._publish_particles()
+
     def _handle_odometry(self, msg: Odometry) -> None:
         if not (self._frame_ok("odom_frame", msg.header.frame_id, "odometry")
                 and self._frame_ok("base_frame", msg.child_frame_id, "odometry child")):
@@ -369,6 +419,8 @@ class FastSLAMNode(Node):
                                                 f"previous one ({latest:.9f})")
         if latest is None:
             self.slam.reset(initial_pose=tuple(pose))  # map frame starts at the first odometry
+            if self._initial_pose is not None:
+                self.slam.initialize_pose(*self._initial_pose)
         self._odometry.append(stamp, pose)
         self.stats["used_odom"] += 1
         now = self._now()
@@ -645,7 +697,7 @@ class FastSLAMNode(Node):
 
     def _on_save_map(self, _request: Trigger.Request,
                      response: Trigger.Response) -> Trigger.Response:
-        map_file = self.settings["map_file"]
+        map_file = self.settings["save_map_file"]
         try:
             landmark_map = self.slam.best_map()
             written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
@@ -654,6 +706,36 @@ class FastSLAMNode(Node):
             response.message = f"{len(landmark_map.keys)} landmarks written to {written}"
         except Exception as error:  # noqa: BLE001 - report the failure to the caller
             response.success, response.message = False, f"cannot write '{map_file}': {error}"
+        return response
+
+    def _load_map(self, map_file: str) -> int:
+        """Seed every particle's map from a map file (ros_io.MapFileError when unreadable);
+        returns the number of landmarks."""
+        loaded = ros_io.read_map_file(map_file)
+        frame = self.settings["map_frame"]
+        if loaded.frame_id and loaded.frame_id != frame:
+            raise ros_io.MapFileError(f"map file '{map_file}': its frame '{loaded.frame_id}' "
+                                      f"is not map_frame '{frame}'")
+        self.slam.seed_map(loaded.means, loaded.covariances, loaded.ids)
+        self._map_dirty = True
+        self.get_logger().info(f"{len(loaded.means)} landmarks loaded from {map_file} "
+                               f"({self.config.mode})")
+        return len(loaded.means)
+
+    def _on_load_map(self, _request: Trigger.Request,
+                     response: Trigger.Response) -> Trigger.Response:
+        """Replace every particle's map with ``map_file``'s landmarks (poses kept)."""
+        map_file = self.settings["map_file"]
+        if not map_file:
+            response.success, response.message = False, "parameter map_file is empty"
+            return response
+        try:
+            self._process_ready(self._now(), force=True)
+            count = self._load_map(map_file)
+            self._publish_map()
+            response.success, response.message = True, f"{count} landmarks loaded from {map_file}"
+        except Exception as error:  # noqa: BLE001 - report the failure to the caller
+            response.success, response.message = False, f"cannot load '{map_file}': {error}"
         return response
 
     def destroy_node(self) -> None:

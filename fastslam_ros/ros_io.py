@@ -123,6 +123,17 @@ def odometry_pose(msg) -> np.ndarray:
     return np.array([position.x, position.y, quaternion_to_yaw(msg.pose.pose.orientation)])
 
 
+def planar_covariance(covariance: Sequence[float]) -> np.ndarray | None:
+    """The (x, y, yaw) block (3, 3) of a row-major 6x6 pose covariance (a
+    PoseWithCovariance's), or None when it is not finite or not positive semi-definite."""
+    full = np.asarray(covariance, dtype=float).reshape(6, 6)
+    planar = full[np.ix_((0, 1, 5), (0, 1, 5))]
+    planar = 0.5 * (planar + planar.T)
+    if not np.isfinite(planar).all() or np.linalg.eigvalsh(planar).min() < -1e-9:
+        return None
+    return planar
+
+
 def pose_msg(pose: Sequence[float]) -> Pose:
     """Planar pose (x, y, theta) -> ``geometry_msgs/Pose`` at z = 0."""
     return Pose(position=Point(x=float(pose[0]), y=float(pose[1])),

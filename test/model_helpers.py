@@ -1,5 +1,5 @@
 """Model functions only the tests need: h(s, m), its Jacobians, the motion covariance and
-covariance packing, written on the core's own building blocks."""
+written on the core's own building blocks."""
 from __future__ import annotations
 
 import numpy as np
@@ -44,11 +44,6 @@ def jacobians(pose, landmark, offset: SensorOffset = SensorOffset()):
 def motion_covariance(poses: np.ndarray, u: OdometryControl, variances: np.ndarray) -> np.ndarray:
     """P_t = V M V^T for every particle (M, 3, 3), V = dh/d(rot1, trans, rot2)."""
     return propagate_gaussian(poses, np.zeros((len(poses), 3, 3)), u, variances)[1]
-
-
-def pack(cov: np.ndarray) -> np.ndarray:
-    """(..., 2, 2) symmetric matrices -> (..., 3) as (xx, xy, yy)."""
-    return np.stack([cov[..., 0, 0], 0.5 * (cov[..., 0, 1] + cov[..., 1, 0]), cov[..., 1, 1]], -1)
 
 
 def landmark_counts(store: LandmarkStore) -> np.ndarray:

@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
-from fastslam_ros.core.landmark_ekf import initialize_landmarks, unpack, update_landmarks
+from fastslam_ros.core.landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from fastslam_ros.core.motion import (OdometryControl, apply_control, control_variances,
                                       sample_motion)
 from fastslam_ros.core.observation import SensorOffset, inverse_observe
 from fastslam_ros.core.proposal import observation_proposal, sample_pose
-from model_helpers import jacobians, motion_covariance, observe, pack
+from model_helpers import jacobians, motion_covariance, observe
 
 OFFSETS = [SensorOffset(), SensorOffset(0.4, -0.2, 0.3), SensorOffset(3.78, 0.5, -np.pi / 2)]
 

@@ -615,7 +615,7 @@ def spin_until(executor: SingleThreadedExecutor, done, what: str) -> None:
 
 def test_dds_run_reliable_inputs_late_map_subscriber_save_and_reset(context, tmp_path):
     yaml = pytest.importorskip("yaml")
-    node = make_node(context, use_sim_time=False, map_file=str(tmp_path / "map.yaml"))
+    node = make_node(context, use_sim_time=False, save_map_file=str(tmp_path / "map.yaml"))
     driver = Node("driver", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)

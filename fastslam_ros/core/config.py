@@ -18,6 +18,7 @@ ALGORITHMS = ("fastslam1", "fastslam2")
 ASSOCIATION_MODES = ("known", "ml", "monte_carlo", "two_gate")
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 BEST_PARTICLE_RULES = ("heaviest", "central")
+MODES = ("mapping", "localization")
 
 TWO_PI = 2.0 * math.pi
 LOGODDS_MAX = 10.0
@@ -34,6 +35,10 @@ class FastSLAMConfig:
     """All tunables of the filter (SI units, radians)."""
 
     num_particles: int = parameter(100, "M, the number of particles.", low=1, high=1_000_000)
+    mode: str = parameter(
+        "mapping", "mapping: build the map (starting from a loaded one, if any); localization: "
+        "the loaded map is fixed (no landmark update, removal or addition) and the particles "
+        "localize on it.", choices=MODES)
     algorithm: str = parameter(
         "fastslam2", "fastslam1: pose from the motion model; fastslam2: pose from the proposal "
         "that uses the current observations.", choices=ALGORITHMS)

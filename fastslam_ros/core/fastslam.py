@@ -27,7 +27,7 @@ import numpy as np
 from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig
 from .geometry import compose, relative_pose, wrap_angle
-from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
+from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import SensorOffset, observation_terms
@@ -97,6 +97,8 @@ class FastSLAM:
                              config.translation_variance_per_radian)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
         self._log_outlier = assoc.log_outlier_density(config)
+        self._localization = config.mode == "localization"
+        self._seed: tuple[np.ndarray, ...] | None = None
         self.reset(initial_pose)
 
     # ------------------------------------------------------------------ lifecycle
@@ -105,9 +107,9 @@ class FastSLAM:
         count = self.config.num_particles
         self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
         self.log_weights = np.full(count, -np.log(count))
-        self.landmarks = LandmarkStore(count, self.config.cell_size)
-        self.history = PathHistory(count)
         self._working: WorkingSet | None = None
+        self._seed_landmarks()
+        self.history = PathHistory(count)
         self._working_box = (0, 0, 0, 0)
         self._working_labels: set[int] = set()
         self._pending = np.zeros(3)
@@ -120,6 +122,53 @@ class FastSLAM:
     @property
     def num_particles(self) -> int:
         return self.config.num_particles
+
+    def seed_map(self, means, covariances, ids=None, existence=None) -> None:
+        """Make every particle's map these landmarks (a map loaded from a file): means (N, 2),
+        covariances (N, 2, 2), ids (N,) (labels; -1 unknown), existence probabilities (N,)
+        (default: certain). ``reset`` returns to this map; in ``localization`` mode it is fixed.
+        The particles share one copy until one of them changes it."""
+        means = np.asarray(means, dtype=float).reshape(-1, 2)
+        count = len(means)
+        labels = (np.full(count, -1, np.int64) if ids is None
+                  else np.asarray(ids, dtype=np.int64).reshape(count))
+        logodds = np.full(count, LOGODDS_MAX)
+        if existence is not None:
+            probability = np.clip(np.asarray(existence, dtype=float).reshape(count), 1e-9,
+                                  1.0 - 1e-9)
+            logodds = np.minimum(np.log(probability / (1.0 - probability)), LOGODDS_MAX)
+        packed = pack(np.asarray(covariances, dtype=float).reshape(count, 2, 2))
+        self._seed = (means, packed, labels, logodds)
+        self._working = None
+        self._seed_landmarks()
+
+    def _seed_landmarks(self) -> None:
+        """A fresh landmark store holding the seeded map (if any) in every particle."""
+        count = self.num_particles
+        self.landmarks = LandmarkStore(count, self.config.cell_size)
+        if self._seed is None or len(self._seed[0]) == 0:
+            return
+        means, packed, labels, logodds = self._seed
+        ws = self.landmarks.gather(np.full((count, 0), -1, np.int64), len(means))
+        ws.mean[0], ws.cov[0], ws.logodds[0], ws.label[0] = means, packed, logodds, labels
+        ws.key[0] = self.landmarks.new_keys(len(means))
+        ws.valid[0] = ws.is_new[0] = True
+        self.landmarks.scatter(ws, track_labels=self.config.association == "known")
+        self.landmarks.resample(np.zeros(count, np.int64))
+
+    def initialize_pose(self, mean, covariance) -> None:
+        """Redraw every particle's pose from N(mean (3,), covariance (3, 3)), e.g. a pose the
+        user gives; maps and path are kept, the weights become uniform."""
+        count = self.num_particles
+        mean = np.broadcast_to(np.asarray(mean, dtype=float), (count, 3))
+        covariance = np.broadcast_to(np.asarray(covariance, dtype=float), (count, 3, 3))
+        poses = sample_pose(mean, covariance, self.rng.standard_normal((count, 3)))
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        self.poses = poses
+        self.log_weights = np.full(count, -np.log(count))
+        self._prior = None
+        self._pending = np.zeros(3)
+        self._has_pending = False
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -195,13 +244,19 @@ class FastSLAM:
         choices, log_factors, robust, inverse_q = self._associate(
             ws, proposal_mean, proposal_cov, ranges, bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
+        if self._localization:
+            # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
+            choices[choices == assoc.NEW] = assoc.IGNORE
         if fastslam2 and proposal_cov is not None:
             proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
             log_factors = self._sample_proposal(proposal, choices, log_factors, inverse_q)
         log_factors = log_factors + robust
         self.log_weights = self.log_weights + log_factors.sum(axis=0)
-        creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
-        self._missed_evidence(ws, observed)
+        if self._localization:
+            creating = np.zeros(choices.shape, dtype=bool)
+        else:
+            creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
+            self._missed_evidence(ws, observed)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
         report = self._finish_update(ws, choices, creating)

@@ -10,6 +10,11 @@ import numpy as np
 from .observation import SensorOffset, inverse_observe, observation_terms
 
 
+def pack(cov: np.ndarray) -> np.ndarray:
+    """(..., 2, 2) symmetric matrices -> (..., 3) as (xx, xy, yy)."""
+    return np.stack([cov[..., 0, 0], 0.5 * (cov[..., 0, 1] + cov[..., 1, 0]), cov[..., 1, 1]], -1)
+
+
 def unpack(packed: np.ndarray) -> np.ndarray:
     """(..., 3) as (xx, xy, yy) -> (..., 2, 2)."""
     xx, xy, yy = packed[..., 0], packed[..., 1], packed[..., 2]
