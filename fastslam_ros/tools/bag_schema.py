@@ -17,7 +17,6 @@ logged at its header stamp.
 """
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -27,6 +26,8 @@ from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+
+from fastslam_ros.tools.output import prepare_output
 
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
@@ -257,24 +258,22 @@ def _serialize(msg: Any, msgtype: str) -> bytes:
 # ---------------------------------------------------------------- writing
 
 
-def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False) -> Writer:
-    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` removes an old one."""
+def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False,
+                inputs: Iterable[str | Path] = ()) -> Writer:
+    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` replaces an old bag
+    there (``output.prepare_output``: never another folder, nor one of ``inputs``)."""
     if storage not in STORAGE_PLUGINS:
         raise ValueError(f"storage: must be one of {sorted(STORAGE_PLUGINS)} (got {storage!r})")
-    path = Path(path)
-    if path.exists():
-        if not overwrite:
-            raise FileExistsError(f"{path} exists (remove it or choose another output)")
-        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    path = prepare_output(path, overwrite, "bag", inputs)
     return Writer(path, version=9, storage_plugin=STORAGE_PLUGINS[storage])
 
 
 def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
-                     overwrite: bool = False) -> Path:
+                     overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> Path:
     """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``)."""
     records = list(_schema_records(bag))
     records.sort(key=lambda record: (record.stamp_ns, record.order))
-    writer = open_writer(path, storage, overwrite)
+    writer = open_writer(path, storage, overwrite, inputs)
     with writer:
         connections = {}
         for topic, msgtype in ((ODOM_TOPIC, ODOMETRY_TYPE), (LANDMARKS_TOPIC, CLOUD_TYPE),

@@ -40,6 +40,7 @@ from fastslam_ros.node import ROS_PARAMETERS, FastSLAMNode, ParameterError
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TYPESTORE, SchemaError,
                                            open_writer)
+from fastslam_ros.tools.output import check_output
 
 INFO_TOPIC = "/fastslam_replay/info"
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
@@ -196,14 +197,18 @@ class OutputRecorder:
 
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                params_file: str | Path | None = None, out_path: str | Path | None = None,
-               progress: bool = False, overwrite: bool = True) -> ReplayResult:
+               progress: bool = False, overwrite: bool = False) -> ReplayResult:
     """Feed the bag's ``/odom`` and ``/landmarks`` to a fresh ``FastSLAMNode``; record outputs.
 
     ``params`` override ``params_file``; set ``seed`` in them for a reproducible run. Raises
     ``FileNotFoundError`` / ``SchemaError`` for a missing or unreadable bag or missing topics,
-    ``ValueError`` for bad parameters (the message names the parameter).
+    ``ValueError`` for bad parameters (the message names the parameter), ``FileExistsError``
+    for an output that exists (without ``overwrite``, or that is not a bag, or an input).
     """
     bag_path = Path(bag_path)
+    inputs = [bag_path] + ([Path(params_file)] if params_file else [])
+    if out_path is not None:
+        check_output(out_path, overwrite, "bag", inputs)  # before any work
     merged = load_params_file(params_file) if params_file else {}
     merged.update(params or {})
     context = Context()
@@ -218,7 +223,7 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                        for name in sorted(set(merged) | {"algorithm", "association"})}
         recorder = None
         if out_path is not None:
-            writer = open_writer(out_path, "mcap", overwrite)
+            writer = open_writer(out_path, "mcap", overwrite, inputs)
             writer.open()
             cleanup.callback(writer.close)
             recorder = OutputRecorder(writer)
@@ -338,6 +343,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="record outputs into this MCAP bag folder [<bag>_out]")
     parser.add_argument("--no-record", action="store_true", help="do not write an output bag")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
     args = parser.parse_args(argv)
@@ -350,7 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     out = None if args.no_record else (args.out or args.bag.with_name(args.bag.name + "_out"))
     try:
         result = replay_bag(args.bag, params, args.params, out,
-                            progress=args.progress or sys.stderr.isatty())
+                            progress=args.progress or sys.stderr.isatty(),
+                            overwrite=args.overwrite)
     except (FileNotFoundError, SchemaError, ValueError, OSError) as error:
         print(f"fastslam-replay: {error}", file=sys.stderr)
         return 1
