@@ -65,6 +65,10 @@ class NonFiniteError(ValueError):
     """A NaN or infinite value where a number is needed."""
 
 
+class InvalidStampError(ValueError):
+    """A ``builtin_interfaces/Time`` outside its definition (sec < 0 or nanosec >= 1e9)."""
+
+
 class LandmarkMapLike(Protocol):
     """What the converters need of ``fastslam_ros.core.LandmarkMap``."""
 
@@ -90,6 +94,15 @@ class LandmarkCloud:
 def stamp_to_seconds(stamp) -> float:
     """``builtin_interfaces/Time`` -> float seconds."""
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def checked_stamp_to_seconds(stamp) -> float:
+    """``stamp_to_seconds`` of a valid stamp; ``InvalidStampError`` for negative seconds or
+    nanoseconds of 1e9 or more (which a float sum would silently turn into a later time)."""
+    if stamp.sec < 0 or not 0 <= stamp.nanosec < 1_000_000_000:
+        raise InvalidStampError(f"stamp sec={stamp.sec} nanosec={stamp.nanosec} is not a time "
+                                "(sec >= 0, 0 <= nanosec < 1e9)")
+    return stamp_to_seconds(stamp)
 
 
 def seconds_to_stamp(seconds: float) -> Time:
@@ -136,8 +149,17 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
     """Read x, y (float32/64) and the optional integer ``id`` field of a landmark cloud.
 
     Raises ``MalformedCloudError`` when the cloud cannot be read as a whole; values inside it
-    (NaN, odd ids) are returned as they are, for the caller to filter point by point.
+    (NaN, odd ids) are returned as they are, for the caller to filter point by point. A cloud
+    without points and without data is a valid empty reading (nothing seen), whatever its
+    fields, so a bare ``PointCloud2()`` and one with ``width = 0`` mean the same; a cloud
+    without points but with data is malformed.
     """
+    count = cloud_size(msg)
+    if count == 0:
+        if len(msg.data):
+            raise MalformedCloudError(f"width * height = 0 but {len(msg.data)} bytes of data")
+        no_ids = np.zeros(0, np.int64) if any(f.name == "id" for f in msg.fields) else None
+        return LandmarkCloud(np.zeros(0), np.zeros(0), no_ids)
     fields = {field.name: field for field in msg.fields}
     for name in ("x", "y"):
         if name not in fields:
@@ -149,10 +171,6 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
         if fields["id"].datatype not in INTEGER_FIELD_TYPES:
             raise MalformedCloudError("field 'id' is not an integer type")
         names.append("id")
-    count = msg.width * msg.height
-    if count == 0:
-        no_ids = np.zeros(0, np.int64) if "id" in names else None
-        return LandmarkCloud(np.zeros(0), np.zeros(0), no_ids)
     point_step, row_step = msg.point_step, msg.row_step
     byte_order = ">" if msg.is_bigendian else "<"
     formats = [np.dtype(POINT_FIELD_DTYPES[fields[n].datatype]).newbyteorder(byte_order)
@@ -174,6 +192,11 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
     points = np.ascontiguousarray(rows).view(dtype).reshape(-1)
     ids = points["id"].astype(np.int64) if "id" in names else None
     return LandmarkCloud(points["x"].astype(np.float64), points["y"].astype(np.float64), ids)
+
+
+def cloud_size(msg) -> int:
+    """Number of points a PointCloud2 declares (width * height), read without its data."""
+    return int(msg.width) * int(msg.height)
 
 
 def _point_fields(dtype: np.dtype) -> list[PointField]:
