@@ -17,6 +17,7 @@ logged at its header stamp.
 """
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -53,6 +54,40 @@ LANDMARK_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id"
 
 class SchemaError(ValueError):
     """A bag that does not follow schema v1 (missing topics, wrong fields)."""
+
+
+KNOWN_MESSAGE_TYPES = (
+    "nav_msgs/msg/Odometry", "nav_msgs/msg/Path", "sensor_msgs/msg/PointCloud2",
+    "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped", "geometry_msgs/msg/TransformStamped",
+    "visualization_msgs/msg/MarkerArray", "diagnostic_msgs/msg/DiagnosticArray",
+    "std_msgs/msg/String", "rosgraph_msgs/msg/Clock", "tf2_msgs/msg/TFMessage")
+"""Every message type the tools read, write or play (bag schema v1 and the node's outputs)."""
+
+
+def _message_class(msgtype: str) -> type | None:
+    """The rclpy class of one of KNOWN_MESSAGE_TYPES (None when its package is not
+    installed); the module name comes from the table, never from a bag."""
+    package, _, name = msgtype.split("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name)
+    except ImportError:
+        return None
+
+
+def ros_message_class(msgtype: str, topic: str = "") -> type:
+    """The rclpy message class of a known ``pkg/msg/Name``; ``SchemaError`` for any other.
+
+    Types are looked up in a fixed table, never imported by the name a bag declares (a bag
+    could otherwise make a tool import any module)."""
+    where = f"topic {topic}: " if topic else ""
+    if msgtype not in KNOWN_MESSAGE_TYPES:
+        raise SchemaError(f"{where}message type {msgtype!r} is not one the tools handle "
+                          f"({', '.join(KNOWN_MESSAGE_TYPES)})")
+    cls = _message_class(msgtype)
+    if cls is None:
+        raise SchemaError(f"{where}message type {msgtype!r}: its ROS package is not installed")
+    return cls
 
 
 @dataclass

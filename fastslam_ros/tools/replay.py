@@ -3,7 +3,7 @@
 Every ``/odom`` and ``/landmarks`` message of the bag is deserialized straight into its rclpy
 message class and handed, in bag-time order, to the node's subscription callbacks; before each
 one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
-DDS and nothing waits, so a replay runs as fast as the filter allows and gives the same
+DDS (the node's context has discovery off: no other process sees it) and nothing waits, so a replay runs as fast as the filter allows and gives the same
 outputs as a live run at the same times. Every message the node publishes is recorded into
 OUT (MCAP) at the bag time of the input being processed, together with copies of the bag's
 ``/odom``, ``/landmarks`` and ground-truth topics and one ``/fastslam_replay/info`` message
@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import json
 import math
+import os
 import sys
 import time
 from contextlib import ExitStack, contextmanager
@@ -39,7 +39,7 @@ from fastslam_ros.core.config import FastSLAMConfig
 from fastslam_ros.node import ROS_PARAMETERS, FastSLAMNode, ParameterError
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TYPESTORE, SchemaError,
-                                           open_writer)
+                                           open_writer, ros_message_class)
 from fastslam_ros.tools.output import check_output
 
 INFO_TOPIC = "/fastslam_replay/info"
@@ -71,12 +71,6 @@ class ReplayResult:
 
 
 # ---------------------------------------------------------------- message types
-
-
-def ros_message_class(msgtype: str) -> type:
-    """The rclpy message class of ``pkg/msg/Name``."""
-    package, kind, name = msgtype.split("/")
-    return getattr(importlib.import_module(f"{package}.{kind}"), name)
 
 
 def ros_msgtype(msg: Any) -> str:
@@ -211,8 +205,7 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
         check_output(out_path, overwrite, "bag", inputs)  # before any work
     merged = load_params_file(params_file) if params_file else {}
     merged.update(params or {})
-    context = Context()
-    rclpy.init(context=context)
+    context = isolated_context()
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
         reader = cleanup.enter_context(_open_input(bag_path))
@@ -240,6 +233,30 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                     "stats": result.stats, "params": used_params}
             recorder.record(INFO_TOPIC, String(data=json.dumps(info)))
         return result
+
+
+ISOLATION_ENVIRONMENT = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF", "ROS_STATIC_PEERS": ""}
+"""rcl discovery settings of the replay's context: no discovery at all (REP 2009), so its node
+never appears on the robot's ROS graph, whatever ROS_DOMAIN_ID says."""
+
+
+def isolated_context() -> Context:
+    """An initialised rclpy Context that discovers nobody and that nobody discovers.
+
+    rcl reads the discovery settings from the environment when the context is initialised;
+    they are set for that call only and restored at once."""
+    saved = {name: os.environ.get(name) for name in ISOLATION_ENVIRONMENT}
+    os.environ.update(ISOLATION_ENVIRONMENT)
+    try:
+        context = Context()
+        rclpy.init(context=context)
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+    return context
 
 
 @contextmanager
@@ -284,7 +301,7 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
     callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
-    classes = {c.topic: ros_message_class(c.msgtype) for c in reader.connections
+    classes = {c.topic: ros_message_class(c.msgtype, c.topic) for c in reader.connections
                if c.topic in INPUT_TOPICS}
     wanted = [c for c in reader.connections
               if c.topic in INPUT_TOPICS or (recorder is not None and c.topic in COPIED_TOPICS)]
