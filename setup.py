@@ -21,7 +21,7 @@ setup(
     extras_require={
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-        "test": ["pytest>=7", "pytest-timeout>=2"],
+        "test": ["pytest>=7", "pytest-timeout>=2", "hypothesis>=6"],
     },
     zip_safe=True,
     maintainer="fastslam_ros developers",

@@ -640,8 +640,15 @@ class FastSLAMNode(Node):
         check_ids = observation.ids is not None and self.config.association != "known"
         known_before = set(self.slam.best_map().ids.tolist()) if check_ids else set()
         recoveries = self.slam.num_recoveries
-        report = self.slam.update(observation.ranges, observation.bearings, ids=observation.ids,
-                                   stamp=observation.stamp)
+        try:
+            report = self.slam.update(observation.ranges, observation.bearings,
+                                       ids=observation.ids, stamp=observation.stamp)
+        except (ValueError, ArithmeticError) as error:
+            if not self.slam.check_state():  # not a broken state: a real bug, reported as such
+                raise
+            self.stats["filter_recoveries"] += 1
+            return self._drop("internal_error", f"update failed on a non-finite filter state "
+                                                f"({error!r}): repaired, reading lost")
         if self.slam.num_recoveries != recoveries:
             self.stats["filter_recoveries"] += 1
             self.get_logger().warning(
