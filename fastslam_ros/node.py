@@ -288,6 +288,7 @@ class FastSLAMNode(Node):
         self._map_dirty = False
         self._published_keys: set[int] = set()
         self._path_builder = ros_io.PathBuilder()
+        self._marker_builder = ros_io.MarkerBuilder()
         self._diagnostics_throttle = Throttle(1.0 / DIAGNOSTICS_PERIOD)
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
@@ -769,7 +770,7 @@ class FastSLAMNode(Node):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
-        self._publish(self._markers_pub, ros_io.landmark_markers(header, landmark_map, removed))
+        self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys
         self._map_dirty = False

@@ -311,30 +311,64 @@ def landmark_markers(header: Header, landmark_map: LandmarkMapLike,
     Markers are keyed by the landmark's stable key, so an update replaces the previous marker
     of the same landmark and a removed landmark disappears from RViz.
     """
-    markers = []
-    if len(landmark_map.means):
-        major, minor, angles = ellipse_axes(landmark_map.covariances)
-    for index, key in enumerate(landmark_map.keys):
-        key = int(key)
-        x, y = float(landmark_map.means[index, 0]), float(landmark_map.means[index, 1])
-        existence = float(landmark_map.existence[index])
-        ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
-                         action=Marker.ADD, pose=pose_msg((x, y, float(angles[index]))),
-                         color=ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence))
-        ellipse.scale.x, ellipse.scale.y = float(major[index]), float(minor[index])
-        ellipse.scale.z = ELLIPSE_HEIGHT
-        landmark_id = int(landmark_map.ids[index])
-        label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
-                       action=Marker.ADD, text=str(landmark_id) if landmark_id >= 0 else f"k{key}",
-                       color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-        label.pose.position = Point(x=x, y=y, z=LABEL_LIFT)
-        label.pose.orientation.w = 1.0
-        label.scale.z = LABEL_HEIGHT
-        markers += [ellipse, label]
-    for key in removed_keys:
-        markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
-                    for namespace in (ELLIPSE_NAMESPACE, LABEL_NAMESPACE)]
-    return MarkerArray(markers=markers)
+    return MarkerBuilder().build(header, landmark_map, removed_keys)
+
+
+class MarkerBuilder:
+    """Builds successive ``~/landmarks`` MarkerArrays, each holding the whole map.
+
+    Only the markers of landmarks that changed since the previous message (mean, covariance,
+    existence or id) are built again, with the new header; the others are reused, so a large
+    map that barely changed is cheap to publish again. The reused markers are never modified.
+    """
+
+    def __init__(self) -> None:
+        self._cache: dict[int, tuple[list[float], list[Marker]]] = {}
+
+    def build(self, header: Header, landmark_map: LandmarkMapLike,
+              removed_keys: Sequence[int] = ()) -> MarkerArray:
+        count = len(landmark_map.means)
+        covariances = np.asarray(landmark_map.covariances).reshape(count, 4)
+        rows = np.column_stack([landmark_map.means, covariances[:, [0, 1, 3]],
+                                landmark_map.existence, landmark_map.ids]).tolist()
+        keys = np.asarray(landmark_map.keys).tolist()
+        changed = [index for index, (key, row) in enumerate(zip(keys, rows))
+                   if (cached := self._cache.get(key)) is None or cached[0] != row]
+        cache = {}
+        if changed:
+            major, minor, angles = ellipse_axes(np.asarray(landmark_map.covariances)[changed])
+            for position, index in enumerate(changed):
+                cache[keys[index]] = (rows[index], _marker_pair(
+                    header, keys[index], rows[index], float(major[position]),
+                    float(minor[position]), float(angles[position])))
+        markers = []
+        for key, row in zip(keys, rows):
+            entry = cache.get(key) or self._cache[key]
+            cache[key] = entry
+            markers += entry[1]
+        self._cache = cache
+        for key in removed_keys:
+            markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
+                        for namespace in (ELLIPSE_NAMESPACE, LABEL_NAMESPACE)]
+        return MarkerArray(markers=markers)
+
+
+def _marker_pair(header: Header, key: int, row: list[float], major: float, minor: float,
+                 angle: float) -> list[Marker]:
+    """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
+    x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
+    ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
+                     action=Marker.ADD, pose=pose_msg((x, y, angle)),
+                     color=ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence))
+    ellipse.scale.x, ellipse.scale.y = major, minor
+    ellipse.scale.z = ELLIPSE_HEIGHT
+    label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
+                   action=Marker.ADD, text=str(landmark_id) if landmark_id >= 0 else f"k{key}",
+                   color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
+    label.pose.position = Point(x=x, y=y, z=LABEL_LIFT)
+    label.pose.orientation.w = 1.0
+    label.scale.z = LABEL_HEIGHT
+    return [ellipse, label]
 
 
 # --- map file ----------------------------------------------------------------------------------
