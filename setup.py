@@ -40,6 +40,7 @@ setup(
             "fastslam-convert = fastslam_ros.tools.convert:main",
             "fastslam-benchmark = fastslam_ros.tools.benchmark:main",
             "fastslam-bench = fastslam_ros.tools.bench:main",
+            "fastslam-poison = fastslam_ros.tools.poison:main",
         ],
     },
 )

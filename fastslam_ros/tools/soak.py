@@ -69,7 +69,7 @@ def publish_costs(node: FastSLAMNode) -> dict[str, float]:
 def soak(hours: float = 10.0, particles: int = 10, seed: int = 1,
          progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Feed ``hours`` of simulated data; RSS per hour and publish costs at the first and last."""
-    config = SimConfig(seed=seed, laps=max(1, int(hours * 3600 / 200) + 1), duration=hours * 3600,
+    config = SimConfig(seed=seed, laps=int(hours * 3600 / 150) + 2, duration=hours * 3600,
                        control_rate=10.0, observation_rate=2.0)
     bag = simulate(config)
     params = dict(recommended_params(config), num_particles=particles, seed=seed,
