@@ -545,6 +545,7 @@ class FastSLAMNode(Node):
             return False
         candidates.clear()
         self.stats["time_jumps"] += 1
+        self._rates = {topic: InputRate() for topic in self._rates}  # the gap is no loss
         if stamp < newest:
             self.get_logger().warning(
                 f"time went backwards from {newest:.3f} s to {stamp:.3f} s (looped bag?): "

@@ -416,3 +416,25 @@ def test_random_clouds_never_break_the_node(running_node, msg, offset):
     assert np.isfinite(node.slam.poses).all() and np.isfinite(node.slam.log_weights).all()
     landmark_map = node.slam.best_map()
     assert np.isfinite(landmark_map.means).all() and np.isfinite(landmark_map.covariances).all()
+
+
+def test_poisoned_bag_replays_to_the_clean_estimate(tmp_path):
+    """fastslam-poison mixes every class into a bag; the replay drops exactly the faults."""
+    from fastslam_ros.tools.bag_schema import read_topic, write_schema_bag
+    from fastslam_ros.tools.poison import poison_bag
+    from fastslam_ros.tools.replay import replay_bag
+
+    bag = write_schema_bag(tmp_path / "clean", simulate(SimConfig(duration=25.0, seed=4)))
+    counts = poison_bag(bag, tmp_path / "poisoned", rate=2.0, seed=1)
+    assert min(counts.values()) >= 1  # every class at least once
+    params = {"num_particles": 10, "seed": 2}
+    clean = replay_bag(bag, params, out_path=tmp_path / "clean_out")
+    poisoned = replay_bag(tmp_path / "poisoned", params, out_path=tmp_path / "poisoned_out")
+    assert poisoned.stats["dropped_internal_error"] == 0
+    assert poisoned.stats["used_landmarks"] == clean.stats["used_landmarks"]
+    dropped = sum(v for k, v in poisoned.stats.items() if k.startswith("dropped_"))
+    assert dropped >= sum(counts.values())
+    poses = [read_topic(tmp_path / name, "/fastslam/pose")[1]
+             for name in ("clean_out", "poisoned_out")]
+    assert [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[0]] == \
+        [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[1]]
