@@ -21,7 +21,7 @@ setup(
     extras_require={
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-        "test": ["pytest>=7", "pytest-timeout>=2"],
+        "test": ["pytest>=7", "pytest-timeout>=2", "hypothesis>=6"],
     },
     zip_safe=True,
     maintainer="fastslam_ros developers",
@@ -40,6 +40,7 @@ setup(
             "fastslam-convert = fastslam_ros.tools.convert:main",
             "fastslam-benchmark = fastslam_ros.tools.benchmark:main",
             "fastslam-bench = fastslam_ros.tools.bench:main",
+            "fastslam-poison = fastslam_ros.tools.poison:main",
         ],
     },
 )

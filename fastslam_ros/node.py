@@ -13,6 +13,7 @@ import bisect
 import math
 import re
 import sys
+import time
 from dataclasses import dataclass
 from os import PathLike
 from typing import Callable
@@ -39,8 +40,9 @@ from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.params import (ParameterValueError, Spec, check_fields, parameter,
                                       specs)
-from fastslam_ros.core.geometry import compose, relative_pose
-from fastslam_ros.core.timing import OdometryHistory, Throttle
+from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
+from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
+from fastslam_ros.core.timing import InputRate, OdometryHistory, Throttle
 
 try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same transform anyway.
     from tf2_ros import TransformBroadcaster
@@ -50,7 +52,24 @@ except ImportError:
 NODE_NAME = "fastslam"
 TIME_JUMP_BACK = 1.0
 """An input stamp this much (s) older than the newest one means time went backwards (a looped
-bag, a restarted simulation): the filter resets. Smaller steps back are out-of-order messages."""
+bag, a restarted simulation): the filter resets, once confirmed. Smaller steps back are
+out-of-order messages."""
+TIME_JUMP_FORWARD = 10.0
+"""An input stamp this much (s) newer than the newest one is a jump forward (or a stray stamp)."""
+STAMP_CONFIRMATIONS = 3
+"""A time jump is accepted only when this many consecutive messages agree on the new time; the
+messages before that are dropped as outlier stamps, so one stray stamp is never used and never
+resets the filter."""
+ODOMETRY_CONFIRMATIONS = 5
+"""An odometry jump beyond max_speed / max_yaw_rate is accepted (the odometry restarted
+elsewhere; the filter carries on from where it was) only when this many consecutive messages
+continue it plausibly; before that each one is dropped as implausible."""
+ODOMETRY_SLACK = (0.1, 0.1)
+"""m and rad allowed on top of max_speed and max_yaw_rate times the step (stamp jitter)."""
+MAX_ODOMETRY_COORDINATE = 1e7
+"""m: an odometry position farther out is dropped (overflows the motion model's squares)."""
+LAG_WARNING = 1.0
+"""s: a reading processed this long after its stamp (node time) makes the diagnostics WARN."""
 DIAGNOSTICS_PERIOD = 1.0
 """Seconds of node time between two /diagnostics messages."""
 
@@ -78,12 +97,16 @@ COUNTERS = (
     "resets", "time_jumps",                         # filter resets (service or time going back)
     "initial_poses",                                # poses given on initialpose
     "associations_checked", "associations_correct",  # clouds with ids, association != known
+    "odometry_jumps",         # confirmed odometry discontinuities, bridged with zero motion
+    "filter_recoveries",      # updates after which the filter repaired a non-finite state
+    "odom_missing", "landmarks_missing",  # messages estimated lost from gaps in the stamps
     # points dropped from a cloud:
-    "dropped_nan", "dropped_negative_range", "dropped_out_of_range", "dropped_missing_id",
+    "dropped_nan", "dropped_too_close", "dropped_out_of_range", "dropped_missing_id",
     # whole messages dropped:
-    "dropped_malformed_cloud", "dropped_wrong_frame", "dropped_invalid_quaternion",
-    "dropped_duplicate_stamp", "dropped_time_backwards", "dropped_stale",
-    "dropped_internal_error",
+    "dropped_malformed_cloud", "dropped_oversized_cloud", "dropped_wrong_frame",
+    "dropped_invalid_quaternion", "dropped_implausible_odometry", "dropped_invalid_stamp",
+    "dropped_outlier_stamp", "dropped_duplicate_stamp", "dropped_time_backwards",
+    "dropped_stale", "dropped_internal_error",
 )
 
 POSE_ESTIMATES = ("best", "mean")
@@ -131,6 +154,21 @@ class NodeSettings:
         "Not empty.")
     publish_tf: bool = parameter(
         True, "Broadcast map -> odom on /tf (when tf2_ros is installed).")
+    max_speed: float = parameter(
+        20.0, "Odometry plausibility gate (m/s): a step between consecutive odometry poses "
+        "faster than this is a glitch and dropped, unless the next messages confirm it.",
+        low=1e-3, high=1e5)
+    max_yaw_rate: float = parameter(
+        10.0, "Odometry plausibility gate on the heading (rad/s), as max_speed.", low=1e-3,
+        high=1e4)
+    max_observations_per_cloud: int = parameter(
+        200, "A landmark cloud with more points is dropped whole, unread, so one message's cost "
+        "is bounded (thinning it would give negative evidence to landmarks it did see).",
+        low=1, high=1_000_000)
+    path_max_poses: int = parameter(
+        2000, "~/path holds at most this many poses: a longer path is decimated evenly (always "
+        "ending at the newest pose), so its cost stays flat over any run length.",
+        low=3, high=10_000_000)
 
     def validate(self) -> "NodeSettings":
         """Raise ``ParameterValueError`` naming the bad setting; return self when all are good."""
@@ -199,6 +237,17 @@ class _NothingToDestroy:
         pass
 
 
+def decimation(length: int, limit: int) -> np.ndarray | None:
+    """Indices of at most ``limit`` of ``length`` items, evenly spread and ending at the last;
+    None when all fit. The stride is a power of two, so the kept items stay the same from one
+    call to the next while the sequence grows (their messages are reused)."""
+    if length <= limit:
+        return None
+    stride = 1 << math.ceil(math.log2((length - 1) / max(limit - 2, 1)))
+    indices = np.arange(0, length, stride)
+    return indices if indices[-1] == length - 1 else np.append(indices, length - 1)
+
+
 class FastSLAMNode(Node):
     """Landmark FastSLAM on ``odom`` + ``landmarks``; publishes pose, map, path and particles."""
 
@@ -244,6 +293,15 @@ class FastSLAMNode(Node):
         self._initial_pose: tuple[np.ndarray, np.ndarray] | None = None
         """A pose given on ``initialpose`` before the first odometry, applied with it."""
         self._odometry = OdometryHistory()
+        self._odometry_correction = np.zeros(3)
+        """Pose of the raw odometry frame in the odometry frame the filter follows: it bridges
+        confirmed odometry jumps with zero motion (identity until the first one)."""
+        self._odometry_candidates: list[tuple[float, np.ndarray]] = []
+        self._stamp_candidates: list[float] = []
+        self._rates = {"odom": InputRate(), "landmarks": InputRate()}
+        self._worst_lag = 0.0
+        self._worst_callback = 0.0
+        self._warned_at_last_diagnostics: dict[str, int] = {}
         self._pending: list[Observation] = []
         self._newest_stamp: float | None = None
         self._last_cloud_stamp: float | None = None
@@ -251,8 +309,8 @@ class FastSLAMNode(Node):
         self._map_dirty = False
         self._published_keys: set[int] = set()
         self._path_builder = ros_io.PathBuilder()
+        self._marker_builder = ros_io.MarkerBuilder()
         self._diagnostics_throttle = Throttle(1.0 / DIAGNOSTICS_PERIOD)
-        self._drops_at_last_diagnostics = 0
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._path_pub = self.create_publisher(Path, "~/path", LATEST_QOS)
@@ -355,18 +413,22 @@ class FastSLAMNode(Node):
     def on_odometry(self, msg: Odometry) -> None:
         """Subscription callback: store the odometry pose, then run what it makes ready."""
         self.stats["received_odom"] += 1
+        start = time.perf_counter()
         try:
             self._handle_odometry(msg)
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"odometry callback failed: {error!r}")
+        self._worst_callback = max(self._worst_callback, time.perf_counter() - start)
 
     def on_landmarks(self, msg: PointCloud2) -> None:
         """Subscription callback: convert the cloud to range/bearing and queue it by stamp."""
         self.stats["received_landmarks"] += 1
+        start = time.perf_counter()
         try:
             self._handle_landmarks(msg)
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"landmarks callback failed: {error!r}")
+        self._worst_callback = max(self._worst_callback, time.perf_counter() - start)
 
     def on_initial_pose(self, msg: PoseWithCovarianceStamped) -> None:
         """Subscription callback (RViz "2D Pose Estimate"): redraw the particles around the
@@ -409,19 +471,27 @@ class FastSLAMNode(Node):
             return self._drop("invalid_quaternion", f"odometry dropped: {error}")
         except ros_io.NonFiniteError as error:
             return self._drop("nan", f"odometry dropped: {error}")
-        stamp = ros_io.stamp_to_seconds(msg.header.stamp)
-        self._check_time_jump(stamp)
+        if not np.all(np.abs(pose[:2]) <= MAX_ODOMETRY_COORDINATE):
+            return self._drop("implausible_odometry", f"odometry position {pose[:2]} is beyond "
+                                                      f"{MAX_ODOMETRY_COORDINATE:g} m")
+        stamp = self._stamp(msg.header.stamp, "odometry")
+        if stamp is None:
+            return
         latest = self._odometry.latest_stamp
         if latest is not None and stamp == latest:
             return self._drop("duplicate_stamp", f"odometry with a repeated stamp {stamp:.9f}")
         if latest is not None and stamp < latest:
             return self._drop("time_backwards", f"odometry stamp {stamp:.9f} is older than the "
                                                 f"previous one ({latest:.9f})")
+        pose = compose(self._odometry_correction, pose)
+        if latest is not None and not self._odometry_plausible(stamp, pose):
+            return
         if latest is None:
             self.slam.reset(initial_pose=tuple(pose))  # map frame starts at the first odometry
             if self._initial_pose is not None:
                 self.slam.initialize_pose(*self._initial_pose)
         self._odometry.append(stamp, pose)
+        self.stats["odom_missing"] += self._rates["odom"].record(stamp, self._now())
         self.stats["used_odom"] += 1
         now = self._now()
         self._process_ready(now)
@@ -431,12 +501,18 @@ class FastSLAMNode(Node):
     def _handle_landmarks(self, msg: PointCloud2) -> None:
         if not self._frame_ok("sensor_frame", msg.header.frame_id, "landmark cloud"):
             return
+        size, cap = ros_io.cloud_size(msg), self.settings["max_observations_per_cloud"]
+        if size > cap:
+            return self._drop("oversized_cloud", f"landmark cloud of {size} points dropped "
+                                                 f"(max_observations_per_cloud {cap})")
         try:
             cloud = ros_io.read_landmark_cloud(msg)
         except ros_io.MalformedCloudError as error:
             return self._drop("malformed_cloud", f"landmark cloud dropped: {error}")
-        stamp = ros_io.stamp_to_seconds(msg.header.stamp)
-        self._check_time_jump(stamp)
+        stamp = self._stamp(msg.header.stamp, "landmark cloud")
+        if stamp is None:
+            return
+        self.stats["landmarks_missing"] += self._rates["landmarks"].record(stamp, self._now())
         if stamp == self._last_cloud_stamp or any(o.stamp == stamp for o in self._pending):
             return self._drop("duplicate_stamp",
                               f"landmark cloud with a repeated stamp {stamp:.9f}")
@@ -456,11 +532,12 @@ class FastSLAMNode(Node):
         """
         finite = np.isfinite(cloud.x) & np.isfinite(cloud.y)
         ranges = np.hypot(cloud.x, cloud.y)
-        positive = ~finite | (ranges > 0.0)
+        far_enough = ~finite | (ranges >= MIN_OBSERVATION_RANGE)
         in_range = ~finite | (ranges <= self.config.max_range)
-        keep = finite & positive & in_range
+        keep = finite & far_enough & in_range
         self._count_points("nan", finite, "non-finite x/y")
-        self._count_points("negative_range", positive, "range <= 0 (point at the sensor origin)")
+        self._count_points("too_close", far_enough, f"range below {MIN_OBSERVATION_RANGE} m "
+                                                    "(at the sensor origin, or byte-swapped data)")
         self._count_points("out_of_range", in_range, f"range beyond max_range "
                                                      f"({self.config.max_range} m)")
         ids = cloud.ids
@@ -498,16 +575,95 @@ class FastSLAMNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _check_time_jump(self, stamp: float) -> None:
-        """Reset the filter when time went backwards (looped bag); buffered clouds go in first."""
-        if self._newest_stamp is not None and stamp < self._newest_stamp - TIME_JUMP_BACK:
+    def _stamp(self, stamp_msg, what: str) -> float | None:
+        """Seconds of a message's stamp, or None (counted) for an invalid or an outlier stamp."""
+        try:
+            stamp = ros_io.checked_stamp_to_seconds(stamp_msg)
+        except ros_io.InvalidStampError as error:
+            self._drop("invalid_stamp", f"{what} dropped: {error}")
+            return None
+        return stamp if self._stamp_usable(stamp, what) else None
+
+    def _stamp_usable(self, stamp: float, what: str) -> bool:
+        """Whether a stamp fits the input's time; a jump is used only once confirmed.
+
+        A stamp more than TIME_JUMP_BACK s before or TIME_JUMP_FORWARD s after the newest one
+        is an outlier and dropped, until STAMP_CONFIRMATIONS consecutive messages agree on the
+        new time: then time went backwards (looped bag: buffered clouds go in, the filter
+        resets) or jumped forward (a pause), and the run goes on from there.
+        """
+        newest = self._newest_stamp
+        if newest is None or newest - TIME_JUMP_BACK <= stamp <= newest + TIME_JUMP_FORWARD:
+            self._stamp_candidates.clear()
+            self._newest_stamp = stamp if newest is None else max(newest, stamp)
+            return True
+        candidates = self._stamp_candidates
+        if candidates and not (candidates[-1] - TIME_JUMP_BACK <= stamp
+                               <= candidates[-1] + TIME_JUMP_FORWARD):
+            candidates.clear()
+        candidates.append(stamp)
+        if len(candidates) < STAMP_CONFIRMATIONS:
+            self._drop("outlier_stamp", f"{what} stamped {stamp:.3f} s, {stamp - newest:+.3f} s "
+                                        f"from the newest input ({newest:.3f} s): dropped until "
+                                        f"{STAMP_CONFIRMATIONS} messages in a row agree")
+            return False
+        candidates.clear()
+        self.stats["time_jumps"] += 1
+        self._rates = {topic: InputRate() for topic in self._rates}  # the gap is no loss
+        if stamp < newest:
             self.get_logger().warning(
-                f"time went backwards from {self._newest_stamp:.3f} s to {stamp:.3f} s "
-                "(looped bag?): resetting the filter", throttle_duration_sec=5.0)
-            self.stats["time_jumps"] += 1
+                f"time went backwards from {newest:.3f} s to {stamp:.3f} s (looped bag?): "
+                "resetting the filter", throttle_duration_sec=5.0)
             self._process_ready(self._now(), force=True)
             self.reset()
-        self._newest_stamp = stamp if self._newest_stamp is None else max(self._newest_stamp, stamp)
+        else:
+            self.get_logger().warning(f"time jumped forward from {newest:.3f} s to {stamp:.3f} s",
+                                      throttle_duration_sec=5.0)
+        self._newest_stamp = stamp
+        return True
+
+    def _odometry_plausible(self, stamp: float, pose: np.ndarray) -> bool:
+        """The max_speed / max_yaw_rate gate between the newest odometry and this pose.
+
+        A jump is dropped (counted) unless ODOMETRY_CONFIRMATIONS consecutive messages continue
+        it plausibly: the odometry then restarted elsewhere, and the frame the filter follows is
+        shifted so that the jump is no motion at all.
+        """
+        if self._step_plausible(self._odometry.latest_stamp, self._odometry.latest_pose,
+                                stamp, pose):
+            self._odometry_candidates.clear()
+            return True
+        candidates = self._odometry_candidates
+        if candidates and not self._step_plausible(*candidates[-1], stamp, pose):
+            candidates.clear()
+        candidates.append((stamp, pose))
+        if len(candidates) < ODOMETRY_CONFIRMATIONS:
+            latest = self._odometry.latest_pose
+            self._drop("implausible_odometry",
+                       f"odometry jumps {math.hypot(*(pose[:2] - latest[:2])):.3g} m, "
+                       f"{abs(wrap_scalar(pose[2] - latest[2])):.3g} rad in "
+                       f"{stamp - self._odometry.latest_stamp:.3g} s (max_speed "
+                       f"{self.settings['max_speed']} m/s, max_yaw_rate "
+                       f"{self.settings['max_yaw_rate']} rad/s)")
+            return False
+        candidates.clear()
+        # New frame: the jump itself becomes no motion (latest = shift * pose).
+        shift = compose(self._odometry.latest_pose, relative_pose(pose, np.zeros(3)))
+        self._odometry_correction = compose(shift, self._odometry_correction)
+        pose[:] = self._odometry.latest_pose
+        self.stats["odometry_jumps"] += 1
+        self.get_logger().warning("odometry jumped and the jump is confirmed: continuing from "
+                                  "the current estimate", throttle_duration_sec=5.0)
+        return True
+
+    def _step_plausible(self, stamp0: float, pose0: np.ndarray, stamp1: float,
+                        pose1: np.ndarray) -> bool:
+        step = stamp1 - stamp0
+        return bool(
+            math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1])
+            <= self.settings["max_speed"] * step + ODOMETRY_SLACK[0]
+            and abs(wrap_scalar(pose1[2] - pose0[2]))
+            <= self.settings["max_yaw_rate"] * step + ODOMETRY_SLACK[1])
 
     # --- filter --------------------------------------------------------------------------------
 
@@ -549,8 +705,22 @@ class FastSLAMNode(Node):
             self.slam.predict(pose_from, pose_to)
         check_ids = observation.ids is not None and self.config.association != "known"
         known_before = set(self.slam.best_map().ids.tolist()) if check_ids else set()
-        report = self.slam.update(observation.ranges, observation.bearings, ids=observation.ids,
-                                   stamp=observation.stamp)
+        recoveries = self.slam.num_recoveries
+        try:
+            report = self.slam.update(observation.ranges, observation.bearings,
+                                       ids=observation.ids, stamp=observation.stamp)
+        except (ValueError, ArithmeticError) as error:
+            if not self.slam.check_state():  # not a broken state: a real bug, reported as such
+                raise
+            self.stats["filter_recoveries"] += 1
+            return self._drop("internal_error", f"update failed on a non-finite filter state "
+                                                f"({error!r}): repaired, reading lost")
+        if self.slam.num_recoveries != recoveries:
+            self.stats["filter_recoveries"] += 1
+            self.get_logger().warning(
+                "the filter's state was not finite after an update: repaired from the finite "
+                "particles (or reset) [filter_recoveries]", throttle_duration_sec=5.0)
+        self._worst_lag = max(self._worst_lag, self._now() - observation.stamp)
         if check_ids:
             self._check_associations(observation.ids, report, known_before)
         self.stats["used_landmarks"] += 1
@@ -578,6 +748,8 @@ class FastSLAMNode(Node):
         """Forget the map, the trajectory and all buffered input; the next odometry restarts."""
         self.slam.reset()
         self._odometry = OdometryHistory()
+        self._odometry_correction = np.zeros(3)
+        self._odometry_candidates.clear()
         self._pending.clear()
         self._newest_stamp = None
         self._last_cloud_stamp = None
@@ -623,8 +795,11 @@ class FastSLAMNode(Node):
         header = self._header()
         pose, covariance = self._estimate()
         self._publish(self._pose_pub, ros_io.pose_with_covariance(header, pose, covariance))
-        # map -> odom = (map -> base) * (odom -> base)^-1, both at the observation's time.
-        map_to_odom = compose(pose, relative_pose(self._odometry.anchor_pose, np.zeros(3)))
+        # map -> odom = (map -> base) * (odom -> base)^-1, both at the observation's time (the
+        # correction takes the filter's odometry frame back to the raw one).
+        map_to_odom = compose(compose(pose, relative_pose(self._odometry.anchor_pose,
+                                                          np.zeros(3))),
+                              self._odometry_correction)
         transform = ros_io.transform(header, self.settings["odom_frame"], map_to_odom)
         self._publish(self._map_to_odom_pub, transform)
         if self.settings["publish_tf"] and self._tf_broadcaster is not None:
@@ -643,7 +818,11 @@ class FastSLAMNode(Node):
             self._publish_diagnostics()
 
     def _publish_path(self) -> None:
+        """~/path: the best particle's path, decimated to at most path_max_poses."""
         stamps, poses = self.slam.best_path()
+        keep = decimation(len(stamps), self.settings["path_max_poses"])
+        if keep is not None:
+            stamps, poses = stamps[keep], poses[keep]
         self._publish(self._path_pub, self._path_builder.build(self._header(), stamps, poses))
 
     def _publish_particles(self) -> None:
@@ -656,22 +835,64 @@ class FastSLAMNode(Node):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
-        self._publish(self._markers_pub, ros_io.landmark_markers(header, landmark_map, removed))
+        self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys
         self._map_dirty = False
 
+    def _diagnostic_problems(self, now: float) -> list[str]:
+        """What went wrong since the last report, worst first: drops, input gaps, silence,
+        processing lag, late readings, repairs of the filter."""
+        stats, seen = self.stats, self._warned_at_last_diagnostics
+        drops = sum(v for k, v in stats.items() if k.startswith("dropped_"))
+        counts = {"drops": drops, **{k: stats[k] for k in (
+            "odom_missing", "landmarks_missing", "late_observations", "stale_observations",
+            "filter_recoveries", "odometry_jumps", "time_jumps")}}
+        new = {k: v - seen.get(k, 0) for k, v in counts.items()}
+        self._warned_at_last_diagnostics = counts
+        problems = []
+        if new["drops"]:
+            problems.append(f"{new['drops']} input(s) dropped")
+        for topic in ("odom", "landmarks"):
+            rate = self._rates[topic]
+            if new[f"{topic}_missing"]:
+                problems.append(f"~{new[f'{topic}_missing']} {topic} message(s) lost (gaps in "
+                                f"the stamps up to {rate.largest_gap:.3g} s, usual interval "
+                                f"{rate.interval:.3g} s)")
+            if silent := rate.silence(now):
+                problems.append(f"no {topic} for {silent:.3g} s (usual interval "
+                                f"{rate.interval:.3g} s)")
+        if self._worst_lag > LAG_WARNING:
+            problems.append(f"processing lag {self._worst_lag:.3g} s behind the stamps")
+        for key, what in (("late_observations", "clouds older than the filter's time"),
+                          ("stale_observations", "clouds used without their odometry"),
+                          ("filter_recoveries", "filter state repaired"),
+                          ("odometry_jumps", "odometry jumps bridged"),
+                          ("time_jumps", "time jumps")):
+            if new[key]:
+                problems.append(f"{new[key]} {what}")
+        return problems
+
     def _publish_diagnostics(self) -> None:
-        """/diagnostics: every counter; WARN when input was dropped since the last report."""
-        drops = sum(v for k, v in self.stats.items() if k.startswith("dropped_"))
-        new_drops = drops - self._drops_at_last_diagnostics
-        self._drops_at_last_diagnostics = drops
+        """/diagnostics: every counter, the input rates and the processing lag; WARN naming what
+        went wrong since the last report (drops, lost messages, silent inputs, lag)."""
+        now = self._now()
+        problems = self._diagnostic_problems(now)
+        rates = [KeyValue(key=f"{topic}_{name}", value=f"{value:.6g}")
+                 for topic, rate in self._rates.items()
+                 for name, value in (("interval", rate.interval or 0.0),
+                                     ("largest_gap", rate.largest_gap),
+                                     ("silent_for", rate.silence(now)))]
+        timing = [KeyValue(key="processing_lag_max", value=f"{self._worst_lag:.6g}"),
+                  KeyValue(key="callback_time_max", value=f"{self._worst_callback:.6g}")]
+        self._worst_lag = self._worst_callback = 0.0
         status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if new_drops else DiagnosticStatus.OK,
+            level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
             name=f"{self.get_name()}: filter", hardware_id=self.get_fully_qualified_name(),
-            message=f"{new_drops} input(s) dropped since last report" if new_drops else "running",
+            message="; ".join(problems) + " since last report" if problems else "running",
             values=[KeyValue(key=k, value=str(v)) for k, v in self.stats.items()]
-            + [KeyValue(key="queued_observations", value=str(len(self._pending)))])
+            + [KeyValue(key="queued_observations", value=str(len(self._pending)))]
+            + rates + timing)
         self._publish(self._diagnostics_pub,
                       DiagnosticArray(header=Header(stamp=self.get_clock().now().to_msg()),
                                       status=[status]))

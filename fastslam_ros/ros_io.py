@@ -63,6 +63,10 @@ class NonFiniteError(ValueError):
     """A NaN or infinite value where a number is needed."""
 
 
+class InvalidStampError(ValueError):
+    """A ``builtin_interfaces/Time`` outside its definition (sec < 0 or nanosec >= 1e9)."""
+
+
 class LandmarkMapLike(Protocol):
     """What the converters need of ``fastslam_ros.core.LandmarkMap``."""
 
@@ -88,6 +92,15 @@ class LandmarkCloud:
 def stamp_to_seconds(stamp) -> float:
     """``builtin_interfaces/Time`` -> float seconds."""
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def checked_stamp_to_seconds(stamp) -> float:
+    """``stamp_to_seconds`` of a valid stamp; ``InvalidStampError`` for negative seconds or
+    nanoseconds of 1e9 or more (which a float sum would silently turn into a later time)."""
+    if stamp.sec < 0 or not 0 <= stamp.nanosec < 1_000_000_000:
+        raise InvalidStampError(f"stamp sec={stamp.sec} nanosec={stamp.nanosec} is not a time "
+                                "(sec >= 0, 0 <= nanosec < 1e9)")
+    return stamp_to_seconds(stamp)
 
 
 def seconds_to_stamp(seconds: float) -> Time:
@@ -146,8 +159,17 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
     """Read x, y (float32/64) and the optional integer ``id`` field of a landmark cloud.
 
     Raises ``MalformedCloudError`` when the cloud cannot be read as a whole; values inside it
-    (NaN, odd ids) are returned as they are, for the caller to filter point by point.
+    (NaN, odd ids) are returned as they are, for the caller to filter point by point. A cloud
+    without points and without data is a valid empty reading (nothing seen), whatever its
+    fields, so a bare ``PointCloud2()`` and one with ``width = 0`` mean the same; a cloud
+    without points but with data is malformed.
     """
+    count = cloud_size(msg)
+    if count == 0:
+        if len(msg.data):
+            raise MalformedCloudError(f"width * height = 0 but {len(msg.data)} bytes of data")
+        no_ids = np.zeros(0, np.int64) if any(f.name == "id" for f in msg.fields) else None
+        return LandmarkCloud(np.zeros(0), np.zeros(0), no_ids)
     fields = {field.name: field for field in msg.fields}
     for name in ("x", "y"):
         if name not in fields:
@@ -159,10 +181,6 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
         if fields["id"].datatype not in INTEGER_FIELD_TYPES:
             raise MalformedCloudError("field 'id' is not an integer type")
         names.append("id")
-    count = msg.width * msg.height
-    if count == 0:
-        no_ids = np.zeros(0, np.int64) if "id" in names else None
-        return LandmarkCloud(np.zeros(0), np.zeros(0), no_ids)
     point_step, row_step = msg.point_step, msg.row_step
     byte_order = ">" if msg.is_bigendian else "<"
     formats = [np.dtype(POINT_FIELD_DTYPES[fields[n].datatype]).newbyteorder(byte_order)
@@ -184,6 +202,11 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
     points = np.ascontiguousarray(rows).view(dtype).reshape(-1)
     ids = points["id"].astype(np.int64) if "id" in names else None
     return LandmarkCloud(points["x"].astype(np.float64), points["y"].astype(np.float64), ids)
+
+
+def cloud_size(msg) -> int:
+    """Number of points a PointCloud2 declares (width * height), read without its data."""
+    return int(msg.width) * int(msg.height)
 
 
 def _point_fields(dtype: np.dtype) -> list[PointField]:
@@ -289,31 +312,64 @@ def landmark_markers(header: Header, landmark_map: LandmarkMapLike,
     Markers are keyed by the landmark's stable key, so an update replaces the previous marker
     of the same landmark and a removed landmark disappears from RViz.
     """
-    markers = []
-    if len(landmark_map.means):
-        major, minor, angles = geometry.ellipse_axes(landmark_map.covariances)
-        major, minor = np.maximum(major, MIN_MARKER_SCALE), np.maximum(minor, MIN_MARKER_SCALE)
-    for index, key in enumerate(landmark_map.keys):
-        key = int(key)
-        x, y = float(landmark_map.means[index, 0]), float(landmark_map.means[index, 1])
-        existence = float(landmark_map.existence[index])
-        ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
-                         action=Marker.ADD, pose=pose_msg((x, y, float(angles[index]))),
-                         color=ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence))
-        ellipse.scale.x, ellipse.scale.y = float(major[index]), float(minor[index])
-        ellipse.scale.z = ELLIPSE_HEIGHT
-        landmark_id = int(landmark_map.ids[index])
-        label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
-                       action=Marker.ADD, text=str(landmark_id) if landmark_id >= 0 else f"k{key}",
-                       color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-        label.pose.position = Point(x=x, y=y, z=LABEL_LIFT)
-        label.pose.orientation.w = 1.0
-        label.scale.z = LABEL_HEIGHT
-        markers += [ellipse, label]
-    for key in removed_keys:
-        markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
-                    for namespace in (ELLIPSE_NAMESPACE, LABEL_NAMESPACE)]
-    return MarkerArray(markers=markers)
+    return MarkerBuilder().build(header, landmark_map, removed_keys)
+
+
+class MarkerBuilder:
+    """Builds successive ``~/landmarks`` MarkerArrays, each holding the whole map.
+
+    Only the markers of landmarks that changed since the previous message (mean, covariance,
+    existence or id) are built again, with the new header; the others are reused, so a large
+    map that barely changed is cheap to publish again. The reused markers are never modified.
+    """
+
+    def __init__(self) -> None:
+        self._cache: dict[int, tuple[list[float], list[Marker]]] = {}
+
+    def build(self, header: Header, landmark_map: LandmarkMapLike,
+              removed_keys: Sequence[int] = ()) -> MarkerArray:
+        count = len(landmark_map.means)
+        covariances = np.asarray(landmark_map.covariances).reshape(count, 4)
+        rows = np.column_stack([landmark_map.means, covariances[:, [0, 1, 3]],
+                                landmark_map.existence, landmark_map.ids]).tolist()
+        keys = np.asarray(landmark_map.keys).tolist()
+        changed = [index for index, (key, row) in enumerate(zip(keys, rows))
+                   if (cached := self._cache.get(key)) is None or cached[0] != row]
+        cache = {}
+        if changed:
+            major, minor, angles = geometry.ellipse_axes(np.asarray(landmark_map.covariances)[changed])
+            for position, index in enumerate(changed):
+                cache[keys[index]] = (rows[index], _marker_pair(
+                    header, keys[index], rows[index], float(major[position]),
+                    float(minor[position]), float(angles[position])))
+        markers = []
+        for key, row in zip(keys, rows):
+            entry = cache.get(key) or self._cache[key]
+            cache[key] = entry
+            markers += entry[1]
+        self._cache = cache
+        for key in removed_keys:
+            markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
+                        for namespace in (ELLIPSE_NAMESPACE, LABEL_NAMESPACE)]
+        return MarkerArray(markers=markers)
+
+
+def _marker_pair(header: Header, key: int, row: list[float], major: float, minor: float,
+                 angle: float) -> list[Marker]:
+    """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
+    x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
+    ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
+                     action=Marker.ADD, pose=pose_msg((x, y, angle)),
+                     color=ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence))
+    ellipse.scale.x, ellipse.scale.y = major, minor
+    ellipse.scale.z = ELLIPSE_HEIGHT
+    label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
+                   action=Marker.ADD, text=str(landmark_id) if landmark_id >= 0 else f"k{key}",
+                   color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
+    label.pose.position = Point(x=x, y=y, z=LABEL_LIFT)
+    label.pose.orientation.w = 1.0
+    label.scale.z = LABEL_HEIGHT
+    return [ellipse, label]
 
 
 # --- map file ----------------------------------------------------------------------------------

@@ -98,3 +98,57 @@ def test_parameter_file_sections_merge_and_integers_widen(tmp_path):
     assert parse_assignment("association=ml") == ("association", "ml")
     with pytest.raises(ValueError):
         parse_assignment("alpha1")
+
+
+def test_message_types_come_from_a_fixed_table_never_from_an_import():
+    import sys
+
+    from fastslam_ros.tools.bag_schema import ros_message_class
+    from nav_msgs.msg import Odometry
+    assert ros_message_class("nav_msgs/msg/Odometry") is Odometry
+    sys.modules.pop("this", None)
+    for name in ("this/msg/Odometry", "os/msg/system", "nav_msgs/msg/Nope", "garbage"):
+        with pytest.raises(SchemaError, match="not one the tools handle"):
+            ros_message_class(name, "/odom")
+    assert "this" not in sys.modules
+
+
+def test_replay_is_invisible_to_other_processes(tmp_path):
+    """A replay in one process, a plain node in another, a probe here, one domain: the probe
+    sees the plain node (discovery works) and never the replay's node."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    import rclpy
+    from rclpy.context import Context
+
+    domain = str(150 + os.getpid() % 80)
+    env = {**os.environ, "ROS_DOMAIN_ID": domain}
+    bag = write_schema_bag(tmp_path / "long", simulate(SimConfig(duration=60.0, seed=2)))
+    replay_process = subprocess.Popen(
+        [sys.executable, "-m", "fastslam_ros.tools.replay", str(bag), "--no-record",
+         "--set", "num_particles=30", "--set", "seed=1"], env=env,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    control = subprocess.Popen(
+        [sys.executable, "-c", "import rclpy, time; rclpy.init(); "
+         "n = rclpy.create_node('visible_control'); time.sleep(8)"], env=env)
+    context = Context()
+    rclpy.init(context=context, domain_id=int(domain))
+    probe = rclpy.create_node("probe", context=context)
+    seen: set[str] = set()
+    try:
+        deadline = time.monotonic() + 6.0
+        while time.monotonic() < deadline and replay_process.poll() is None:
+            seen |= set(probe.get_node_names())
+            time.sleep(0.1)
+        assert "visible_control" in seen
+        assert "fastslam" not in seen
+    finally:
+        probe.destroy_node()
+        rclpy.shutdown(context=context)
+        replay_process.kill()
+        control.kill()
+        replay_process.wait()
+        control.wait()

@@ -229,3 +229,42 @@ def test_path_builder_reuses_unchanged_poses_and_follows_changes():
     assert second.poses[0] is first.poses[0]  # same stamp and pose: reused
     assert second.poses[1] is not first.poses[1] and second.poses[1].pose.position.y == 0.1
     assert [ros_io.stamp_to_seconds(p.header.stamp) for p in second.poses] == [1.0, 2.0, 3.0]
+
+
+def test_marker_builder_rebuilds_only_changed_landmarks():
+    builder = ros_io.MarkerBuilder()
+    landmark_map = example_map()
+    first = builder.build(HEADER, landmark_map).markers
+    assert [m.id for m in first] == [0, 0, 4, 4, 9, 9]
+    reference = ros_io.landmark_markers(HEADER, landmark_map).markers
+    assert [(m.pose.position.x, m.scale.x, m.text) for m in first] == \
+        [(m.pose.position.x, m.scale.x, m.text) for m in reference]
+    landmark_map.means[1] += 0.5
+    second = builder.build(HEADER, landmark_map, removed_keys=[12]).markers
+    assert second[0] is first[0] and second[5] is first[5]     # unchanged: reused
+    assert second[2] is not first[2] and second[2].pose.position.x == -2.5
+    assert [m.action for m in second[6:]] == [Marker.DELETE, Marker.DELETE]
+
+
+def test_path_history_chain_is_bounded_and_keeps_the_recent_path():
+    from fastslam_ros.core.path_history import PathHistory
+    history = PathHistory(num_particles=3, prune_every=4, chain_capacity=64)
+    for step in range(1000):
+        history.record(float(step), np.full((3, 3), float(step)))
+        history.resample(np.zeros(3, np.int64))  # all particles descend from one
+    stamps, poses = history.path(0)
+    assert len(stamps) <= 64 + 2 * 4 * 2 and np.all(np.diff(stamps) > 0)
+    assert stamps[-1] == 999.0 and stamps[0] == 0.0
+    np.testing.assert_array_equal(stamps[-20:], np.arange(980.0, 1000.0))
+    np.testing.assert_array_equal(poses[:, 0], stamps)
+
+
+def test_path_decimation_is_bounded_even_and_stable():
+    from fastslam_ros.node import decimation
+    assert decimation(10, 10) is None
+    for length in (101, 1000, 4097, 123_457):
+        keep = decimation(length, 100)
+        assert len(keep) <= 100 and keep[0] == 0 and keep[-1] == length - 1
+        assert np.all(np.diff(keep) > 0)
+    longer = decimation(1100, 100)
+    assert set(decimation(1000, 100)[:-1]) <= set(longer)  # kept poses stay kept as it grows

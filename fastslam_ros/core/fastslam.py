@@ -30,7 +30,7 @@ from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
-from .observation import SensorOffset, observation_terms
+from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
 from .path_history import PathHistory
 from .proposal import observation_proposal, sample_pose
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
@@ -99,6 +99,8 @@ class FastSLAM:
         self._log_outlier = assoc.log_outlier_density(config)
         self._localization = config.mode == "localization"
         self._seed: tuple[np.ndarray, ...] | None = None
+        self.num_recoveries = 0
+        """Updates after which ``check_state`` found a non-finite state and repaired it."""
         self.reset(initial_pose)
 
     # ------------------------------------------------------------------ lifecycle
@@ -217,8 +219,8 @@ class FastSLAM:
     def update(self, ranges, bearings, ids=None, stamp: float = 0.0) -> UpdateReport:
         """Process one sensor reading: range/bearing (K,) in the sensor frame, optional ids.
 
-        Observations with a non-finite or non-positive range or a non-finite bearing are
-        skipped (the ROS node reports them). ``ids`` are required (>= 0) in ``known`` mode; in
+        Observations with a non-finite range or one below ``MIN_OBSERVATION_RANGE`` or a
+        non-finite bearing are skipped (the ROS node reports them). ``ids`` are required (>= 0) in ``known`` mode; in
         the other modes they are labels only (see ``UpdateReport.associated_ids``).
         """
         ranges = np.asarray(ranges, dtype=float).reshape(-1)
@@ -227,7 +229,7 @@ class FastSLAM:
                   else np.asarray(ids, dtype=np.int64).reshape(-1))
         if not len(ranges) == len(bearings) == len(labels):
             raise ValueError("ranges, bearings and ids must have the same length")
-        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges > 0.0)
+        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         known = self.config.association == "known"
         if known:
             usable &= labels >= 0
@@ -262,6 +264,7 @@ class FastSLAM:
         report = self._finish_update(ws, choices, creating)
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self._working.first_new_slot += int(creating.any(axis=1).sum())
+        self.check_state()
         return report
 
     def _noise(self, ranges):
@@ -597,6 +600,49 @@ class FastSLAM:
             offsets = positions - np.exp(self.log_weights) @ positions
             return int(np.einsum("ij,ij->i", offsets, offsets).argmin())
         return int(self.log_weights.argmax())
+
+    def check_state(self) -> bool:
+        """Repair a non-finite state left by an update; True (and ``num_recoveries`` + 1) if
+        it had to.
+
+        Inputs are gated before they get here, so this is the last line of defence: a particle
+        whose pose, prior or a landmark touched by the update is not finite is replaced by a
+        copy of a finite one (weights uniform, as after resampling), so one bad reading cannot
+        poison every later one. With no finite particle left the filter resets at the best
+        particle's last finite pose (the map is lost).
+        """
+        ws, count = self._working, self.num_particles
+        bad = ~np.isfinite(self.poses).all(axis=1)
+        if self._prior is not None:
+            bad |= ~(np.isfinite(self._prior[0]).all(axis=1)
+                     & np.isfinite(self._prior[1]).reshape(count, -1).all(axis=1))
+        if ws is not None:
+            touched = ws.dirty & ws.valid
+            bad |= (touched & ~np.isfinite(ws.state).all(axis=2)).any(axis=1)
+        if not bad.any() and not np.isnan(self.log_weights).any():
+            return False
+        self.num_recoveries += 1
+        good = (~bad).nonzero()[0]
+        if len(good) == 0:
+            stamps, poses = self.best_path()
+            finite = np.isfinite(poses).all(axis=1).nonzero()[0]
+            recoveries = self.num_recoveries
+            self.reset(poses[finite[-1]] if len(finite) else (0.0, 0.0, 0.0))
+            self.num_recoveries = recoveries
+            return True
+        indices = np.arange(count)
+        indices[bad] = good[np.arange(int(bad.sum())) % len(good)]
+        self.poses = self.poses[indices]
+        if self._prior is not None:
+            self._prior = (self._prior[0][indices], self._prior[1][indices])
+        self.landmarks.resample(indices)
+        if ws is not None:
+            self._working = ws.take(indices)
+        self.history.resample(indices)
+        self.log_weights = np.full(count, -np.log(count))
+        if bad[self._best]:
+            self._best = int(good[0])
+        return True
 
     # ------------------------------------------------------------------ estimates
     def best_index(self) -> int:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .observation import SensorOffset, inverse_observe, observation_terms
+from .observation import MIN_OBSERVATION_RANGE, SensorOffset, inverse_observe, observation_terms
 
 
 def pack(cov: np.ndarray) -> np.ndarray:
@@ -23,7 +23,11 @@ def unpack(packed: np.ndarray) -> np.ndarray:
 
 def initialize_landmarks(poses: np.ndarray, ranges, bearings, offset: SensorOffset,
                          noise_diag: np.ndarray):
-    """Mean g^-1(z, s) and covariance G_m^-1 R G_m^-T for new landmarks seen from ``poses``."""
+    """Mean g^-1(z, s) and covariance G_m^-1 R G_m^-T for new landmarks seen from ``poses``.
+
+    Ranges are taken as at least ``MIN_OBSERVATION_RANGE`` (the callers drop shorter ones), so
+    the inverse model never divides by zero."""
+    ranges = np.maximum(ranges, MIN_OBSERVATION_RANGE)
     mean = inverse_observe(poses, ranges, bearings, offset)
     t = observation_terms(poses[:, 0], poses[:, 1], poses[:, 2], mean[:, 0], mean[:, 1], offset)
     # G_m = [[dx/r, dy/r], [-dy/q, dx/q]] has determinant 1/r, so G_m^-1 = r [[dx/q, -dy/r],

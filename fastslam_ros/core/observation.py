@@ -11,6 +11,11 @@ import numpy as np
 
 from .geometry import wrap_angle
 
+MIN_OBSERVATION_RANGE = 1e-3
+"""Shortest usable range (m): the inverse model divides by the squared range, so a point at
+the sensor origin (or a denormal from byte-swapped data) would give an infinite covariance.
+No landmark sensor measures a landmark a millimetre away."""
+
 
 @dataclass(frozen=True)
 class SensorOffset:

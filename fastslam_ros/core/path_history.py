@@ -3,20 +3,27 @@
 Each update appends one generation: the M poses and, for each, the index of its parent in the
 previous generation. Resampling only permutes ``leaf``. Generations whose nodes all descend from
 a single ancestor are moved to a plain chain, so memory grows with the path length, not with M.
+The chain holds at most ``chain_capacity`` poses: when full, its older half is thinned to every
+other pose, so memory stays bounded over any run length while the recent path keeps every pose.
 """
 from __future__ import annotations
 
 import numpy as np
 
+CHAIN_CAPACITY = 1 << 15
+"""Poses the shared chain keeps at most (32,768: 1 MiB; 1.8 h of readings at 5 Hz in full)."""
+
 
 class PathHistory:
     """Ancestry tree of particle poses with periodic pruning of dead branches."""
 
-    def __init__(self, num_particles: int, prune_every: int = 32) -> None:
+    def __init__(self, num_particles: int, prune_every: int = 32,
+                 chain_capacity: int = CHAIN_CAPACITY) -> None:
         self.num_particles = num_particles
         self.prune_every = prune_every
-        self._chain_stamps: list[float] = []
-        self._chain_poses: list[np.ndarray] = []
+        self.chain_capacity = max(chain_capacity, 2 * prune_every)
+        self._chain_stamps = np.zeros(0)
+        self._chain_poses = np.zeros((0, 3))
         self._stamps: list[float] = []
         self._poses: list[np.ndarray] = []
         self._parents: list[np.ndarray] = []
@@ -49,11 +56,8 @@ class PathHistory:
         for generation in range(len(self._stamps) - 1, -1, -1):
             tail.append(self._poses[generation][node])
             node = int(self._parents[generation][node])
-        poses = self._chain_poses + tail[::-1]
-        stamps = self._chain_stamps + self._stamps
-        if not poses:
-            return np.zeros(0), np.zeros((0, 3))
-        return np.array(stamps), np.array(poses)
+        poses = np.concatenate([self._chain_poses, np.reshape(tail[::-1], (-1, 3))])
+        return np.concatenate([self._chain_stamps, self._stamps]), poses
 
     def _prune(self) -> None:
         """Drop nodes no particle descends from; move single-ancestor generations to the chain."""
@@ -69,7 +73,17 @@ class PathHistory:
         cut = max((i + 1 for i, is_single in enumerate(single) if is_single), default=0)
         keep_from = min(cut, len(self._stamps) - self.prune_every)
         if keep_from > 0 and all(single[:keep_from]):
-            self._chain_stamps.extend(self._stamps[:keep_from])
-            self._chain_poses.extend(p[0] for p in self._poses[:keep_from])
+            self._extend_chain(np.array(self._stamps[:keep_from]),
+                               np.array([p[0] for p in self._poses[:keep_from]]))
             del self._stamps[:keep_from], self._poses[:keep_from], self._parents[:keep_from]
             self._parents[0] = np.zeros_like(self._parents[0])
+
+    def _extend_chain(self, stamps: np.ndarray, poses: np.ndarray) -> None:
+        """Append to the chain; thin its older half while it would exceed the capacity."""
+        stamps = np.concatenate([self._chain_stamps, stamps])
+        poses = np.concatenate([self._chain_poses, poses])
+        while len(stamps) > self.chain_capacity:
+            half = len(stamps) // 2
+            keep = np.concatenate([np.arange(0, half, 2), np.arange(half, len(stamps))])
+            stamps, poses = stamps[keep], poses[keep]
+        self._chain_stamps, self._chain_poses = stamps, poses

@@ -32,6 +32,11 @@ class OdometryHistory:
         """Stamp of the newest odometry, None before the first one."""
         return self._stamps[-1] if self._stamps else self.anchor_stamp
 
+    @property
+    def latest_pose(self) -> np.ndarray | None:
+        """Pose of the newest odometry, None before the first one."""
+        return self._poses[-1] if self._poses else self.anchor_pose
+
     def append(self, stamp: float, pose: np.ndarray) -> None:
         """Add a pose newer than every pose held (the first one becomes the anchor)."""
         if self.anchor_stamp is None:
@@ -90,3 +95,55 @@ class Throttle:
             self._last = now
             return True
         return False
+
+
+GAP_FACTOR = 1.8
+"""A step between two stamps longer than this many recent intervals is a gap: messages were
+lost (a single lost message doubles the step; jitter of up to 80 % is not taken for loss)."""
+SILENCE_FACTOR = 5.0
+"""An input silent for this many recent intervals (and at least ``MIN_SILENCE`` s) has stopped."""
+MIN_SILENCE = 1.0
+
+
+class InputRate:
+    """The recent interval between the stamps of one input, and the gaps in it.
+
+    The interval is a running mean of the steps between consecutive stamps (gaps excluded); a
+    step beyond ``GAP_FACTOR`` intervals counts ``round(step / interval) - 1`` missing messages.
+    """
+
+    def __init__(self, smoothing: float = 0.05) -> None:
+        self.smoothing = smoothing
+        self.interval: float | None = None
+        self.missing = 0
+        """Messages estimated lost, from the gaps in the stamps."""
+        self.largest_gap = 0.0
+        """Longest gap (s of stamps) seen."""
+        self._last_stamp: float | None = None
+        self._last_arrival: float | None = None
+
+    def record(self, stamp: float, arrival: float) -> int:
+        """Note one message; returns the messages estimated lost just before it."""
+        missed = 0
+        if self._last_stamp is not None and stamp > self._last_stamp:
+            step = stamp - self._last_stamp
+            if self.interval is not None and step > GAP_FACTOR * self.interval:
+                missed = max(round(step / self.interval) - 1, 1)
+                self.missing += missed
+                self.largest_gap = max(self.largest_gap, step)
+            elif self.interval is None:
+                self.interval = step
+            else:
+                self.interval += self.smoothing * (step - self.interval)
+        if self._last_stamp is None or stamp > self._last_stamp:
+            self._last_stamp = stamp
+        self._last_arrival = arrival
+        return missed
+
+    def silence(self, now: float) -> float:
+        """Seconds (node time) since the last message arrived when that is longer than the input
+        usually stays silent; 0 otherwise (or before the rate is known)."""
+        if self.interval is None or self._last_arrival is None:
+            return 0.0
+        silent = now - self._last_arrival
+        return silent if silent > max(SILENCE_FACTOR * self.interval, MIN_SILENCE) else 0.0

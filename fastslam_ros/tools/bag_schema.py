@@ -17,7 +17,7 @@ logged at its header stamp.
 """
 from __future__ import annotations
 
-import shutil
+import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -29,6 +29,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
+from fastslam_ros.tools.output import prepare_output
 
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
@@ -54,6 +55,40 @@ LANDMARK_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id"
 
 class SchemaError(ValueError):
     """A bag that does not follow schema v1 (missing topics, wrong fields)."""
+
+
+KNOWN_MESSAGE_TYPES = (
+    "nav_msgs/msg/Odometry", "nav_msgs/msg/Path", "sensor_msgs/msg/PointCloud2",
+    "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped", "geometry_msgs/msg/TransformStamped",
+    "visualization_msgs/msg/MarkerArray", "diagnostic_msgs/msg/DiagnosticArray",
+    "std_msgs/msg/String", "rosgraph_msgs/msg/Clock", "tf2_msgs/msg/TFMessage")
+"""Every message type the tools read, write or play (bag schema v1 and the node's outputs)."""
+
+
+def _message_class(msgtype: str) -> type | None:
+    """The rclpy class of one of KNOWN_MESSAGE_TYPES (None when its package is not
+    installed); the module name comes from the table, never from a bag."""
+    package, _, name = msgtype.split("/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name)
+    except ImportError:
+        return None
+
+
+def ros_message_class(msgtype: str, topic: str = "") -> type:
+    """The rclpy message class of a known ``pkg/msg/Name``; ``SchemaError`` for any other.
+
+    Types are looked up in a fixed table, never imported by the name a bag declares (a bag
+    could otherwise make a tool import any module)."""
+    where = f"topic {topic}: " if topic else ""
+    if msgtype not in KNOWN_MESSAGE_TYPES:
+        raise SchemaError(f"{where}message type {msgtype!r} is not one the tools handle "
+                          f"({', '.join(KNOWN_MESSAGE_TYPES)})")
+    cls = _message_class(msgtype)
+    if cls is None:
+        raise SchemaError(f"{where}message type {msgtype!r}: its ROS package is not installed")
+    return cls
 
 
 @dataclass
@@ -249,24 +284,22 @@ def _serialize(msg: Any, msgtype: str) -> bytes:
 # ---------------------------------------------------------------- writing
 
 
-def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False) -> Writer:
-    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` removes an old one."""
+def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False,
+                inputs: Iterable[str | Path] = ()) -> Writer:
+    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` replaces an old bag
+    there (``output.prepare_output``: never another folder, nor one of ``inputs``)."""
     if storage not in STORAGE_PLUGINS:
         raise ValueError(f"storage: must be one of {sorted(STORAGE_PLUGINS)} (got {storage!r})")
-    path = Path(path)
-    if path.exists():
-        if not overwrite:
-            raise FileExistsError(f"{path} exists (remove it or choose another output)")
-        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    path = prepare_output(path, overwrite, "bag", inputs)
     return Writer(path, version=9, storage_plugin=STORAGE_PLUGINS[storage])
 
 
 def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
-                     overwrite: bool = False) -> Path:
+                     overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> Path:
     """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``)."""
     records = list(_schema_records(bag))
     records.sort(key=lambda record: (record.stamp_ns, record.order))
-    writer = open_writer(path, storage, overwrite)
+    writer = open_writer(path, storage, overwrite, inputs)
     with writer:
         connections = {}
         for topic, msgtype in ((ODOM_TOPIC, ODOMETRY_TYPE), (LANDMARKS_TOPIC, CLOUD_TYPE),

@@ -22,6 +22,7 @@ import numpy as np
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.landmark_store import STATE_WIDTH
+from fastslam_ros.tools import soak
 from fastslam_ros.tools.synthetic import make_world
 
 LANDMARK_RECORD_BYTES = STATE_WIDTH * 8 + 2 * 8 + 1
@@ -159,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--repeat", type=int, default=3,
                         help="runs of each throughput configuration (best and median shown)")
-    parser.add_argument("--only", choices=("throughput", "scaling", "memory"), action="append",
+    parser.add_argument("--only", choices=("throughput", "scaling", "memory", "soak"),
+                        action="append",
                         help="run only these parts (repeatable)")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = parser.parse_args(argv)
@@ -174,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
     if "memory" in parts:
         results["memory"] = memory(args.particles, args.seed)
         print(markdown("Landmark store memory and resampling", results["memory"]))
+    if "soak" in parts:  # hours of data through the node (fastslam_ros.tools.soak), on request
+        results["soak"] = soak.soak(progress=lambda line: print(line, file=sys.stderr))
+        print(soak.report(results["soak"]))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as handle:
             json.dump(results, handle, indent=2)

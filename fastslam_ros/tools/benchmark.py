@@ -126,12 +126,10 @@ def run_one(spec: RunSpec, bag: Path, out_dir: Path) -> dict[str, Any]:
     out_path = out_dir / "runs" / f"{bag.name}_{spec.label}"
     params = {"algorithm": spec.algorithm, "association": spec.association,
               "num_particles": spec.particles, "seed": spec.seed}
-    if out_path.exists():
-        import shutil
-        shutil.rmtree(out_path)
+    # The runs folder is the benchmark's own: a rerun replaces its bags (and nothing else).
     result = replay_bag(bag, params=params,
                         params_file=config_dir() / FAMILY_CONFIGS[spec.sequence.kind],
-                        out_path=out_path)
+                        out_path=out_path, overwrite=True)
     metrics = evaluate(out_path, ground_truth_path=bag)
     row = {"sequence": spec.sequence.name, "family": spec.sequence.kind,
            "algorithm": spec.algorithm, "association": spec.association,

@@ -34,11 +34,14 @@ def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_
             odometry: dict | None = None) -> Recording:
     """Convert a dataset to a schema-v1 bag at ``out``; return the recording written."""
     from fastslam_ros.tools.bag_schema import write_schema_bag
+    from fastslam_ros.tools.output import check_output
 
+    check_output(out, overwrite, "bag", inputs=[source])  # before the parsing work
     recording = load_recording(kind, source, robot, use_ids, odometry)
     if duration is not None:
         recording = recording.head(duration)
-    write_schema_bag(out, recording.to_schema_bag(), storage=storage, overwrite=overwrite)
+    write_schema_bag(out, recording.to_schema_bag(), storage=storage, overwrite=overwrite,
+                     inputs=[source])
     return recording
 
 
@@ -64,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--duration", type=float, default=None,
                         help="keep only the first DURATION seconds")
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing output bag")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--command-delay", type=float, default=mrclam.COMMAND_DELAY,
                         help="MRCLAM: s between a logged command and the motion "
                              f"[{mrclam.COMMAND_DELAY}]")

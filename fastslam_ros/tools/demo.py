@@ -14,6 +14,7 @@ from pathlib import Path
 
 from fastslam_ros.tools.bag_schema import write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, json_ready, load_run, markdown_table
+from fastslam_ros.tools.output import check_output, prepare_output
 from fastslam_ros.tools.plot import plot_evaluation
 from fastslam_ros.tools.replay import replay_bag, summary_lines
 from fastslam_ros.tools.sim import (SCENARIOS, SimConfig, recommended_params, simulate,
@@ -22,26 +23,36 @@ from fastslam_ros.tools.sim import (SCENARIOS, SimConfig, recommended_params, si
 
 def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: int = 0,
              algorithm: str = "fastslam2", association: str = "ml", duration: float = 0.0,
-             progress: bool = False) -> dict:
-    """Simulate, replay, evaluate and plot into ``out_dir``; return the metrics."""
+             progress: bool = False, overwrite: bool = False) -> dict:
+    """Simulate, replay, evaluate and plot into ``out_dir``; return the metrics.
+
+    Every output is checked before anything is written: an existing one is replaced only with
+    ``overwrite`` (``FileExistsError`` otherwise), and only if it is a bag or a file as the
+    demo writes it."""
+    bag_path = out_dir / f"sim_{scenario}"
+    params_path = out_dir / f"sim_{scenario}.yaml"
+    files = [params_path] + [out_dir / name for name in ("summary.md", "metrics.json",
+                                                         "result.png")]
+    for path, kind in [(bag_path, "bag"), (out_dir / "replay", "bag")] + [(f, "file")
+                                                                          for f in files]:
+        check_output(path, overwrite, kind)
     out_dir.mkdir(parents=True, exist_ok=True)
     config = SimConfig(scenario=scenario, seed=seed, duration=duration)
-    bag_path = out_dir / f"sim_{scenario}"
-    write_schema_bag(bag_path, simulate(config), overwrite=True)
+    write_schema_bag(bag_path, simulate(config), overwrite=overwrite)
     params = dict(recommended_params(config), num_particles=particles, seed=seed,
                   algorithm=algorithm, association=association)
-    params_path = write_params_yaml(out_dir / f"sim_{scenario}.yaml", params,
-                                    f"Parameters of fastslam-demo (scenario {scenario}, "
-                                    f"seed {seed}).")
+    write_params_yaml(params_path, params,
+                      f"Parameters of fastslam-demo (scenario {scenario}, seed {seed}).",
+                      overwrite=overwrite)
     result = replay_bag(bag_path, params_file=params_path, out_path=out_dir / "replay",
-                        progress=progress)
+                        progress=progress, overwrite=overwrite)
     print("\n".join(summary_lines(result)), file=sys.stderr)
     evaluation = evaluate_run(load_run(out_dir / "replay"))
     table = markdown_table(evaluation.metrics)
-    (out_dir / "summary.md").write_text(table + "\n")
-    (out_dir / "metrics.json").write_text(json.dumps(json_ready(evaluation.metrics), indent=2)
-                                          + "\n")
-    plot_evaluation(evaluation, out_dir / "result.png",
+    prepare_output(out_dir / "summary.md", overwrite, "file").write_text(table + "\n")
+    prepare_output(out_dir / "metrics.json", overwrite, "file").write_text(
+        json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+    plot_evaluation(evaluation, prepare_output(out_dir / "result.png", overwrite, "file"),
                     title=f"{scenario}: {algorithm}, {association} association, M = {particles}")
     print(table)
     print(f"\nfiles in {out_dir}: summary.md, metrics.json, result.png, replay/, "
@@ -64,12 +75,15 @@ def main(argv: list[str] | None = None) -> int:
                         default="ml", help="data association [ml]")
     parser.add_argument("--duration", type=float, default=0.0,
                         help="simulate only this many seconds (0: the whole route) [0]")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the outputs of an earlier demo in --out-dir")
     parser.add_argument("--progress", action="store_true",
                         help="show the replay progress bar even when stderr is not a terminal")
     args = parser.parse_args(argv)
     try:
         run_demo(args.out_dir, args.scenario, args.particles, args.seed, args.algorithm,
-                 args.association, args.duration, args.progress or sys.stderr.isatty())
+                 args.association, args.duration, args.progress or sys.stderr.isatty(),
+                 args.overwrite)
     except (ValueError, OSError) as error:
         print(f"fastslam-demo: {error}", file=sys.stderr)
         return 1

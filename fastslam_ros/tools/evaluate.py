@@ -45,6 +45,7 @@ from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_
                                            LandmarkSet, PoseSeries,
                                            bag_topics, cloud_to_arrays, landmark_cloud_arrays,
                                            pose_series_from_messages, read_last, read_topics, time_msg_to_stamp)
+from fastslam_ros.tools.output import check_output, prepare_output
 
 POSE_TOPIC = "/fastslam/pose"
 PATH_TOPIC = "/fastslam/path"
@@ -543,7 +544,17 @@ def main(argv: list[str] | None = None) -> int:
                         help="pair landmarks with the truth by id or by optimal assignment of "
                              "the distances; auto: by id only for a run with known association "
                              "[auto]")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace existing --json / --plot files (never a folder or an input)")
     args = parser.parse_args(argv)
+    inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
+    try:
+        for written in (args.json, args.plot):
+            if written is not None:
+                check_output(written, args.overwrite, "file", inputs)
+    except FileExistsError as error:
+        print(f"fastslam-eval: {error}", file=sys.stderr)
+        return 1
     try:
         run = load_run(args.out, args.ground_truth)
     except (FileNotFoundError, OSError, ValueError) as error:
@@ -560,10 +571,10 @@ def main(argv: list[str] | None = None) -> int:
                               args.match)
     print(markdown_table(evaluation.metrics))
     if args.json:
-        args.json.write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+        prepare_output(args.json, args.overwrite, "file", inputs).write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
     if args.plot:
         from fastslam_ros.tools.plot import plot_evaluation
-        plot_evaluation(evaluation, args.plot)
+        plot_evaluation(evaluation, prepare_output(args.plot, args.overwrite, "file", inputs))
     return 0
 
 

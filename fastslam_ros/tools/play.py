@@ -27,8 +27,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosgraph_msgs.msg import Clock
 
-from fastslam_ros.tools.bag_schema import TYPESTORE
-from fastslam_ros.tools.replay import ros_message_class
+from fastslam_ros.tools.bag_schema import TYPESTORE, ros_message_class
 
 CLOCK_TOPIC = "/clock"
 PUBLISHER_DEPTH = 1000
@@ -66,7 +65,7 @@ def play_bag(bag_path: str | Path, rate: float = 1.0, loop: bool = False,
             for connection in connections:
                 if connection.topic not in publishers:
                     publishers[connection.topic] = node.create_publisher(
-                        ros_message_class(connection.msgtype), connection.topic,
+                        ros_message_class(connection.msgtype, connection.topic), connection.topic,
                         _qos(connection.msgcount == 1))
             _wait_for_subscribers(node, list(publishers.values()), wait_for_subscribers)
             sent = 0

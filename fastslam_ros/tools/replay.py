@@ -3,7 +3,7 @@
 Every ``/odom`` and ``/landmarks`` message of the bag is deserialized straight into its rclpy
 message class and handed, in bag-time order, to the node's subscription callbacks; before each
 one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
-DDS and nothing waits, so a replay runs as fast as the filter allows and gives the same
+DDS (the node's context has discovery off: no other process sees it) and nothing waits, so a replay runs as fast as the filter allows and gives the same
 outputs as a live run at the same times. Every message the node publishes is recorded into
 OUT (MCAP) at the bag time of the input being processed, together with copies of the bag's
 ``/odom``, ``/landmarks`` and ground-truth topics and one ``/fastslam_replay/info`` message
@@ -13,9 +13,9 @@ the parameters used), so OUT alone is enough for ``fastslam-eval``.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import math
+import os
 import sys
 import time
 from contextlib import ExitStack, contextmanager
@@ -38,7 +38,8 @@ from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, P
                                read_params_file)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TYPESTORE, SchemaError,
-                                           open_writer)
+                                           open_writer, ros_message_class)
+from fastslam_ros.tools.output import check_output
 
 INFO_TOPIC = "/fastslam_replay/info"
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
@@ -67,12 +68,6 @@ class ReplayResult:
 
 
 # ---------------------------------------------------------------- message types
-
-
-def ros_message_class(msgtype: str) -> type:
-    """The rclpy message class of ``pkg/msg/Name``."""
-    package, kind, name = msgtype.split("/")
-    return getattr(importlib.import_module(f"{package}.{kind}"), name)
 
 
 def ros_msgtype(msg: Any) -> str:
@@ -185,18 +180,21 @@ class OutputRecorder:
 
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                params_file: str | Path | None = None, out_path: str | Path | None = None,
-               progress: bool = False, overwrite: bool = True) -> ReplayResult:
+               progress: bool = False, overwrite: bool = False) -> ReplayResult:
     """Feed the bag's ``/odom`` and ``/landmarks`` to a fresh ``FastSLAMNode``; record outputs.
 
     ``params`` override ``params_file``; set ``seed`` in them for a reproducible run. Raises
     ``FileNotFoundError`` / ``SchemaError`` for a missing or unreadable bag or missing topics,
-    ``ValueError`` for bad parameters (the message names the parameter).
+    ``ValueError`` for bad parameters (the message names the parameter), ``FileExistsError``
+    for an output that exists (without ``overwrite``, or that is not a bag, or an input).
     """
     bag_path = Path(bag_path)
+    inputs = [bag_path] + ([Path(params_file)] if params_file else [])
+    if out_path is not None:
+        check_output(out_path, overwrite, "bag", inputs)  # before any work
     merged = load_params_file(params_file) if params_file else {}
     merged.update(params or {})
-    context = Context()
-    rclpy.init(context=context)
+    context = isolated_context()
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
         reader = cleanup.enter_context(_open_input(bag_path))
@@ -207,7 +205,7 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                        for name in sorted(set(merged) | {"algorithm", "association"})}
         recorder = None
         if out_path is not None:
-            writer = open_writer(out_path, "mcap", overwrite)
+            writer = open_writer(out_path, "mcap", overwrite, inputs)
             writer.open()
             cleanup.callback(writer.close)
             recorder = OutputRecorder(writer)
@@ -224,6 +222,30 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                     "stats": result.stats, "params": used_params}
             recorder.record(INFO_TOPIC, String(data=json.dumps(info)))
         return result
+
+
+ISOLATION_ENVIRONMENT = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF", "ROS_STATIC_PEERS": ""}
+"""rcl discovery settings of the replay's context: no discovery at all (REP 2009), so its node
+never appears on the robot's ROS graph, whatever ROS_DOMAIN_ID says."""
+
+
+def isolated_context() -> Context:
+    """An initialised rclpy Context that discovers nobody and that nobody discovers.
+
+    rcl reads the discovery settings from the environment when the context is initialised;
+    they are set for that call only and restored at once."""
+    saved = {name: os.environ.get(name) for name in ISOLATION_ENVIRONMENT}
+    os.environ.update(ISOLATION_ENVIRONMENT)
+    try:
+        context = Context()
+        rclpy.init(context=context)
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+    return context
 
 
 @contextmanager
@@ -264,7 +286,7 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
     callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
-    classes = {c.topic: ros_message_class(c.msgtype) for c in reader.connections
+    classes = {c.topic: ros_message_class(c.msgtype, c.topic) for c in reader.connections
                if c.topic in INPUT_TOPICS}
     wanted = [c for c in reader.connections
               if c.topic in INPUT_TOPICS or (recorder is not None and c.topic in COPIED_TOPICS)]
@@ -323,6 +345,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="record outputs into this MCAP bag folder [<bag>_out]")
     parser.add_argument("--no-record", action="store_true", help="do not write an output bag")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
     args = parser.parse_args(argv)
@@ -335,7 +359,8 @@ def main(argv: list[str] | None = None) -> int:
     out = None if args.no_record else (args.out or args.bag.with_name(args.bag.name + "_out"))
     try:
         result = replay_bag(args.bag, params, args.params, out,
-                            progress=args.progress or sys.stderr.isatty())
+                            progress=args.progress or sys.stderr.isatty(),
+                            overwrite=args.overwrite)
     except (FileNotFoundError, SchemaError, ValueError, OSError) as error:
         print(f"fastslam-replay: {error}", file=sys.stderr)
         return 1

@@ -25,6 +25,7 @@ import yaml
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
+from fastslam_ros.tools.output import check_output, prepare_output
 
 SCENARIOS = ("loop", "large", "clutter")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),
@@ -301,13 +302,13 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
 
 
 def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
-                      comment: str) -> Path:
+                      comment: str, overwrite: bool = False) -> Path:
     """A ROS 2 parameter file holding ``params``, keyed ``/**`` so that it applies to the node
-    under any name and namespace."""
+    under any name and namespace; an existing file is replaced only with ``overwrite``."""
     lines = [f"# {line}" for line in comment.splitlines()]
     body = yaml.safe_dump({"/**": {"ros__parameters": params}}, default_flow_style=False,
                           sort_keys=False)
-    path = Path(path)
+    path = prepare_output(path, overwrite, "file")
     path.write_text("\n".join(lines) + "\n" + body)
     return path
 
@@ -355,14 +356,17 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or Path(f"sim_{config.scenario}")
     params_out = args.params_out or out.with_name(out.name + ".yaml")
     try:
+        check_output(out, args.overwrite, "bag")  # both outputs checked before either is written
+        check_output(params_out, args.overwrite, "file", inputs=[out])
         bag = simulate(config)
         write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite)
+        write_params_yaml(params_out, recommended_params(config),
+                          f"Recommended fastslam parameters for {out.name} "
+                          f"(fastslam-sim --scenario {config.scenario} --seed {config.seed}).",
+                          overwrite=args.overwrite)
     except (ValueError, FileExistsError) as error:
         print(f"fastslam-sim: {error}", file=sys.stderr)
         return 1
-    write_params_yaml(params_out, recommended_params(config),
-                      f"Recommended fastslam parameters for {out.name} "
-                      f"(fastslam-sim --scenario {config.scenario} --seed {config.seed}).")
     duration = bag.odometry.stamps[-1] - bag.odometry.stamps[0]
     detections = sum(len(ids) for ids in bag.scans.ids)
     print(f"wrote {out}: {config.scenario}, {duration:.1f} s, {len(bag.odometry.stamps)} odometry, "

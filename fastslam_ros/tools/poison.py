@@ -1,0 +1,200 @@
+"""``fastslam-poison BAG --out OUT``: a copy of a schema-v1 bag with bad input mixed in.
+
+Every valid message is kept; about ``--rate`` faults per second of data are added, drawn in
+turn from every class the node must survive. Extra messages: glitched odometry (1e308, +1e6 m,
++100 m, a half turn, NaN, a zero quaternion, a wrong frame), stray and invalid stamps (1 h
+ahead or behind, nanosec 2^32-1, negative seconds), byte-swapped (denormal), malformed and
+oversized clouds. Added to a valid cloud: points at 1e-12 m, denormal, NaN or beyond range.
+The node should drop exactly the bad input, so replaying OUT gives the estimate of BAG
+(compare them with ``fastslam-eval``).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from nav_msgs.msg import Odometry
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.highlevel import AnyReader
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Header
+
+from fastslam_ros import ros_io
+from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC, ODOMETRY_TYPE,
+                                           TYPESTORE, open_writer)
+
+
+def _odometry(stamp: float, pose, frame: str, child: str) -> Odometry:
+    msg = Odometry(header=Header(stamp=ros_io.seconds_to_stamp(stamp), frame_id=frame),
+                   child_frame_id=child)
+    msg.pose.pose = ros_io.pose_msg(pose)
+    return msg
+
+
+def _cloud(stamp: float, points, frame: str) -> PointCloud2:
+    return ros_io.landmark_cloud(Header(stamp=ros_io.seconds_to_stamp(stamp), frame_id=frame),
+                                 np.asarray(points, float))
+
+
+def _shifted(msg, seconds: float):
+    msg.header.stamp = ros_io.seconds_to_stamp(ros_io.stamp_to_seconds(msg.header.stamp)
+                                               + seconds)
+    return msg
+
+
+def _with(msg, **changes):
+    for name, value in changes.items():
+        target = msg
+        *parents, attribute = name.split("__")
+        for parent in parents:
+            target = getattr(target, parent)
+        setattr(target, attribute, value)
+    return msg
+
+
+def fault_builders(rng: np.random.Generator) -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last odometry msg, last cloud msg) -> (topic, message))."""
+    def odom(change):
+        def build(stamp, last_odom, _cloud_msg):
+            p = last_odom.pose.pose
+            pose = np.array([p.position.x, p.position.y, ros_io.quaternion_to_yaw(p.orientation)])
+            return ODOM_TOPIC, change(_odometry(stamp, pose, last_odom.header.frame_id,
+                                                last_odom.child_frame_id), pose)
+        return build
+
+    def cloud(points_of):
+        def build(stamp, _odom, last_cloud):
+            good = ros_io.read_landmark_cloud(last_cloud)
+            points = points_of(np.column_stack([good.x, good.y]))
+            return LANDMARKS_TOPIC, _cloud(stamp, points, last_cloud.header.frame_id)
+        return build
+
+    def cloud_msg(change):
+        def build(stamp, odom_msg, last_cloud):
+            return LANDMARKS_TOPIC, change(cloud(lambda p: p)(stamp, odom_msg, last_cloud)[1])
+        return build
+
+    def jumped(offset):
+        return odom(lambda m, pose: _odometry(ros_io.stamp_to_seconds(m.header.stamp),
+                                              pose + offset, m.header.frame_id, m.child_frame_id))
+
+    def byte_swapped(points):
+        # Little-endian floats whose two low bytes are zero, declared big-endian: denormals.
+        bits = np.asarray(points, np.float32).view(np.uint32) & np.uint32(0xFFFF0000)
+        return bits.view(np.float32).astype(float)
+
+    def swapped_cloud(stamp, odom_msg, last_cloud):
+        topic, msg = cloud(byte_swapped)(stamp, odom_msg, last_cloud)
+        msg.is_bigendian = True
+        return topic, msg
+
+    def amend(extra):
+        """Bad points added to the next valid cloud (marked: the caller amends, not inserts)."""
+        def build(msg):
+            good = ros_io.read_landmark_cloud(msg)
+            points = np.vstack([np.column_stack([good.x, good.y]), extra])
+            ids = np.append(good.ids, np.full(len(extra), -1)) if good.ids is not None else None
+            return ros_io.landmark_cloud(msg.header, points, ids)
+        build.amends = True
+        return build
+
+    return [
+        ("odometry 1e308", jumped(np.array([1e308, 0.0, 0.0]))),
+        ("odometry +1e6 m", jumped(np.array([1e6, 0.0, 0.0]))),
+        ("odometry +100 m", jumped(np.array([100.0, 0.0, 0.0]))),
+        ("odometry half turn", jumped(np.array([0.0, 0.0, 3.0]))),
+        ("odometry NaN", odom(lambda m, _p: _with(m, pose__pose__position__x=math.nan))),
+        ("odometry zero quaternion", odom(lambda m, _p: _with(
+            m, pose__pose__orientation__z=0.0, pose__pose__orientation__w=0.0))),
+        ("odometry 1 h ahead", odom(lambda m, _p: _shifted(m, 3600.0))),
+        ("odometry 1 h behind", odom(lambda m, _p: _shifted(m, -3600.0))),
+        ("odometry nanosec 2^32-1", odom(lambda m, _p: _with(m, header__stamp__nanosec=2**32 - 1))),
+        ("point at 1e-12 m", amend([[1e-12, 0.0]])),
+        ("denormal point", amend([[1e-40, 1e-41]])),
+        ("NaN point", amend([[math.nan, 1.0]])),
+        ("point beyond range", amend([[1e4, 0.0]])),
+        ("cloud byte-swapped", swapped_cloud),
+        ("cloud 1 h ahead", cloud_msg(lambda m: _shifted(m, 3600.0))),
+        ("cloud negative sec", cloud_msg(lambda m: _with(m, header__stamp__sec=-3))),
+        ("cloud of 1e4 points", cloud(lambda p: rng.uniform(-30.0, 30.0, (10_000, 2)))),
+        ("cloud without y", cloud_msg(lambda m: _with(
+            m, fields=[f for f in m.fields if f.name != "y"]))),
+        ("cloud short data", cloud_msg(lambda m: _with(m, data=bytes(m.data)[:-3]))),
+        ("cloud width 0 with data", cloud_msg(lambda m: _with(m, width=0))),
+        ("odometry wrong frame", odom(lambda m, _p: _with(m, header__frame_id="world"))),
+    ]
+
+
+def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 0,
+               overwrite: bool = False) -> dict[str, int]:
+    """Write OUT: BAG's messages plus ``rate`` bad ones per second; returns the count by class."""
+    rng = np.random.default_rng(seed)
+    builders = fault_builders(rng)
+    counts = dict.fromkeys((name for name, _ in builders), 0)
+    writer = open_writer(out, "mcap", overwrite, inputs=[bag])
+    with AnyReader([Path(bag)], default_typestore=TYPESTORE) as reader, writer:
+        connections = {}
+        last: dict[str, object] = {}
+        next_fault, turn, amend = None, 0, None
+        for connection, stamp_ns, raw in reader.messages():
+            if connection.topic not in connections:
+                connections[connection.topic] = writer.add_connection(
+                    connection.topic, connection.msgtype, typestore=TYPESTORE)
+            if amend is not None and connection.topic == LANDMARKS_TOPIC:
+                raw = serialize_message(amend(deserialize_message(bytes(raw), PointCloud2)))
+                amend = None
+            writer.write(connections[connection.topic], stamp_ns, raw)
+            if connection.topic in (ODOM_TOPIC, LANDMARKS_TOPIC):
+                cls = Odometry if connection.topic == ODOM_TOPIC else PointCloud2
+                last[connection.topic] = deserialize_message(bytes(raw), cls)
+            stamp = stamp_ns * 1e-9
+            next_fault = stamp + rng.exponential(1.0 / rate) if next_fault is None else next_fault
+            if stamp < next_fault or len(last) < 2:
+                continue
+            name, build = builders[turn % len(builders)]
+            turn += 1
+            counts[name] += 1
+            next_fault = stamp + rng.exponential(1.0 / rate)
+            if getattr(build, "amends", False):
+                amend = build
+                continue
+            # Between this message and the next odometry: half an odometry period later.
+            topic, msg = build(stamp + 0.0125, last[ODOM_TOPIC], last[LANDMARKS_TOPIC])
+            if topic not in connections:
+                connections[topic] = writer.add_connection(
+                    topic, ODOMETRY_TYPE if topic == ODOM_TOPIC else CLOUD_TYPE,
+                    typestore=TYPESTORE)
+            writer.write(connections[topic], stamp_ns + 1, serialize_message(msg))
+    return counts
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="fastslam-poison",
+                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+    parser.add_argument("bag", type=Path, help="schema-v1 bag")
+    parser.add_argument("--out", type=Path, required=True, help="output bag folder")
+    parser.add_argument("--rate", type=float, default=1.0,
+                        help="bad messages per second of data [1]")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing output bag (never another folder or the input)")
+    args = parser.parse_args(argv)
+    if not args.bag.exists():
+        print(f"fastslam-poison: bag not found: {args.bag}", file=sys.stderr)
+        return 1
+    try:
+        counts = poison_bag(args.bag, args.out, args.rate, args.seed, args.overwrite)
+    except (OSError, ValueError) as error:
+        print(f"fastslam-poison: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {args.out}: {sum(counts.values())} bad messages added "
+          f"({', '.join(f'{name} {count}' for name, count in counts.items())})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,128 @@
+"""No tool deletes or overwrites what the user owns: existing outputs need --overwrite, and even
+then only a bag folder or a file the tool writes is replaced, never an input or '.'."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from fastslam_ros.tools import convert, demo, evaluate, replay, sim
+from fastslam_ros.tools.bag_schema import write_schema_bag
+from fastslam_ros.tools.output import OutputExistsError, check_output, prepare_output
+from fastslam_ros.tools.sim import SimConfig, simulate
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("output") / "input"
+    return write_schema_bag(path, simulate(SimConfig(duration=3.0, seed=1)))
+
+
+def precious_folder(root: Path) -> Path:
+    folder = root / "precious"
+    folder.mkdir()
+    (folder / "thesis.tex").write_text("years of work")
+    return folder
+
+
+def test_helper_refuses_without_overwrite_and_replaces_only_bags_and_files(tmp_path, bag):
+    with pytest.raises(OutputExistsError, match="--overwrite"):
+        prepare_output(bag, overwrite=False)
+    folder = precious_folder(tmp_path)
+    with pytest.raises(OutputExistsError, match="not a rosbag2 bag"):
+        prepare_output(folder, overwrite=True)
+    (folder / "metadata.yaml").write_text("looks like a bag")  # but holds other files too
+    with pytest.raises(OutputExistsError, match="not a rosbag2 bag"):
+        prepare_output(folder, overwrite=True)
+    assert (folder / "thesis.tex").read_text() == "years of work"
+    with pytest.raises(OutputExistsError, match="not a file"):
+        prepare_output(folder, overwrite=True, kind="file")
+    with pytest.raises(OutputExistsError, match="input"):
+        prepare_output(bag, overwrite=True, inputs=[bag])
+    with pytest.raises(OutputExistsError, match="input"):
+        prepare_output(bag / "inside", overwrite=True, inputs=[bag])
+    with pytest.raises(OutputExistsError, match="input"):
+        prepare_output(bag.parent, overwrite=True, inputs=[bag])
+    assert (bag / "metadata.yaml").exists()
+    copy = tmp_path / "old_out"
+    write_schema_bag(copy, simulate(SimConfig(duration=1.0, seed=1)))
+    assert prepare_output(copy, overwrite=True) == copy and not copy.exists()
+    note = tmp_path / "note.json"
+    note.write_text("{}")
+    assert check_output(note, overwrite=True, kind="file") and note.exists()
+    prepare_output(note, overwrite=True, kind="file")
+    assert not note.exists()
+    assert not check_output(tmp_path / "new" / "deep", overwrite=False)
+
+
+def test_helper_never_removes_the_working_directory(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "metadata.yaml").write_text("")
+    for path in (".", tmp_path, tmp_path.parent):
+        with pytest.raises(OutputExistsError, match="working directory"):
+            prepare_output(path, overwrite=True)
+    assert (tmp_path / "metadata.yaml").exists()
+
+
+def test_replay_keeps_user_folders_the_working_directory_and_its_input(tmp_path, bag, capsys,
+                                                                       monkeypatch):
+    folder = precious_folder(tmp_path)
+    for extra in ([], ["--overwrite"]):
+        assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(folder)]
+                           + extra) == 1
+        assert "precious" in capsys.readouterr().err
+        assert (folder / "thesis.tex").read_text() == "years of work"
+        assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(bag)] + extra) == 1
+        assert (bag / "metadata.yaml").exists()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "keep.txt").write_text("mine")
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", ".", "--overwrite"]) == 1
+    assert (tmp_path / "keep.txt").exists()
+    out = tmp_path / "out"
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out)]) == 0
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out)]) == 1
+    assert "--overwrite" in capsys.readouterr().err
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out),
+                        "--overwrite"]) == 0
+    with pytest.raises(FileExistsError):
+        replay.replay_bag(bag, {"num_particles": 5}, out_path=out)
+
+
+def test_sim_convert_demo_and_eval_refuse_existing_outputs(tmp_path, bag, capsys):
+    folder = precious_folder(tmp_path)
+    assert sim.main(["--out", str(folder), "--duration", "1", "--overwrite"]) == 1
+    assert (folder / "thesis.tex").exists() and not (tmp_path / "precious.yaml").exists()
+    params = tmp_path / "mine.yaml"
+    params.write_text("mine")
+    assert sim.main(["--out", str(tmp_path / "s"), "--params-out", str(params),
+                     "--duration", "1"]) == 1
+    assert params.read_text() == "mine" and not (tmp_path / "s").exists()
+    assert sim.main(["--out", str(tmp_path / "s"), "--params-out", str(params),
+                     "--duration", "1", "--overwrite"]) == 0
+    assert params.read_text() != "mine"
+
+    source = tmp_path / "dataset"
+    source.mkdir()
+    assert convert.main(["freiburg", str(source), "--out", str(folder), "--overwrite"]) == 1
+    assert convert.main(["freiburg", str(source), "--out", str(source), "--overwrite"]) == 1
+    assert (folder / "thesis.tex").exists()
+
+    out = tmp_path / "replayed"
+    replay.replay_bag(bag, {"num_particles": 5, "seed": 1}, out_path=out)
+    mine = tmp_path / "metrics.json"
+    mine.write_text("mine")
+    assert evaluate.main([str(out), "--json", str(mine)]) == 1
+    assert evaluate.main([str(out), "--json", str(out)]) == 1
+    assert evaluate.main([str(out), "--plot", str(folder), "--overwrite"]) == 1
+    assert mine.read_text() == "mine" and (out / "metadata.yaml").exists()
+    assert evaluate.main([str(out), "--json", str(mine), "--overwrite"]) == 0
+    assert mine.read_text().startswith("{")
+
+    demo_dir = tmp_path / "demo"
+    demo_dir.mkdir()
+    (demo_dir / "summary.md").write_text("mine")
+    args = ["--out-dir", str(demo_dir), "--particles", "5", "--duration", "3"]
+    assert demo.main(args) == 1
+    assert (demo_dir / "summary.md").read_text() == "mine" and len(os.listdir(demo_dir)) == 1
+    assert "--overwrite" in capsys.readouterr().err
