@@ -149,7 +149,8 @@ class FastSLAMConfig:
             value = getattr(self, field.name)
             if isinstance(value, float):
                 need(math.isfinite(value), field.name, "finite")
-        need(isinstance(self.num_particles, int) and self.num_particles >= 1, "num_particles", ">= 1")
+        need(isinstance(self.num_particles, int) and self.num_particles >= 1, "num_particles",
+             ">= 1")
         need(self.algorithm in ALGORITHMS, "algorithm", f"one of {ALGORITHMS}")
         need(self.association in ASSOCIATION_MODES, "association", f"one of {ASSOCIATION_MODES}")
         need(self.resampling in RESAMPLING_SCHEMES, "resampling", f"one of {RESAMPLING_SCHEMES}")
