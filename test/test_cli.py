@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from rosbags.highlevel import AnyReader
 
 from fastslam_ros import node
@@ -310,6 +311,15 @@ def test_replay_output_carries_the_transform_tree(tmp_path):
     out = tmp_path / "out"
     assert replay.main([str(bag), "--set", "num_particles=10", "--set", "sensor_x=0.25",
                         "--set", "sensor_yaw=0.5", "--out", str(out)]) == 0
+    recorded = bag_topics(out)
+    # The shipped RViz config and Foxglove layout show topics this bag carries.
+    root = Path(__file__).resolve().parents[1]
+    rviz = yaml.safe_load((root / "rviz" / "fastslam.rviz").read_text())
+    rviz_topics = {d["Topic"]["Value"] for d in rviz["Visualization Manager"]["Displays"]
+                   if "Topic" in d}
+    layout = json.loads((root / "foxglove" / "fastslam.json").read_text())
+    foxglove_topics = set(layout["configById"]["3D!fastslam"]["topics"])
+    assert len(rviz_topics) == 5 and rviz_topics | foxglove_topics <= set(recorded)
     topics = read_topics(out, ["/tf", "/tf_static", "/fastslam/pose"])
     static = [t for msg in topics["/tf_static"][1] for t in msg.transforms]
     assert [(t.header.frame_id, t.child_frame_id) for t in static] == [("base_link", "laser")]
