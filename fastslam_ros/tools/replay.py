@@ -25,7 +25,7 @@ import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, TextIO
+from typing import Any, Callable, Iterator, TextIO
 
 import rclpy
 import yaml
@@ -261,7 +261,7 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
     rclpy.init(args=[], context=context)  # not sys.argv: its FROM:=TO would be a ROS remap
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
-        topics = _Topics(remap or {})
+        topics = _topic_names(remap or {})
         reader = cleanup.enter_context(_open_input(bag_path, topics))
         node = _create_node(context, merged)
         cleanup.callback(node.destroy_node)
@@ -290,18 +290,17 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
         return result
 
 
-class _Topics:
-    """The name under which each bag topic is read (``--remap``)."""
+TopicOf = Callable[[Any], str]
+"""The name under which a bag connection is read."""
 
-    def __init__(self, remap: dict[str, str]) -> None:
-        self.remap = remap
 
-    def __call__(self, connection: Any) -> str:
-        return self.remap.get(connection.topic, connection.topic)
+def _topic_names(remap: dict[str, str]) -> TopicOf:
+    """Read each bag topic under its ``--remap`` name, or its own."""
+    return lambda connection: remap.get(connection.topic, connection.topic)
 
 
 @contextmanager
-def _open_input(bag_path: Path, topic_of: _Topics) -> Iterator[AnyReader]:
+def _open_input(bag_path: Path, topic_of: TopicOf) -> Iterator[AnyReader]:
     """An open reader of a bag that has the input topics (SchemaError otherwise)."""
     if not bag_path.exists():
         raise FileNotFoundError(f"bag not found: {bag_path}")
@@ -340,7 +339,7 @@ def _create_node(context: Context, params: dict[str, Any]) -> FastSLAMNode:
 
 
 def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
-                              recorder: OutputRecorder, topic_of: _Topics) -> None:
+                              recorder: OutputRecorder, topic_of: TopicOf) -> None:
     """One latched ``/tf_static`` at the bag's start: base -> the sensor frame (the node's
     sensor pose; the frame named by ``sensor_frame`` or the first cloud) and every static
     transform of the input bag."""
@@ -365,7 +364,7 @@ def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
 
 
 def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None,
-          progress: bool, topic_of: _Topics) -> tuple[int, float]:
+          progress: bool, topic_of: TopicOf) -> tuple[int, float]:
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
     callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
