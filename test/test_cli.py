@@ -25,7 +25,32 @@ def test_every_command_has_help(command, capsys):
     with pytest.raises(SystemExit) as exit_info:
         command.main(["--help"])
     assert exit_info.value.code == 0
-    assert "usage: fastslam-" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "usage: fastslam-" in printed
+    # One style: plain text (no reStructuredText literals), defaults shown, none empty.
+    assert "``" not in printed and "(default:" in printed
+    assert "(default: None)" not in printed and "(default: [])" not in printed
+
+
+def test_every_option_has_help(monkeypatch):
+    """Each command's parser, captured as it parses --help: no option without a help text."""
+    import argparse
+
+    parsers = []
+    original = argparse.ArgumentParser.parse_args
+
+    def capture(self, *args, **kwargs):
+        parsers.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", capture)
+    for command in (sim, replay, play, evaluate, demo, bench, benchmark, convert):
+        with pytest.raises(SystemExit):
+            command.main(["--help"])
+    assert len(parsers) == 8
+    for parser in parsers:
+        undocumented = [action.dest for action in parser._actions if not action.help]
+        assert not undocumented, (parser.prog, undocumented)
 
 
 def test_sim_replay_eval_chain(tmp_path, capsys):

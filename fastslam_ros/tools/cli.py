@@ -33,10 +33,11 @@ BAG_ERRORS = (OSError, ValueError, AnyReaderError)
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
     """Keeps the description's paragraphs and shows each option's default, except an empty
-    one (None, False) that says nothing."""
+    one (None, False, []) that says nothing."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
-        if action.default in (None, False) or action.default is argparse.SUPPRESS:
+        default = action.default
+        if default is None or default is False or default is argparse.SUPPRESS or default == []:
             return action.help or ""
         return super()._get_help_string(action)
 
