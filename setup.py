@@ -14,21 +14,22 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
+        (f"share/{PACKAGE}/rviz", glob("rviz/*.rviz")),
+        (f"share/{PACKAGE}/foxglove", glob("foxglove/*.json")),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6", "scipy>=1.10",
-                      "pyyaml>=5"],
+    install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6",
+                      "scipy>=1.10", "pyyaml>=5"],
     extras_require={
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-        "test": ["pytest>=7", "pytest-timeout>=2", "hypothesis>=6"],
+        "test": ["pytest>=7", "pytest-timeout>=2", "hypothesis>=6", "ruff>=0.5"],
     },
     zip_safe=True,
-    maintainer="fastslam_ros developers",
-    maintainer_email="fastslam-ros@example.com",
+    maintainer="fastslam_ros maintainers",
+    maintainer_email="fastslam-ros@users.noreply.github.com",
     description="FastSLAM 1.0 / 2.0 landmark SLAM for ROS 2 Jazzy, with a numpy core.",
     license="Apache-2.0",
-    tests_require=["pytest"],
     entry_points={
         "console_scripts": [
             "fastslam_node = fastslam_ros.node:main",

@@ -9,6 +9,7 @@ run. See docs/node.md for the interface and the parameters.
 """
 from __future__ import annotations
 
+import argparse
 import bisect
 import math
 import re
@@ -31,6 +32,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy)
+from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
@@ -1014,8 +1016,26 @@ def _params_files(args: list[str]) -> list[str]:
     return [value for flag, value in zip(ros_args, ros_args[1:]) if flag == "--params-file"]
 
 
+USAGE = """FastSLAM landmark SLAM node: nav_msgs/Odometry on odom and sensor_msgs/PointCloud2 on
+landmarks in; pose, path, map markers, map cloud, particles and map -> odom out (docs/node.md).
+
+ROS arguments follow --ros-args, as for every ROS 2 node:
+  fastslam_node --ros-args --params-file config/fastslam.yaml -p num_particles:=200 \\
+      -r odom:=/wheel/odom -r landmarks:=/detector/landmarks -p use_sim_time:=true
+Every parameter, its default and range: docs/parameters.md."""
+
+
+def parse_command_line(args: list[str]) -> None:
+    """Handle the arguments that are not ROS arguments: ``--help`` prints the usage and exits;
+    anything else is a usage error (exit status 2) instead of being ignored."""
+    parser = argparse.ArgumentParser(prog="fastslam_node", description=USAGE,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.parse_args(remove_ros_args(args)[1:])
+
+
 def main(args: list[str] | None = None) -> int:
     """Console entry point ``fastslam_node``; exit status 1 on a bad parameter or file."""
+    parse_command_line(sys.argv if args is None else args)
     try:
         for path in _params_files(sys.argv if args is None else args):
             read_params_file(path)  # a one-line error instead of rcl's failure to init

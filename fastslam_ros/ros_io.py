@@ -24,6 +24,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros.core import geometry
+from fastslam_ros.core.timing import seconds_to_nanoseconds
 
 # sensor_msgs/PointField datatype codes -> numpy scalar types.
 POINT_FIELD_DTYPES = {PointField.INT8: np.int8, PointField.UINT8: np.uint8,
@@ -104,8 +105,8 @@ def checked_stamp_to_seconds(stamp) -> float:
 
 
 def seconds_to_stamp(seconds: float) -> Time:
-    """Float seconds -> ``builtin_interfaces/Time`` (nanoseconds rounded, never negative)."""
-    nanoseconds = max(0, round(seconds * 1e9))
+    """Float seconds -> ``builtin_interfaces/Time`` (``seconds_to_nanoseconds``, never negative)."""
+    nanoseconds = max(0, seconds_to_nanoseconds(seconds))
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 

@@ -1,7 +1,7 @@
 """Launch fastslam_node with a parameter file.
 
-    ros2 launch fastslam_ros fastslam.launch.py
-    ros2 launch fastslam_ros fastslam.launch.py params_file:=my.yaml namespace:=robot1 \
+ros2 launch fastslam_ros fastslam.launch.py
+ros2 launch fastslam_ros fastslam.launch.py params_file:=my.yaml namespace:=robot1 \
         use_sim_time:=true odom_topic:=/wheel/odom landmarks_topic:=/detector/landmarks
 """
 from launch import LaunchDescription

@@ -6,11 +6,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
+from rosbags.highlevel import AnyReader
 
+from fastslam_ros import node
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools import bench, benchmark, convert, demo, evaluate, play, replay, sim
-from fastslam_ros.tools.bag_schema import (LandmarkSet, PoseSeries, read_schema_bag,
-                                           write_schema_bag)
+from fastslam_ros.tools.bag_schema import (TYPESTORE, LandmarkSet, PoseSeries, bag_topics,
+                                           open_writer, quaternion_to_yaw, read_schema_bag,
+                                           read_topics, write_schema_bag)
 from fastslam_ros.tools.sim import SimConfig, simulate
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -21,7 +25,32 @@ def test_every_command_has_help(command, capsys):
     with pytest.raises(SystemExit) as exit_info:
         command.main(["--help"])
     assert exit_info.value.code == 0
-    assert "usage: fastslam-" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "usage: fastslam-" in printed
+    # One style: plain text (no reStructuredText literals), defaults shown, none empty.
+    assert "``" not in printed and "(default:" in printed
+    assert "(default: None)" not in printed and "(default: [])" not in printed
+
+
+def test_every_option_has_help(monkeypatch):
+    """Each command's parser, captured as it parses --help: no option without a help text."""
+    import argparse
+
+    parsers = []
+    original = argparse.ArgumentParser.parse_args
+
+    def capture(self, *args, **kwargs):
+        parsers.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", capture)
+    for command in (sim, replay, play, evaluate, demo, bench, benchmark, convert):
+        with pytest.raises(SystemExit):
+            command.main(["--help"])
+    assert len(parsers) == 8
+    for parser in parsers:
+        undocumented = [action.dest for action in parser._actions if not action.help]
+        assert not undocumented, (parser.prog, undocumented)
 
 
 def test_sim_replay_eval_chain(tmp_path, capsys):
@@ -62,9 +91,13 @@ def test_sim_replay_eval_chain(tmp_path, capsys):
 
 
 def test_commands_fail_cleanly_on_missing_input(tmp_path, capsys):
-    assert replay.main([str(tmp_path / "absent")]) == 1
+    assert replay.main([str(tmp_path / "absent")]) == 2
     assert "bag not found" in capsys.readouterr().err
-    assert evaluate.main([str(tmp_path / "absent")]) == 1
+    assert evaluate.main([str(tmp_path / "absent")]) == 2
+    assert "absent" in capsys.readouterr().err
+    assert play.main([str(tmp_path / "absent")]) == 2
+    assert "absent" in capsys.readouterr().err
+    assert convert.main(["mrclam", str(tmp_path / "absent"), "--out", str(tmp_path / "o")]) == 2
     assert "absent" in capsys.readouterr().err
     bag = tmp_path / "bag"
     assert sim.main(["--out", str(bag), "--duration", "2"]) == 0
@@ -74,6 +107,80 @@ def test_commands_fail_cleanly_on_missing_input(tmp_path, capsys):
     assert "/fastslam/pose" in capsys.readouterr().err
     assert replay.main([str(bag), "--set", "num_particles=0", "--no-record"]) == 1
     assert "num_particles" in capsys.readouterr().err
+
+
+def one_line_error(capsys, prog: str) -> str:
+    """The stderr of a failed command: one line naming the command, no traceback."""
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"{prog}: ") and "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+def test_bad_files_and_paths_give_one_line_and_status_2(tmp_path, capsys):
+    bag = tmp_path / "bag"
+    assert sim.main(["--out", str(bag), "--duration", "2"]) == 0
+    run = tmp_path / "run"
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(run)]) == 0
+    capsys.readouterr()
+    assert evaluate.main([str(run), "--plot", str(tmp_path / "x.xyz")]) == 2
+    assert "unsupported format '.xyz'" in one_line_error(capsys, "fastslam-eval")
+    assert evaluate.main([str(run), "--json", "/no/dir/f"]) == 2
+    assert "/no/dir does not exist" in one_line_error(capsys, "fastslam-eval")
+    assert evaluate.main([str(run), "--tum", str(bag / "metadata.yaml")]) == 2
+    assert "is a file" in one_line_error(capsys, "fastslam-eval")
+    not_a_bag = tmp_path / "notes.mcap"
+    not_a_bag.write_text("not a bag")
+    assert evaluate.main([str(not_a_bag)]) == 2
+    assert "cannot read bag" in one_line_error(capsys, "fastslam-eval")
+    assert replay.main([str(not_a_bag)]) == 2
+    one_line_error(capsys, "fastslam-replay")
+    for content, message in ((b"\xff\xfe\x00", "utf-8"), (b"a: [", "not YAML"),
+                             (b"- 1", "not a ROS 2 parameter file")):
+        params = tmp_path / "params.yaml"
+        params.write_bytes(content)
+        assert replay.main([str(bag), "--params", str(params), "--no-record"]) == 2
+        assert message in one_line_error(capsys, "fastslam-replay")
+    assert replay.main([str(bag), "--params", str(tmp_path), "--no-record"]) == 2
+    assert "not a file" in one_line_error(capsys, "fastslam-replay")
+    assert replay.main([str(bag), "--out", str(tmp_path / "no" / "such" / "out")]) == 2
+    assert "does not exist" in one_line_error(capsys, "fastslam-replay")
+
+
+def test_replay_takes_the_node_syntax_for_parameters_and_remaps(tmp_path, capsys):
+    bag = simulate(SimConfig(duration=3.0, seed=1))
+    write_schema_bag(tmp_path / "bag", bag)
+    renamed = tmp_path / "renamed"
+    with AnyReader([tmp_path / "bag"]) as reader, open_writer(renamed) as writer:
+        names = {"/odom": "/wheel/odom"}
+        connections = {c.id: writer.add_connection(names.get(c.topic, c.topic), c.msgtype,
+                                                   typestore=TYPESTORE)
+                       for c in reader.connections}
+        for connection, stamp_ns, raw in reader.messages():
+            writer.write(connections[connection.id], stamp_ns, raw)
+    assert "/wheel/odom" in bag_topics(renamed) and "/odom" not in bag_topics(renamed)
+    assert replay.main([str(renamed), "--no-record"]) == 1
+    assert "--remap" in one_line_error(capsys, "fastslam-replay")
+    out = tmp_path / "out"
+    assert replay.main([str(renamed), "-r", "/wheel/odom:=/odom", "-p", "num_particles:=7",
+                        "--set", "seed=2", "--out", str(out)]) == 0
+    assert "received_odom 121" in capsys.readouterr().out
+    assert evaluate.evaluate(out)["params"]["num_particles"] == 7
+    assert replay.parse_assignment("sigma_range:=0.2") == ("sigma_range", 0.2)
+    assert replay.parse_remap("wheel/odom:=odom") == ("/wheel/odom", "/odom")
+    for text in ("odom", ":=/odom", "/odom:="):
+        with pytest.raises(ValueError):
+            replay.parse_remap(text)
+
+
+def test_node_help_prints_usage_without_starting(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        node.main(["fastslam_node", "--help"])
+    assert exit_info.value.code == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("usage: fastslam_node") and "--ros-args" in printed
+    with pytest.raises(SystemExit) as exit_info:
+        node.main(["fastslam_node", "--no-such-option", "--ros-args", "-p", "seed:=1"])
+    assert exit_info.value.code == 2
 
 
 def test_demo_writes_every_artefact(tmp_path, capsys):
@@ -186,3 +293,77 @@ def test_benchmark_table_gives_the_jumps_of_each_run_and_their_mean():
     assert header[column - 1] == "ATE aligned (m)"
     cells = [[cell.strip() for cell in line.strip("|").split("|")] for line in lines[2:6]]
     assert [row[column] for row in cells] == ["3", "6", "4.5", "6.0"]   # runs, mean, worst
+
+
+def read_tum(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps (N,) and positions (N, 2) of a TUM file (``t x y z qx qy qz qw``)."""
+    rows = np.loadtxt(path, ndmin=2)
+    assert rows.shape[1] == 8 and np.all(rows[:, 3] == 0.0)
+    np.testing.assert_allclose(np.linalg.norm(rows[:, 4:], axis=1), 1.0, atol=1e-9)
+    return rows[:, 0], rows[:, 1:3]
+
+
+def test_tum_files_give_the_evaluation_figures_to_trajectory_tools(tmp_path):
+    bag = tmp_path / "bag"
+    write_schema_bag(bag, simulate(SimConfig(duration=20.0, seed=3)))
+    out = tmp_path / "out"
+    assert replay.main([str(bag), "--set", "num_particles=10", "--seed", "1",
+                        "--out", str(out)]) == 0
+    metrics_path, tum = tmp_path / "metrics.json", tmp_path / "tum"
+    assert evaluate.main([str(out), "--json", str(metrics_path), "--tum", str(tum)]) == 0
+    metrics = json.loads(metrics_path.read_text())
+    truth_stamps, truth = read_tum(tum / "ground_truth.tum")
+    for name in ("estimate", "final_path", "dead_reckoning"):
+        stamps, positions = read_tum(tum / f"{name}.tum")
+        assert len(stamps) == metrics[name]["samples"]
+        # Pair by stamp as evo does, then score as evo_ape does: raw, and after the
+        # least-squares rigid fit (Umeyama through an SVD, a method independent of align_se2).
+        reference = truth[np.searchsorted(truth_stamps, stamps)]
+        np.testing.assert_array_equal(truth_stamps[np.searchsorted(truth_stamps, stamps)], stamps)
+        raw = np.sqrt(np.mean(np.sum((positions - reference) ** 2, axis=1)))
+        centred_e, centred_r = positions - positions.mean(0), reference - reference.mean(0)
+        u, _, vt = np.linalg.svd(centred_r.T @ centred_e)
+        rotation = u @ np.diag([1.0, np.linalg.det(u @ vt)]) @ vt
+        aligned = centred_e @ rotation.T - centred_r
+        aligned_rmse = np.sqrt(np.mean(np.sum(aligned**2, axis=1)))
+        assert raw == pytest.approx(metrics[name]["raw"]["rmse"], rel=1e-6)
+        assert aligned_rmse == pytest.approx(metrics[name]["aligned"]["rmse"], rel=1e-6)
+
+
+def test_replay_output_carries_the_transform_tree(tmp_path):
+    bag = tmp_path / "bag"
+    write_schema_bag(bag, simulate(SimConfig(duration=5.0, seed=2, sensor_frame="laser")))
+    out = tmp_path / "out"
+    assert replay.main([str(bag), "--set", "num_particles=10", "--set", "sensor_x=0.25",
+                        "--set", "sensor_yaw=0.5", "--out", str(out)]) == 0
+    recorded = bag_topics(out)
+    # The shipped RViz config and Foxglove layout show topics this bag carries.
+    root = Path(__file__).resolve().parents[1]
+    rviz = yaml.safe_load((root / "rviz" / "fastslam.rviz").read_text())
+    rviz_topics = {d["Topic"]["Value"] for d in rviz["Visualization Manager"]["Displays"]
+                   if "Topic" in d}
+    layout = json.loads((root / "foxglove" / "fastslam.json").read_text())
+    foxglove_topics = set(layout["configById"]["3D!fastslam"]["topics"])
+    assert len(rviz_topics) == 5 and rviz_topics | foxglove_topics <= set(recorded)
+    topics = read_topics(out, ["/tf", "/tf_static", "/fastslam/pose"])
+    static = [t for msg in topics["/tf_static"][1] for t in msg.transforms]
+    assert [(t.header.frame_id, t.child_frame_id) for t in static] == [("base_link", "laser")]
+    assert static[0].transform.translation.x == pytest.approx(0.25)
+    assert quaternion_to_yaw(0.0, 0.0, static[0].transform.rotation.z,
+                             static[0].transform.rotation.w) == pytest.approx(0.5)
+    chains: dict[tuple[str, str], dict[int, np.ndarray]] = {}
+    for msg in topics["/tf"][1]:
+        for t in msg.transforms:
+            stamp = t.header.stamp.sec * 10**9 + t.header.stamp.nanosec
+            q = t.transform.rotation
+            chains.setdefault((t.header.frame_id, t.child_frame_id), {})[stamp] = np.array(
+                [t.transform.translation.x, t.transform.translation.y,
+                 quaternion_to_yaw(q.x, q.y, q.z, q.w)])
+    assert set(chains) == {("map", "odom"), ("odom", "base_link")}
+    assert len(chains["odom", "base_link"]) == 201  # every odometry message, 40 Hz
+    # map -> odom -> base_link at a pose's stamp is the published pose.
+    for msg in topics["/fastslam/pose"][1]:
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        chained = compose(chains["map", "odom"][stamp], chains["odom", "base_link"][stamp])
+        p = msg.pose.pose
+        np.testing.assert_allclose(chained[:2], [p.position.x, p.position.y], atol=1e-9)

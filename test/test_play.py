@@ -74,7 +74,7 @@ def test_player_delivers_every_message_with_clock(tmp_path):
 
 
 def test_player_reports_a_missing_bag_or_topic(tmp_path, capsys):
-    assert play_main([str(tmp_path / "absent")]) == 1
+    assert play_main([str(tmp_path / "absent")]) == 2  # a missing input is a usage error
     assert "not found" in capsys.readouterr().err
     path = write_schema_bag(tmp_path / "bag", simulate(SimConfig(duration=1.0)))
     assert play_main([str(path), "--topics", "/nothing"]) == 1

@@ -26,8 +26,11 @@ def test_rates_speed_and_noise_free_odometry():
     config = SimConfig(duration=12.0, sigma_speed=0.0, sigma_steer=0.0)
     bag = simulate(config)
     assert len(bag.odometry.stamps) == 12 * 40 + 1
-    np.testing.assert_allclose(np.diff(bag.odometry.stamps), 1 / 40, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.diff(bag.scans.stamps), 1 / 5, rtol=0, atol=1e-12)
+    # Stamps are dated like a recording's (float64 seconds there resolve 0.24 us).
+    assert bag.odometry.stamps[0] == config.start_time == 1_700_000_000.0
+    assert bag.scans.stamps[0] == pytest.approx(config.start_time + 0.2, abs=1e-6)
+    np.testing.assert_allclose(np.diff(bag.odometry.stamps), 1 / 40, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(np.diff(bag.scans.stamps), 1 / 5, rtol=0, atol=1e-6)
     step = np.linalg.norm(np.diff(bag.ground_truth.poses[:, :2], axis=0), axis=1)
     np.testing.assert_allclose(step, 3.0 / 40, rtol=1e-6)
     # Without control noise the odometry is the true path.

@@ -131,7 +131,8 @@ def score(t, landmark_cov: np.ndarray, z_range, z_bearing, noise_diag: np.ndarra
     nu_b = t.bearing_innovation(z_bearing)
     sxx, sxy, syy = landmark_cov[..., 0], landmark_cov[..., 1], landmark_cov[..., 2]
     if pose_cov is not None:
-        sxx, sxy, syy = sxx + pose_cov[..., 0, 0], sxy + pose_cov[..., 0, 1], syy + pose_cov[..., 1, 1]
+        sxx, sxy, syy = (sxx + pose_cov[..., 0, 0], sxy + pose_cov[..., 0, 1],
+                         syy + pose_cov[..., 1, 1])
     (g00, g01, g10, g11), _, (cxx, cxy, cyy) = innovation_covariance(t, sxx, sxy, syy,
                                                                       noise_diag)
     if pose_cov is not None:

@@ -139,7 +139,8 @@ class LandmarkStore(RecordViews):
 
     def nbytes(self) -> int:
         """Bytes held by the pool, the tables and the cell index."""
-        arrays = (self.state, self.ident, self.occupied, self.refcount, self.table, self.cell_ix, self.cell_iy, self.label_column)
+        arrays = (self.state, self.ident, self.occupied, self.refcount, self.table, self.cell_ix,
+                  self.cell_iy, self.label_column)
         return int(sum(a.nbytes for a in arrays))
 
     # ------------------------------------------------------------------ cells

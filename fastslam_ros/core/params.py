@@ -64,7 +64,8 @@ class Spec:
             return None
         if isinstance(value, float) and not math.isfinite(value):
             return "finite"
-        if self.low is not None and (value < self.low or (self.low_exclusive and value == self.low)):
+        if self.low is not None and (value < self.low
+                                     or (self.low_exclusive and value == self.low)):
             return self.rule()
         if self.high is not None and (value > self.high
                                       or (self.high_exclusive and value == self.high)):

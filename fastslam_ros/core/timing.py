@@ -6,11 +6,27 @@ stamp, interpolating the last one. ``Throttle`` bounds the rate of an output in 
 """
 from __future__ import annotations
 
+import math
 from collections import deque
+from decimal import Decimal
 
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+
+
+def seconds_to_nanoseconds(seconds: float) -> int:
+    """Float seconds -> integer nanoseconds of the decimal the float stands for.
+
+    A float near a Unix date resolves only 0.24 us: 1700000000.2 is stored as ...2000000477,
+    so its binary fraction would be 200000048 ns and ``round(seconds * 1e9)`` is coarser still
+    (steps of 256 ns). The shortest decimal that reads back as the float (``repr``) is the time
+    meant, so a stamp converted to float and back keeps its nanoseconds wherever the float can
+    hold them, and two conversions of one stamp always agree.
+    """
+    whole = math.floor(seconds)
+    fraction = Decimal(repr(float(seconds))) - whole
+    return whole * 1_000_000_000 + int((fraction * 1_000_000_000).to_integral_value())
 
 
 class OdometryHistory:

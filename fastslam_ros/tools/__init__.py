@@ -1,0 +1,1 @@
+"""Command-line tools: simulator, bag replay and playback, evaluation, converters, benchmarks."""

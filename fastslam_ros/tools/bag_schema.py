@@ -11,7 +11,8 @@ A position-only reference (GPS) has an identity orientation and a yaw variance
 (``pose.covariance[35]``) of -1. When the reference measures another point of the robot than the
 base (a GPS antenna), its ``child_frame_id`` names that point and ``/tf_static``
 (``tf2_msgs/TFMessage``) holds the static transform base frame -> that point; the evaluation
-then compares the estimated position of that point. Bags are MCAP by default, sqlite3 on request; both are read.
+then compares the estimated position of that point. Bags are MCAP by default, sqlite3 on
+request; both are read.
 Stamps are float seconds in Python and ``builtin_interfaces/Time`` in the bag; every message is
 logged at its header stamp.
 """
@@ -30,6 +31,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
 from fastslam_ros.tools.output import prepare_output
+from fastslam_ros.core.timing import seconds_to_nanoseconds
 
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
@@ -147,10 +149,8 @@ class _Record:
 
 
 def stamp_to_ns(stamp: float) -> int:
-    """Float seconds -> integer nanoseconds (exact for the fractional part)."""
-    seconds = int(np.floor(stamp))
-    nanoseconds = int(round((stamp - seconds) * 1e9))
-    return seconds * 1_000_000_000 + nanoseconds
+    """Float seconds -> integer nanoseconds (``core.timing.seconds_to_nanoseconds``)."""
+    return seconds_to_nanoseconds(stamp)
 
 
 def ns_to_stamp(stamp_ns: int) -> float:
@@ -264,17 +264,28 @@ def _landmark_cloud_message(stamp_ns: int, points: np.ndarray, ids: np.ndarray,
         data=records.view(np.uint8), is_dense=True)
 
 
-def _static_transform_message(stamp_ns: int, parent: str, child: str, offset) -> Any:
-    """``/tf_static`` with the one transform parent -> child, a planar translation."""
+def transform_message(stamp_ns: int, parent: str, child: str, pose) -> Any:
+    """rosbags ``geometry_msgs/TransformStamped`` parent -> child of a planar pose (x, y, yaw)."""
     types = TYPESTORE.types
-    transform = types["geometry_msgs/msg/TransformStamped"](
+    qx, qy, qz, qw = yaw_to_quaternion(float(pose[2]))
+    return types["geometry_msgs/msg/TransformStamped"](
         header=types["std_msgs/msg/Header"](stamp=_time_msg(stamp_ns), frame_id=parent),
         child_frame_id=child,
         transform=types["geometry_msgs/msg/Transform"](
-            translation=types["geometry_msgs/msg/Vector3"](x=float(offset[0]),
-                                                           y=float(offset[1]), z=0.0),
-            rotation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
-    return types[TF_TYPE](transforms=[transform])
+            translation=types["geometry_msgs/msg/Vector3"](x=float(pose[0]), y=float(pose[1]),
+                                                           z=0.0),
+            rotation=types["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw)))
+
+
+def tf_message_bytes(transforms: list[Any]) -> bytes:
+    """A serialized ``tf2_msgs/TFMessage`` of rosbags ``TransformStamped`` messages."""
+    return _serialize(TYPESTORE.types[TF_TYPE](transforms=transforms), TF_TYPE)
+
+
+def _static_transform_message(stamp_ns: int, parent: str, child: str, offset) -> Any:
+    """``/tf_static`` with the one transform parent -> child, a planar translation."""
+    transform = transform_message(stamp_ns, parent, child, (offset[0], offset[1], 0.0))
+    return TYPESTORE.types[TF_TYPE](transforms=[transform])
 
 
 def _serialize(msg: Any, msgtype: str) -> bytes:

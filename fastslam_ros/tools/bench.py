@@ -13,7 +13,6 @@ Three measurements on synthetic worlds (``fastslam_ros.tools.synthetic``), singl
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -22,6 +21,7 @@ import numpy as np
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.landmark_store import STATE_WIDTH
+from fastslam_ros.tools import cli
 from fastslam_ros.tools import soak
 from fastslam_ros.tools.synthetic import make_world
 
@@ -31,6 +31,7 @@ LANDMARK_RECORD_BYTES = STATE_WIDTH * 8 + 2 * 8 + 1
 
 def bench_config(algorithm: str, association: str, particles: int, seed: int,
                  max_range: float = 10.0) -> FastSLAMConfig:
+    """The filter configuration every benchmark run uses."""
     return FastSLAMConfig(num_particles=particles, algorithm=algorithm, association=association,
                           sigma_range=0.1, sigma_bearing=0.02, alpha1=0.01, alpha2=0.0005,
                           alpha3=0.01, alpha4=0.001, max_range=max_range,
@@ -152,12 +153,11 @@ def markdown(title: str, rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fastslam-bench",
-                                     description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--particles", type=int, default=100)
+    """``fastslam-bench``: print (and optionally write) the speed and memory figures."""
+    parser = cli.parser("fastslam-bench", __doc__)
+    parser.add_argument("--particles", type=int, default=100, help="number of particles M")
     parser.add_argument("--steps", type=int, default=300, help="steps of each synthetic run")
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--seed", type=int, default=1, help="seed of the worlds and filters")
     parser.add_argument("--repeat", type=int, default=3,
                         help="runs of each throughput configuration (best and median shown)")
     parser.add_argument("--only", choices=("throughput", "scaling", "memory", "soak"),

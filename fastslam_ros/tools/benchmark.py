@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from fastslam_ros.tools import convert
+from fastslam_ros.tools import cli, convert
 
 FAMILY_CONFIGS = {"mrclam": "mrclam.yaml", "victoria-park": "victoria_park.yaml",
                   "freiburg": "freiburg.yaml"}
@@ -231,19 +231,21 @@ def plan(sequences: list[Sequence], algorithms: list[str], associations: list[st
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="fastslam-benchmark", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    """The ``fastslam-benchmark`` argument parser."""
+    parser = cli.parser("fastslam-benchmark", __doc__)
     parser.add_argument("--datasets", type=Path, nargs="+", default=None,
-                        help="folders to search (default $FASTSLAM_DATASETS or ../shared/datasets)")
-    parser.add_argument("--out-dir", type=Path, default=Path("benchmark_results"))
+                        help="folders to search (default: $FASTSLAM_DATASETS or "
+                             "../shared/datasets)")
+    parser.add_argument("--out-dir", type=Path, default=Path("benchmark_results"),
+                        help="folder for the converted bags, the runs and the tables")
     parser.add_argument("--particles", type=int, nargs="+", default=[100],
-                        help="particle counts (default 100; add 1000 where time allows)")
+                        help="particle counts")
     parser.add_argument("--algorithms", nargs="+", default=["fastslam1", "fastslam2"],
-                        choices=["fastslam1", "fastslam2"])
+                        choices=["fastslam1", "fastslam2"], help="FastSLAM versions to run")
     parser.add_argument("--associations", nargs="+", default=["known", SHIPPED_ASSOCIATION],
                         choices=["known", "ml", "monte_carlo", "two_gate", SHIPPED_ASSOCIATION],
                         help="known ids and/or unknown association rules; config: the one the "
-                             "sequence's parameter file names (default: known config)")
+                             "sequence's parameter file names")
     parser.add_argument("--seeds", type=int, default=1, help="seeds 1..N per configuration")
     parser.add_argument("--only", default=None,
                         help="run only sequences whose name contains this text")
@@ -265,14 +267,14 @@ def _run_with_bag(job: tuple[RunSpec, Path, Path]) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``fastslam-benchmark``: run every dataset found and print the table."""
     args = build_parser().parse_args(argv)
     roots = args.datasets or [default_datasets_dir()]
     sequences = [s for s in discover([r for r in roots if r.exists()])
                  if args.only is None or args.only in s.name]
     if not sequences:
-        print(f"fastslam-benchmark: no dataset found under {', '.join(map(str, roots))}",
-              file=sys.stderr)
-        return 2
+        return cli.fail("fastslam-benchmark",
+                        f"no dataset found under {', '.join(map(str, roots))}", cli.EXIT_USAGE)
     algorithms = ["fastslam2"] if args.quick else args.algorithms
     duration = QUICK_DURATION if args.quick else None
     args.out_dir.mkdir(parents=True, exist_ok=True)

@@ -11,6 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.converters import Recording, freiburg, mrclam, victoria_park
 
 KINDS = ("mrclam", "victoria-park", "freiburg")
@@ -56,53 +57,59 @@ def calibrate(kind: str, source: Path | str) -> dict[str, float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="fastslam-convert", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    """The ``fastslam-convert`` argument parser."""
+    parser = cli.parser("fastslam-convert", __doc__)
     parser.add_argument("kind", choices=KINDS, help="dataset family")
     parser.add_argument("source", type=Path, help="dataset folder (e.g. MRCLAM_Dataset6)")
     parser.add_argument("--out", type=Path, help="output bag folder (required unless --calibrate)")
-    parser.add_argument("--robot", type=int, default=1, help="MRCLAM robot number 1-5 (default 1)")
+    parser.add_argument("--robot", type=int, default=1, help="MRCLAM robot number 1-5")
     parser.add_argument("--no-ids", action="store_true",
                         help="write landmark ids as -1 (MRCLAM; Victoria Park never has ids)")
     parser.add_argument("--duration", type=float, default=None,
                         help="keep only the first DURATION seconds")
-    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
+                        help="bag storage format")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--command-delay", type=float, default=mrclam.COMMAND_DELAY,
-                        help="MRCLAM: s between a logged command and the motion "
-                             f"[{mrclam.COMMAND_DELAY}]")
+                        help="MRCLAM: s between a logged command and the motion")
     parser.add_argument("--speed-scale", type=float, default=mrclam.SPEED_SCALE,
-                        help=f"MRCLAM: actual / commanded speed [{mrclam.SPEED_SCALE}]")
+                        help="MRCLAM: actual / commanded speed")
     parser.add_argument("--yaw-rate-scale", type=float, default=mrclam.YAW_RATE_SCALE,
-                        help=f"MRCLAM: actual / commanded turn rate [{mrclam.YAW_RATE_SCALE}]")
+                        help="MRCLAM: actual / commanded turn rate")
     parser.add_argument("--calibrate", action="store_true",
                         help="print parameters estimated from the data and exit")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    if not args.source.exists():
-        print(f"fastslam-convert: {args.source}: no such folder", file=sys.stderr)
-        return 2
+    """``fastslam-convert``: convert a dataset folder, or print its calibration."""
+    prog = "fastslam-convert"
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.out is None and not args.calibrate:
+        parser.error("--out is required (unless --calibrate)")
+    try:
+        cli.input_path(args.source, "dataset folder")
+        if args.out is not None:
+            cli.output_folder(args.out, "--out")
+    except cli.UsageError as error:
+        return cli.fail(prog, error)
     try:
         if args.calibrate:
             for name, value in calibrate(args.kind, args.source).items():
                 print(f"{name}: {value:.6g}")
             return 0
-        if args.out is None:
-            print("fastslam-convert: --out is required", file=sys.stderr)
-            return 2
         recording = convert(args.kind, args.source, args.out, args.robot, not args.no_ids,
                             args.duration, args.storage, args.overwrite,
                             odometry={"delay": args.command_delay,
                                       "speed_scale": args.speed_scale,
                                       "yaw_rate_scale": args.yaw_rate_scale}
                             if args.kind == "mrclam" else None)
+    except FileNotFoundError as error:  # a file of the dataset is missing
+        return cli.fail(prog, error)
     except (OSError, ValueError) as error:
-        print(f"fastslam-convert: {error}", file=sys.stderr)
-        return 1
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     print(recording.summary())
     print(f"wrote {args.out}")
     return 0

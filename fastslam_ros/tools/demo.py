@@ -7,11 +7,11 @@ evaluate and plot.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, json_ready, load_run, markdown_table
 from fastslam_ros.tools.output import check_output, prepare_output
@@ -62,31 +62,34 @@ def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: 
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-demo``: the README's main job."""
-    parser = argparse.ArgumentParser(prog="fastslam-demo",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
-    parser.add_argument("--out-dir", type=Path, default=Path("fastslam_demo"),
-                        help="folder for every output [fastslam_demo]")
-    parser.add_argument("--scenario", choices=SCENARIOS, default="loop", help="[loop]")
-    parser.add_argument("--particles", type=int, default=100, help="number of particles [100]")
-    parser.add_argument("--seed", type=int, default=0, help="simulation and filter seed [0]")
+    parser = cli.parser("fastslam-demo", __doc__)
+    parser.add_argument("--out-dir", type=Path, default=Path("demo"),
+                        help="folder for every output")
+    parser.add_argument("--scenario", choices=SCENARIOS, default="loop",
+                        help="simulated world and route")
+    parser.add_argument("--particles", type=int, default=100, help="number of particles")
+    parser.add_argument("--seed", type=int, default=0, help="simulation and filter seed")
     parser.add_argument("--algorithm", choices=("fastslam1", "fastslam2"), default="fastslam2",
-                        help="[fastslam2]")
+                        help="FastSLAM 1.0 or 2.0")
     parser.add_argument("--association", choices=("known", "ml", "monte_carlo", "two_gate"),
-                        default="ml", help="data association [ml]")
+                        default="ml", help="data association")
     parser.add_argument("--duration", type=float, default=0.0,
-                        help="simulate only this many seconds (0: the whole route) [0]")
+                        help="simulate only this many seconds (0: the whole route)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace the outputs of an earlier demo in --out-dir")
     parser.add_argument("--progress", action="store_true",
                         help="show the replay progress bar even when stderr is not a terminal")
     args = parser.parse_args(argv)
     try:
+        cli.output_folder(args.out_dir, "--out-dir")
+    except cli.UsageError as error:
+        return cli.fail("fastslam-demo", error)
+    try:
         run_demo(args.out_dir, args.scenario, args.particles, args.seed, args.algorithm,
                  args.association, args.duration, args.progress or sys.stderr.isatty(),
                  args.overwrite)
     except (ValueError, OSError) as error:
-        print(f"fastslam-demo: {error}", file=sys.stderr)
-        return 1
+        return cli.fail("fastslam-demo", error, cli.EXIT_FAILURE)
     return 0
 
 

@@ -40,6 +40,7 @@ from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.geometry import compose, quaternion_to_yaw
 from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC,
                                            LandmarkSet, PoseSeries,
@@ -519,10 +520,65 @@ def markdown_table(metrics: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``fastslam-eval``: print the Markdown summary; optionally write JSON and a plot."""
-    parser = argparse.ArgumentParser(prog="fastslam-eval",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+TUM_NAMES = {"estimate": "estimate.tum", "final_path": "final_path.tum",
+             "dead_reckoning": "dead_reckoning.tum"}
+TUM_GROUND_TRUTH = "ground_truth.tum"
+
+
+def _tum_lines(stamps: np.ndarray, positions: np.ndarray, yaws: np.ndarray) -> str:
+    """TUM trajectory text: ``stamp x y z qx qy qz qw`` per line (planar: z = 0)."""
+    half = 0.5 * np.asarray(yaws, dtype=float)
+    rows = np.column_stack([stamps, positions[:, 0], positions[:, 1], np.zeros(len(stamps)),
+                            np.zeros(len(stamps)), np.zeros(len(stamps)), np.sin(half),
+                            np.cos(half)])
+    return "".join(" ".join(f"{value:.9f}" for value in row) + "\n" for row in rows)
+
+
+def write_tum(evaluation: Evaluation, folder: str | Path) -> list[Path]:
+    """Write the scored trajectories as TUM files for evo (``evo_ape tum ground_truth.tum
+    estimate.tum -a``); return the files written.
+
+    Each trajectory file holds the samples the evaluation scored (those with ground truth), at
+    the point the ground truth measures; ``ground_truth.tum`` holds the reference interpolated
+    at the same stamps, so evo pairs exactly the samples compared here and reports the same
+    ATE."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    run = evaluation.run
+    series = {"estimate": run.estimate, "final_path": run.final_path,
+              "dead_reckoning": run.odometry}
+    written = []
+    for name, result in evaluation.trajectories.items():
+        source = series[name]
+        index = np.searchsorted(source.stamps, result.stamps)
+        path = folder / TUM_NAMES[name]
+        path.write_text(_tum_lines(result.stamps, result.estimate, source.poses[index, 2]))
+        written.append(path)
+    if evaluation.trajectories and run.ground_truth is not None:
+        results = list(evaluation.trajectories.values())
+        stamps = np.concatenate([r.stamps for r in results])
+        positions = np.concatenate([r.reference for r in results])
+        stamps, first = np.unique(stamps, return_index=True)
+        truth = run.ground_truth
+        yaws = (np.zeros(len(stamps)) if truth.position_only else
+                np.interp(stamps, truth.stamps, np.unwrap(truth.poses[:, 2])))
+        path = folder / TUM_GROUND_TRUTH
+        path.write_text(_tum_lines(stamps, positions[first], yaws))
+        written.append(path)
+    return written
+
+
+def plot_formats() -> tuple[str, ...]:
+    """File suffixes matplotlib can write (``--plot``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    return tuple(sorted(FigureCanvasAgg(Figure()).get_supported_filetypes()))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``fastslam-eval`` argument parser."""
+    parser = cli.parser("fastslam-eval", __doc__, first_paragraph=True)
     parser.add_argument("out", type=Path,
                         help="bag recorded by fastslam-replay (or ros2 bag record)")
     parser.add_argument("--ground-truth", type=Path, default=None,
@@ -530,51 +586,74 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write the metrics here")
     parser.add_argument("--plot", type=Path, default=None,
                         help="write a figure here (PNG, PDF, SVG)")
+    parser.add_argument("--tum", type=Path, default=None, metavar="DIR",
+                        help="write the scored trajectories and the ground truth as TUM files "
+                             "(estimate.tum, final_path.tum, dead_reckoning.tum, "
+                             "ground_truth.tum) into this folder, for evo")
     parser.add_argument("--cutoff", type=float, default=OSPA_CUTOFF,
-                        help=f"landmark match distance (m) [{OSPA_CUTOFF}]")
+                        help="landmark match distance (m)")
     parser.add_argument("--max-gap", type=float, default=DEFAULT_MAX_GAP,
-                        help="longest ground-truth gap interpolated across (s) "
-                             f"[{DEFAULT_MAX_GAP}]")
+                        help="longest ground-truth gap interpolated across (s)")
     parser.add_argument("--min-existence", type=float, default=0.0,
-                        help="ignore estimated landmarks with a lower existence probability [0]")
+                        help="ignore estimated landmarks with a lower existence probability")
     parser.add_argument("--at-base", action="store_true",
                         help="compare the robot base even when the ground truth measures another "
                              "point of the robot (/tf_static), e.g. to see what that point costs")
     parser.add_argument("--match", choices=LANDMARK_MATCHES, default="auto",
                         help="pair landmarks with the truth by id or by optimal assignment of "
-                             "the distances; auto: by id only for a run with known association "
-                             "[auto]")
+                             "the distances; auto: by id only for a run with known association")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace existing --json / --plot files (never a folder or an input)")
-    args = parser.parse_args(argv)
+                        help="replace existing --json / --plot / TUM files (never a folder or an "
+                             "input)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``fastslam-eval``: print the Markdown summary; optionally write JSON, a plot, TUM files."""
+    args = build_parser().parse_args(argv)
+    prog = "fastslam-eval"
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
+    written = [args.json, args.plot] + ([args.tum / name for name in TUM_NAMES.values()]
+                                        + [args.tum / TUM_GROUND_TRUTH] if args.tum else [])
     try:
-        for written in (args.json, args.plot):
-            if written is not None:
-                check_output(written, args.overwrite, "file", inputs)
-    except FileExistsError as error:
-        print(f"fastslam-eval: {error}", file=sys.stderr)
-        return 1
+        cli.input_bag(args.out)
+        if args.ground_truth is not None:
+            cli.input_bag(args.ground_truth, "ground-truth bag")
+        if args.json is not None:
+            cli.output_file(args.json, "--json")
+        if args.plot is not None:
+            cli.output_file(args.plot, "--plot", plot_formats())
+        if args.tum is not None:
+            cli.output_folder(args.tum, "--tum")
+        for path in written:
+            if path is not None:
+                check_output(path, args.overwrite, "file", inputs)
+    except (cli.UsageError, FileExistsError) as error:
+        return cli.fail(prog, error, cli.EXIT_USAGE)
     try:
         run = load_run(args.out, args.ground_truth)
-    except (FileNotFoundError, OSError, ValueError) as error:
-        print(f"fastslam-eval: cannot read {args.out}: {error}", file=sys.stderr)
-        return 1
+    except cli.BAG_ERRORS as error:
+        return cli.fail(prog, f"cannot read {args.out}: {error}", cli.EXIT_FAILURE)
     if run.estimate is None:
-        print(f"fastslam-eval: {args.out} has no {POSE_TOPIC} messages", file=sys.stderr)
-        return 1
+        return cli.fail(prog, f"{args.out} has no {POSE_TOPIC} messages")
     if run.ground_truth is None:
-        print(f"fastslam-eval: no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}",
-              file=sys.stderr)
-        return 1
+        return cli.fail(prog, f"no {GROUND_TRUTH_POSE_TOPIC} in {args.ground_truth or args.out}")
     evaluation = evaluate_run(run, args.cutoff, args.max_gap, args.min_existence, args.at_base,
                               args.match)
     print(markdown_table(evaluation.metrics))
-    if args.json:
-        prepare_output(args.json, args.overwrite, "file", inputs).write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
-    if args.plot:
-        from fastslam_ros.tools.plot import plot_evaluation
-        plot_evaluation(evaluation, prepare_output(args.plot, args.overwrite, "file", inputs))
+    try:
+        if args.json:
+            prepare_output(args.json, args.overwrite, "file", inputs).write_text(
+                json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+        if args.plot:
+            from fastslam_ros.tools.plot import plot_evaluation
+            plot_evaluation(evaluation, prepare_output(args.plot, args.overwrite, "file", inputs))
+        if args.tum:
+            for path in written[2:]:
+                prepare_output(path, args.overwrite, "file", inputs)
+            write_tum(evaluation, args.tum)
+    except OSError as error:
+        return cli.fail(prog, f"cannot write: {error}", cli.EXIT_USAGE)
     return 0
 
 

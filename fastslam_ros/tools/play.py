@@ -14,7 +14,6 @@ landmark ground truth) is TRANSIENT_LOCAL, so late subscribers get it too.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -27,6 +26,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosgraph_msgs.msg import Clock
 
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import TYPESTORE, ros_message_class
 
 CLOCK_TOPIC = "/clock"
@@ -127,17 +127,21 @@ def _play_once(reader: AnyReader, connections, publishers, clock_publisher, rate
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-play``: publish a bag over DDS with /clock."""
-    parser = argparse.ArgumentParser(prog="fastslam-play",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+    parser = cli.parser("fastslam-play", __doc__)
     parser.add_argument("bag", type=Path, help="rosbag2 folder (mcap or sqlite3)")
-    parser.add_argument("--rate", type=float, default=1.0, help="playback speed factor [1.0]")
+    parser.add_argument("--rate", type=float, default=1.0, help="playback speed factor")
     parser.add_argument("--loop", action="store_true", help="start over at the end, until Ctrl-C")
-    parser.add_argument("--topics", nargs="+", default=None, help="only these topics [all]")
+    parser.add_argument("--topics", nargs="+", default=None,
+                        help="only these topics (default: all)")
     parser.add_argument("--clock-rate", type=float, default=100.0,
-                        help="/clock messages per second of wall time between messages [100]")
+                        help="/clock messages per second of wall time between messages")
     parser.add_argument("--wait-for-subscribers", type=float, default=0.0, metavar="SECONDS",
-                        help="first wait up to this long for a subscriber on every topic [0]")
+                        help="first wait up to this long for a subscriber on every topic")
     args = parser.parse_args(argv)
+    try:
+        cli.input_bag(args.bag)
+    except cli.UsageError as error:
+        return cli.fail("fastslam-play", error)
     context = Context()
     rclpy.init(args=None, context=context)
     try:
@@ -148,8 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0
     except (FileNotFoundError, ValueError, OSError, AnyReaderError) as error:
-        print(f"fastslam-play: {error}", file=sys.stderr)
-        return 1
+        return cli.fail("fastslam-play", error)
     finally:
         rclpy.try_shutdown(context=context)
 

@@ -8,7 +8,10 @@ outputs as a live run at the same times. Every message the node publishes is rec
 OUT (MCAP) at the bag time of the input being processed, together with copies of the bag's
 ``/odom``, ``/landmarks`` and ground-truth topics and one ``/fastslam_replay/info`` message
 (``std_msgs/String``, JSON: wall and CPU time, bag duration, real-time factor, node counters,
-the parameters used), so OUT alone is enough for ``fastslam-eval``.
+the parameters used), so OUT alone is enough for ``fastslam-eval``. OUT also holds ``/tf``
+(map -> odom from the node, odom -> base_link from each odometry message) and ``/tf_static``
+(base_link -> the sensor frame, plus the input bag's static transforms), so RViz and Foxglove
+show it as they would a live robot.
 """
 from __future__ import annotations
 
@@ -21,27 +24,37 @@ import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, TextIO
+from typing import Any, Callable, Iterator, TextIO
 
 import rclpy
 import yaml
+from geometry_msgs.msg import TransformStamped
 from rclpy.clock import ClockType
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                QosTime)
 from rosbags.rosbag2 import Writer
 from std_msgs.msg import String
 
+from fastslam_ros.core.geometry import quaternion_to_yaw
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           LANDMARKS_TOPIC, ODOM_TOPIC, TYPESTORE, SchemaError,
-                                           open_writer, ros_message_class)
+                                           LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC, TF_TYPE,
+                                           TYPESTORE, SchemaError, open_writer, ros_message_class,
+                                           tf_message_bytes, transform_message)
 from fastslam_ros.tools.output import check_output
 
 INFO_TOPIC = "/fastslam_replay/info"
+TF_TOPIC = "/tf"
+STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL,
+                  QosTime(0, 0), QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)]
+"""QoS recorded for ``/tf_static``: latched, as tf2's static broadcaster offers it."""
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
@@ -89,11 +102,13 @@ def load_params_file(path: str | Path) -> dict[str, Any]:
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
-    """``name=value`` with a YAML value (``0.5`` float, ``100`` int, ``ml`` string); numbers
-    that YAML 1.1 leaves as strings (``2e-4``) are read as floats."""
-    name, separator, value = text.partition("=")
-    if not separator or not name:
-        raise ValueError(f"expected name=value, got {text!r}")
+    """``name=value`` or, as ``ros2 run ... -p`` writes it, ``name:=value``, with a YAML value
+    (``0.5`` float, ``100`` int, ``ml`` string); numbers that YAML 1.1 leaves as strings
+    (``2e-4``) are read as floats."""
+    separator = ":=" if ":=" in text else "="
+    name, separator, value = text.partition(separator)
+    if not separator or not name.strip():
+        raise ValueError(f"expected name=value or name:=value, got {text!r}")
     parsed = yaml.safe_load(value)
     if isinstance(parsed, str):
         try:
@@ -101,6 +116,18 @@ def parse_assignment(text: str) -> tuple[str, Any]:
         except ValueError:
             pass
     return name.strip(), parsed
+
+
+def parse_remap(text: str) -> tuple[str, str]:
+    """``FROM:=TO`` (the ``--remap`` syntax of ROS 2): the bag's topic FROM is read as TO."""
+    source, separator, target = text.partition(":=")
+    if not separator or not source.strip() or not target.strip():
+        raise ValueError(f"expected FROM:=TO, got {text!r}")
+    return _absolute(source.strip()), _absolute(target.strip())
+
+
+def _absolute(topic: str) -> str:
+    return topic if topic.startswith("/") else "/" + topic
 
 
 def _declared_float_names() -> set[str]:
@@ -164,26 +191,51 @@ class OutputRecorder:
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         if topic not in self.connections:
-            self.connections[topic] = self.writer.add_connection(topic, msgtype,
-                                                                 typestore=TYPESTORE)
+            qos = STATIC_QOS if topic == TF_STATIC_TOPIC else ()
+            self.connections[topic] = self.writer.add_connection(
+                topic, msgtype, typestore=TYPESTORE, offered_qos_profiles=qos)
         return self.connections[topic]
 
     def record(self, topic: str, msg: Any) -> None:
-        """Output listener of the node: serialize the rclpy message and write it."""
+        """Output listener of the node: serialize the rclpy message and write it; the node's
+        map -> odom transform also goes to ``/tf``."""
         self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns,
                           serialize_message(msg))
+        if isinstance(msg, TransformStamped):
+            translation, rotation = msg.transform.translation, msg.transform.rotation
+            yaw = quaternion_to_yaw(rotation.x, rotation.y, rotation.z, rotation.w)
+            stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
+            self.tf(TF_TOPIC, [transform_message(stamp_ns, msg.header.frame_id,
+                                                 msg.child_frame_id,
+                                                 (translation.x, translation.y, yaw))])
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
         self.writer.write(self._connection(topic, msgtype), stamp_ns, raw)
 
+    def tf(self, topic: str, transforms: list[Any]) -> None:
+        """Write rosbags ``TransformStamped`` messages as one ``TFMessage`` on ``topic``."""
+        self.copy(topic, TF_TYPE, self.stamp_ns, tf_message_bytes(transforms))
+
+    def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
+        """``/tf`` odom -> base_link of an odometry message (a non-finite pose is left out)."""
+        pose = msg.pose.pose
+        q = pose.orientation
+        planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+        if all(math.isfinite(value) for value in planar):
+            stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
+            self.tf(TF_TOPIC, [transform_message(stamp_ns, msg.header.frame_id or odom_frame,
+                                                 msg.child_frame_id or base_frame, planar)])
+
 
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                params_file: str | Path | None = None, out_path: str | Path | None = None,
-               progress: bool = False, overwrite: bool = False) -> ReplayResult:
+               progress: bool = False, overwrite: bool = False,
+               remap: dict[str, str] | None = None) -> ReplayResult:
     """Feed the bag's ``/odom`` and ``/landmarks`` to a fresh ``FastSLAMNode``; record outputs.
 
-    ``params`` override ``params_file``; set ``seed`` in them for a reproducible run. Raises
+    ``params`` override ``params_file``; set ``seed`` in them for a reproducible run. ``remap``
+    reads a bag topic under another name (``{"/wheel/odom": "/odom"}``). Raises
     ``FileNotFoundError`` / ``SchemaError`` for a missing or unreadable bag or missing topics,
     ``ValueError`` for bad parameters (the message names the parameter), ``FileExistsError``
     for an output that exists (without ``overwrite``, or that is not a bag, or an input).
@@ -197,7 +249,8 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
     context = isolated_context()
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
-        reader = cleanup.enter_context(_open_input(bag_path))
+        topics = _topic_names(remap or {})
+        reader = cleanup.enter_context(_open_input(bag_path, topics))
         node = _create_node(context, merged)
         cleanup.callback(node.destroy_node)
         # The association is always recorded: the evaluation matches landmarks by it.
@@ -210,8 +263,9 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
             cleanup.callback(writer.close)
             recorder = OutputRecorder(writer)
             node.output_listeners.append(recorder.record)
+            _record_static_transforms(node, reader, recorder, topics)
         start, start_cpu = time.perf_counter(), time.process_time()
-        done, duration = _feed(node, reader, recorder, progress)
+        done, duration = _feed(node, reader, recorder, progress, topics)
         result = ReplayResult(dict(node.stats), time.perf_counter() - start, duration,
                               Path(out_path) if out_path is not None else None, used_params,
                               time.process_time() - start_cpu)
@@ -238,7 +292,7 @@ def isolated_context() -> Context:
     os.environ.update(ISOLATION_ENVIRONMENT)
     try:
         context = Context()
-        rclpy.init(context=context)
+        rclpy.init(args=[], context=context)  # not sys.argv: its FROM:=TO would be a remap
     finally:
         for name, value in saved.items():
             if value is None:
@@ -248,8 +302,17 @@ def isolated_context() -> Context:
     return context
 
 
+TopicOf = Callable[[Any], str]
+"""The name under which a bag connection is read."""
+
+
+def _topic_names(remap: dict[str, str]) -> TopicOf:
+    """Read each bag topic under its ``--remap`` name, or its own."""
+    return lambda connection: remap.get(connection.topic, connection.topic)
+
+
 @contextmanager
-def _open_input(bag_path: Path) -> Iterator[AnyReader]:
+def _open_input(bag_path: Path, topic_of: TopicOf) -> Iterator[AnyReader]:
     """An open reader of a bag that has the input topics (SchemaError otherwise)."""
     if not bag_path.exists():
         raise FileNotFoundError(f"bag not found: {bag_path}")
@@ -259,11 +322,13 @@ def _open_input(bag_path: Path) -> Iterator[AnyReader]:
     except AnyReaderError as error:
         raise SchemaError(f"cannot read {bag_path}: {error}") from None
     try:
-        topics = {c.topic for c in reader.connections}
+        topics = {topic_of(c) for c in reader.connections}
         missing = [topic for topic in INPUT_TOPICS if topic not in topics]
         if missing:
+            present = sorted(c.topic for c in reader.connections)
             raise SchemaError(f"{bag_path}: missing topic(s) {', '.join(missing)} "
-                              f"(has: {', '.join(sorted(topics)) or 'none'})")
+                              f"(has: {', '.join(present) or 'none'}; --remap FROM:=TO "
+                              "reads a topic under another name)")
         yield reader
     finally:
         reader.close()
@@ -281,31 +346,61 @@ def _create_node(context: Context, params: dict[str, Any]) -> FastSLAMNode:
     return node
 
 
+def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
+                              recorder: OutputRecorder, topic_of: TopicOf) -> None:
+    """One latched ``/tf_static`` at the bag's start: base -> the sensor frame (the node's
+    sensor pose; the frame named by ``sensor_frame`` or the first cloud) and every static
+    transform of the input bag."""
+    transforms = []
+    # An empty selection would mean "every connection" to rosbags.
+    static = [c for c in reader.connections if topic_of(c) == TF_STATIC_TOPIC]
+    for connection, _, raw in reader.messages(connections=static) if static else ():
+        transforms += list(reader.deserialize(raw, connection.msgtype).transforms)
+    base = node.get_parameter("base_frame").value
+    sensor = node.get_parameter("sensor_frame").value
+    if not sensor:
+        clouds = [c for c in reader.connections if topic_of(c) == LANDMARKS_TOPIC]
+        first = next(iter(reader.messages(connections=clouds)), None) if clouds else None
+        sensor = reader.deserialize(first[2], first[0].msgtype).header.frame_id if first else ""
+    known = {t.child_frame_id for t in transforms}
+    recorder.stamp_ns = reader.start_time
+    if sensor and sensor != base and sensor not in known:
+        pose = [node.get_parameter(name).value for name in ("sensor_x", "sensor_y", "sensor_yaw")]
+        transforms.append(transform_message(reader.start_time, base, sensor, pose))
+    if transforms:
+        recorder.tf(TF_STATIC_TOPIC, transforms)
+
+
 def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None,
-          progress: bool) -> tuple[int, float]:
+          progress: bool, topic_of: TopicOf) -> tuple[int, float]:
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
     callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
-    classes = {c.topic: ros_message_class(c.msgtype, c.topic) for c in reader.connections
-               if c.topic in INPUT_TOPICS}
-    wanted = [c for c in reader.connections
-              if c.topic in INPUT_TOPICS or (recorder is not None and c.topic in COPIED_TOPICS)]
-    bar = ProgressBar(sum(c.msgcount for c in wanted if c.topic in INPUT_TOPICS)) \
+    classes = {topic_of(c): ros_message_class(c.msgtype, topic_of(c)) for c in reader.connections
+               if topic_of(c) in INPUT_TOPICS}
+    wanted = [c for c in reader.connections if topic_of(c) in INPUT_TOPICS
+              or (recorder is not None and topic_of(c) in COPIED_TOPICS)]
+    bar = ProgressBar(sum(c.msgcount for c in wanted if topic_of(c) in INPUT_TOPICS)) \
         if progress else None
     clock = node.get_clock()
+    frames = (node.get_parameter("odom_frame").value, node.get_parameter("base_frame").value)
     first_ns = last_ns = None
     done = 0
     for connection, stamp_ns, raw in reader.messages(connections=wanted):
+        topic = topic_of(connection)
         if recorder is not None:
             recorder.stamp_ns = stamp_ns
-            if connection.topic in COPIED_TOPICS:
-                recorder.copy(connection.topic, connection.msgtype, stamp_ns, raw)
-        if connection.topic not in INPUT_TOPICS:
+            if topic in COPIED_TOPICS:
+                recorder.copy(topic, connection.msgtype, stamp_ns, raw)
+        if topic not in INPUT_TOPICS:
             continue
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
         clock.set_ros_time_override(Time(nanoseconds=stamp_ns, clock_type=ClockType.ROS_TIME))
-        callbacks[connection.topic](deserialize_message(bytes(raw), classes[connection.topic]))
+        msg = deserialize_message(bytes(raw), classes[topic])
+        callbacks[topic](msg)
+        if recorder is not None and topic == ODOM_TOPIC:
+            recorder.odometry_tf(msg, *frames)
         done += 1
         if bar is not None:
             bar.update(done, (stamp_ns - first_ns) * 1e-9)
@@ -332,38 +427,62 @@ def summary_lines(result: ReplayResult) -> list[str]:
     return lines
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``fastslam-replay``: replay a bag through the node; exit 1 on an unusable bag."""
-    parser = argparse.ArgumentParser(prog="fastslam-replay",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+def build_parser() -> argparse.ArgumentParser:
+    """The ``fastslam-replay`` argument parser."""
+    parser = cli.parser("fastslam-replay", __doc__, first_paragraph=True)
     parser.add_argument("bag", type=Path, help="schema-v1 rosbag2 folder (mcap or sqlite3)")
     parser.add_argument("--params", type=Path, default=None,
                         help="ROS 2 parameter file (its /** and fastslam sections)")
-    parser.add_argument("--set", dest="assignments", action="append", default=[],
-                        metavar="NAME=VALUE", help="override one parameter (repeatable)")
+    parser.add_argument("--set", "-p", dest="assignments", action="append", default=[],
+                        metavar="NAME=VALUE",
+                        help="override one parameter, as NAME=VALUE or NAME:=VALUE (repeatable)")
+    parser.add_argument("--remap", "-r", dest="remaps", action="append", default=[],
+                        metavar="FROM:=TO",
+                        help="read the bag's topic FROM as TO, e.g. /wheel/odom:=/odom "
+                             "(repeatable)")
     parser.add_argument("--seed", type=int, default=None, help="random seed of the filter")
     parser.add_argument("--out", type=Path, default=None,
-                        help="record outputs into this MCAP bag folder [<bag>_out]")
+                        help="record outputs into this MCAP bag folder (default: <bag>_out)")
     parser.add_argument("--no-record", action="store_true", help="do not write an output bag")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``fastslam-replay``: replay a bag through the node (exit status as ``cli`` says)."""
+    prog = "fastslam-replay"
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         params = dict(parse_assignment(text) for text in args.assignments)
+        remap = dict(parse_remap(text) for text in args.remaps)
     except ValueError as error:
         parser.error(str(error))
     if args.seed is not None:
         params["seed"] = args.seed
     out = None if args.no_record else (args.out or args.bag.with_name(args.bag.name + "_out"))
     try:
+        cli.input_bag(args.bag)
+        if out is not None:
+            cli.output_folder(out, "--out")
+        if args.params is not None:
+            cli.input_file(args.params, "parameter file")
+            load_params_file(args.params)  # a bad file is a usage error, before any work
+    except cli.UsageError as error:
+        return cli.fail(prog, error)
+    except ValueError as error:  # not a parameter file
+        return cli.fail(prog, error, cli.EXIT_USAGE)
+    try:
         result = replay_bag(args.bag, params, args.params, out,
                             progress=args.progress or sys.stderr.isatty(),
-                            overwrite=args.overwrite)
-    except (FileNotFoundError, SchemaError, ValueError, OSError) as error:
-        print(f"fastslam-replay: {error}", file=sys.stderr)
-        return 1
+                            overwrite=args.overwrite, remap=remap)
+    except FileExistsError as error:
+        return cli.fail(prog, error, cli.EXIT_USAGE)
+    except (SchemaError, ValueError, OSError) as error:
+        return cli.fail(prog, error)
     print("\n".join(summary_lines(result)))
     return 0
 

@@ -23,6 +23,7 @@ import numpy as np
 import yaml
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
 from fastslam_ros.tools.output import check_output, prepare_output
@@ -82,6 +83,9 @@ class SimConfig:
     duration: float = setting(0.0, "Stop after this many seconds (0: drive the whole route).")
     sensor_frame: str = setting("base_link",
         "frame_id of the landmark clouds (the sensor sits at the vehicle's origin).")
+    start_time: float = setting(1_700_000_000.0,
+        "Stamp of the first message (s since the Unix epoch): a date, as a recording has, so "
+        "viewers and tools that expect one show the bag as they would a real one.")
 
     def resolved(self) -> "SimConfig":
         """A copy with the scenario's defaults filled in and every value checked."""
@@ -100,7 +104,7 @@ class SimConfig:
                      "sigma_bearing", "min_separation"):
             if not getattr(config, name) > 0.0:
                 raise ValueError(f"{name}: must be > 0 (got {getattr(config, name)})")
-        for name in ("sigma_speed", "sigma_steer", "duration"):
+        for name in ("sigma_speed", "sigma_steer", "duration", "start_time"):
             if getattr(config, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(config, name)})")
         if not 0.0 < config.detection_probability <= 1.0:
@@ -248,10 +252,10 @@ def simulate(config: SimConfig) -> SchemaBag:
         odometry_poses.append(odometry_pose)
         if step % steps_per_reading == 0:
             points, labels = observe(true_pose, world.landmarks, config, sensor_rng)
-            scan_stamps.append(step / config.control_rate)
+            scan_stamps.append(config.start_time + step / config.control_rate)
             scan_points.append(points)
             scan_ids.append(labels)
-    stamps = np.arange(len(true_poses)) / config.control_rate
+    stamps = config.start_time + np.arange(len(true_poses)) / config.control_rate
     return SchemaBag(
         odometry=PoseSeries(stamps, np.array(odometry_poses), "odom", "base_link"),
         scans=LandmarkScans(np.array(scan_stamps), scan_points, scan_ids, config.sensor_frame),
@@ -319,16 +323,15 @@ def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
 def build_parser() -> argparse.ArgumentParser:
     """The ``fastslam-sim`` argument parser (every SimConfig field is a flag)."""
     defaults = SimConfig()
-    parser = argparse.ArgumentParser(
-        prog="fastslam-sim", description=__doc__.split("\n\n")[0].replace("``", ""))
+    parser = cli.parser("fastslam-sim", __doc__, first_paragraph=True)
     parser.add_argument("--scenario", choices=SCENARIOS, default=defaults.scenario,
-                        help=f"world and route [{defaults.scenario}]")
+                        help="world and route")
     parser.add_argument("--out", type=Path, default=None,
                         help="output bag folder (default: sim_<scenario>)")
     parser.add_argument("--params-out", type=Path, default=None,
                         help="recommended node parameters for this bag (default: <out>.yaml)")
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
-                        help="bag storage format [mcap]")
+                        help="bag storage format")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
     for item in dataclasses.fields(SimConfig):
         if item.name == "scenario":
@@ -336,9 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
         flag = "--" + item.name.replace("_", "-")
         help_text = item.metadata["help"]
         if item.name in ("max_steer", "max_steer_rate", "sigma_bearing", "sigma_steer"):
-            help_text += f" [{item.default:.6g} = {math.degrees(item.default):g} deg]"
-        else:
-            help_text += f" [{item.default}]"
+            help_text += (f" (default: {item.default:.6g} = {math.degrees(item.default):g} "
+                          "deg)")
         parser.add_argument(flag, dest=item.name, type=type(item.default), default=item.default,
                             help=help_text)
     return parser

@@ -26,6 +26,8 @@ class Step:
 
 @dataclass
 class World:
+    """A synthetic landmark world and the steps driven through it."""
+
     landmarks: np.ndarray                 # (N, 2)
     steps: list[Step] = field(default_factory=list)
 

@@ -72,4 +72,5 @@ def calibrate(folder: Path | str) -> dict[str, float]:
     range_residual = observations[:, 1] - np.hypot(delta[:, 0], delta[:, 1])
     bearing_residual = wrap_angle(observations[:, 2] - np.arctan2(delta[:, 1], delta[:, 0])
                                   + poses[:, 2])
-    return {"sigma_range": robust_std(range_residual), "sigma_bearing": robust_std(bearing_residual)}
+    return {"sigma_range": robust_std(range_residual),
+            "sigma_bearing": robust_std(bearing_residual)}

@@ -85,7 +85,8 @@ def remove_vicon_glitches(poses: np.ndarray) -> np.ndarray:
             & (heading_error <= GLITCH_HEADING))
 
 
-def load_ground_truth(folder: Path | str, robot: int) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+def load_ground_truth(folder: Path | str, robot: int
+                      ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
     """Vicon poses of one robot without glitches: stamps (T,), poses (T, 3), dropped counts."""
     table, negative = _read_timed(Path(folder) / f"Robot{robot}_Groundtruth.dat", 4)
     keep = remove_vicon_glitches(table[:, 1:4])
@@ -101,7 +102,8 @@ def load_odometry(folder: Path | str, robot: int, start_pose: np.ndarray | None 
                   delay: float = COMMAND_DELAY, speed_scale: float = SPEED_SCALE,
                   yaw_rate_scale: float = YAW_RATE_SCALE
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Odometry of one robot: stamps (N,), integrated poses (N, 3), commands (N, 2), negatives dropped.
+    """Odometry of one robot: stamps (N,), integrated poses (N, 3), commands (N, 2), negatives
+    dropped.
 
     The logged commands are scaled by ``speed_scale`` / ``yaw_rate_scale`` and take effect
     ``delay`` seconds after their stamp (the returned stamps are shifted by it). The integration
@@ -114,7 +116,8 @@ def load_odometry(folder: Path | str, robot: int, start_pose: np.ndarray | None 
     if start_pose is None:
         start_pose = (interpolate_poses(*ground_truth, stamps[:1])[0] if ground_truth is not None
                       else np.zeros(3))
-    poses = integrate_unicycle(stamps, commands[:, 0], commands[:, 1], np.asarray(start_pose, float))
+    poses = integrate_unicycle(stamps, commands[:, 0], commands[:, 1],
+                               np.asarray(start_pose, float))
     return stamps, poses, commands, negative
 
 
@@ -194,7 +197,8 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
                                                     yaw_rate_scale=1.0)
         command_rows.append((raw_stamps, raw_poses, gt_stamps, gt_poses))
         odom_stamps, odom_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3))
-        grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]), step)
+        grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]),
+                         step)
         odometry_steps.append(relative_motion(interpolate_poses(odom_stamps, odom_poses, grid)))
         true_steps.append(relative_motion(interpolate_poses(gt_stamps, gt_poses, grid)))
         walk_rows.append(random_walk_rows(odom_stamps, odom_poses, gt_stamps, gt_poses, grid))
@@ -265,7 +269,8 @@ def random_walk_rows(odom_stamps: np.ndarray, odom_poses: np.ndarray, gt_stamps:
     turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap_angle(np.diff(odom_poses[:, 2]))))))
     odometry = interpolate_poses(odom_stamps, odom_poses, grid)
     truth = interpolate_poses(gt_stamps, gt_poses, grid)
-    heading_error = wrap_angle(wrap_angle(np.diff(truth[:, 2])) - wrap_angle(np.diff(odometry[:, 2])))
+    heading_error = wrap_angle(wrap_angle(np.diff(truth[:, 2]))
+                               - wrap_angle(np.diff(odometry[:, 2])))
 
     def along(poses: np.ndarray) -> np.ndarray:
         delta = np.diff(poses[:, :2], axis=0)

@@ -117,7 +117,8 @@ def gps_time_lag(folder: Path | str, lags: np.ndarray = np.arange(-2.0, 2.001, 0
     gps_speed = np.hypot(*np.diff(gps_positions, axis=0).T) / np.maximum(step, 1e-3)
     middle = gps_stamps[:-1] + 0.5 * step
     valid = (np.abs(step - 0.2) < 0.02) & (gps_speed < 10.0)
-    errors = [np.median(np.abs(gps_speed[valid] - np.interp(middle[valid] - lag, table[:, 0], speed)))
+    errors = [np.median(np.abs(gps_speed[valid]
+                               - np.interp(middle[valid] - lag, table[:, 0], speed)))
               for lag in lags]
     return float(lags[int(np.argmin(errors))])
 

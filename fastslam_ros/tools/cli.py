@@ -1,0 +1,124 @@
+"""Conventions shared by the console commands: one help style, one-line errors, exit codes.
+
+Every command builds its parser with ``parser()`` (defaults shown after each option's help),
+checks the paths it was given with ``input_bag`` / ``input_file`` / ``output_file`` /
+``output_folder`` before it starts, and turns an error into one line on stderr with ``fail``.
+Exit status: 0 done; 1 the run failed on usable inputs (a bad parameter value, a bag without
+the expected topics); 2 a usage error: a bad option, or a path on the command line that does
+not exist, cannot be read as what it should be (a bag, a parameter file) or cannot be
+written.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rosbags.highlevel import AnyReader, AnyReaderError
+
+EXIT_FAILURE = 1
+EXIT_USAGE = 2
+
+
+class UsageError(Exception):
+    """A path or file given on the command line that cannot be used (exit status 2)."""
+
+
+BAD_INPUT_ERRORS = (UsageError, FileNotFoundError, IsADirectoryError, NotADirectoryError,
+                    PermissionError, AnyReaderError)
+"""Errors that mean a path given on the command line cannot be used (exit status 2)."""
+BAG_ERRORS = (OSError, ValueError, AnyReaderError)
+"""What reading or writing a bag can raise (``SchemaError`` is a ValueError)."""
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Keeps the description's paragraphs and shows each option's default, except an empty
+    one (None, False, []) that says nothing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        default = action.default
+        if default is None or default is False or default is argparse.SUPPRESS or default == []:
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
+def plain(text: str | None) -> str:
+    """A docstring as plain help text: without reStructuredText literals (````name````)."""
+    return (text or "").replace("``", "").strip()
+
+
+def parser(prog: str, description: str | None, first_paragraph: bool = False
+           ) -> argparse.ArgumentParser:
+    """The argument parser of command ``prog`` (``description``: a module docstring)."""
+    text = plain(description)
+    if first_paragraph:
+        text = text.split("\n\n")[0]
+    return argparse.ArgumentParser(prog=prog, description=text, formatter_class=HelpFormatter)
+
+
+def input_path(path: Path | str, what: str = "input") -> Path:
+    """``path`` if it exists (a bag folder or file), else UsageError."""
+    path = Path(path)
+    if not path.exists():
+        raise UsageError(f"{what} not found: {path}")
+    return path
+
+
+def input_bag(path: Path | str, what: str = "bag") -> Path:
+    """``path`` if it is a rosbag2 bag that opens (mcap or sqlite3), else UsageError."""
+    path = input_path(path, what)
+    try:
+        with AnyReader([path]):
+            pass
+    except (AnyReaderError, OSError) as error:
+        raise UsageError(f"cannot read {what} {path}: {error}") from None
+    return path
+
+
+def input_file(path: Path | str, what: str = "file") -> Path:
+    """``path`` if it is a readable file, else UsageError."""
+    path = input_path(path, what)
+    if not path.is_file():
+        raise UsageError(f"{what} is not a file: {path}")
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as error:
+        raise UsageError(f"cannot read {what} {path}: {error.strerror or error}") from None
+    return path
+
+
+def output_file(path: Path | str, what: str = "output", suffixes: tuple[str, ...] = ()
+                ) -> Path:
+    """``path`` if it can be written: its folder exists and, when ``suffixes`` are given, its
+    suffix is one of them; else UsageError."""
+    path = Path(path)
+    if suffixes and path.suffix.lower().lstrip(".") not in suffixes:
+        raise UsageError(f"{what} {path}: unsupported format {path.suffix or '(none)'!r} "
+                         f"(use one of: {', '.join(suffixes)})")
+    folder = path.parent
+    if not folder.is_dir():
+        raise UsageError(f"{what} {path}: folder {folder} does not exist")
+    if path.is_dir():
+        raise UsageError(f"{what} {path} is a folder")
+    return path
+
+
+def output_folder(path: Path | str, what: str = "output folder") -> Path:
+    """``path`` if it is a folder or can be created as one (its parent exists); else UsageError."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{what} {path} is a file")
+    if not path.exists() and not path.parent.is_dir():
+        raise UsageError(f"{what} {path}: folder {path.parent} does not exist")
+    return path
+
+
+def fail(prog: str, error: BaseException | str, code: int | None = None) -> int:
+    """Print ``prog: error`` as one line on stderr; return the exit status (``code``, else 2
+    for a path that cannot be used, 1 otherwise)."""
+    if code is None:
+        code = EXIT_USAGE if isinstance(error, BAD_INPUT_ERRORS) else EXIT_FAILURE
+    message = str(error).strip().replace("\n", " ") or type(error).__name__
+    print(f"{prog}: {message}", file=sys.stderr)
+    return code
