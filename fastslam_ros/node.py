@@ -1035,10 +1035,10 @@ def parse_command_line(args: list[str]) -> None:
 
 def main(args: list[str] | None = None) -> int:
     """Console entry point ``fastslam_node``; exit status 1 on a bad parameter or file."""
-    parse_command_line(sys.argv if args is None else args)
     try:
         for path in _params_files(sys.argv if args is None else args):
             read_params_file(path)  # a one-line error instead of rcl's failure to init
+        parse_command_line(sys.argv if args is None else args)
         rclpy.init(args=args)
     except ParameterError as error:
         print(f"fastslam_node: {error}", file=sys.stderr)

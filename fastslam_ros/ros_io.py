@@ -338,7 +338,8 @@ class MarkerBuilder:
                    if (cached := self._cache.get(key)) is None or cached[0] != row]
         cache = {}
         if changed:
-            major, minor, angles = geometry.ellipse_axes(np.asarray(landmark_map.covariances)[changed])
+            changed_covariances = np.asarray(landmark_map.covariances)[changed]
+            major, minor, angles = geometry.ellipse_axes(changed_covariances)
             for position, index in enumerate(changed):
                 cache[keys[index]] = (rows[index], _marker_pair(
                     header, keys[index], rows[index], float(major[position]),

@@ -134,7 +134,7 @@ def test_bad_files_and_paths_give_one_line_and_status_2(tmp_path, capsys):
     assert "cannot read bag" in one_line_error(capsys, "fastslam-eval")
     assert replay.main([str(not_a_bag)]) == 2
     one_line_error(capsys, "fastslam-replay")
-    for content, message in ((b"\xff\xfe\x00", "utf-8"), (b"a: [", "not YAML"),
+    for content, message in ((b"\xff\xfe\x00", "utf-8"), (b"a: [", "not a ROS 2 parameter file"),
                              (b"- 1", "not a ROS 2 parameter file")):
         params = tmp_path / "params.yaml"
         params.write_bytes(content)

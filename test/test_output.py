@@ -113,8 +113,9 @@ def test_sim_convert_demo_and_eval_refuse_existing_outputs(tmp_path, bag, capsys
     mine = tmp_path / "metrics.json"
     mine.write_text("mine")
     assert evaluate.main([str(out), "--json", str(mine)]) == 1
-    assert evaluate.main([str(out), "--json", str(out)]) == 1
-    assert evaluate.main([str(out), "--plot", str(folder), "--overwrite"]) == 1
+    # A folder (here the input bag, or the user's folder) is no file to write: a usage error.
+    assert evaluate.main([str(out), "--json", str(out)]) == 2
+    assert evaluate.main([str(out), "--plot", str(folder), "--overwrite"]) == 2
     assert mine.read_text() == "mine" and (out / "metadata.yaml").exists()
     assert evaluate.main([str(out), "--json", str(mine), "--overwrite"]) == 0
     assert mine.read_text().startswith("{")

@@ -4,9 +4,9 @@ Every command builds its parser with ``parser()`` (defaults shown after each opt
 checks the paths it was given with ``input_bag`` / ``input_file`` / ``output_file`` /
 ``output_folder`` before it starts, and turns an error into one line on stderr with ``fail``.
 Exit status: 0 done; 1 the run failed on usable inputs (a bad parameter value, a bag without
-the expected topics); 2 a usage error: a bad option, or a path on the command line that does
-not exist, cannot be read as what it should be (a bag, a parameter file) or cannot be
-written.
+the expected topics, an existing output that only ``--overwrite`` may replace); 2 a usage
+error: a bad option, or a path on the command line that does not exist, cannot be read as
+what it should be (a bag, a parameter file) or cannot be written.
 """
 from __future__ import annotations
 

@@ -628,8 +628,10 @@ def main(argv: list[str] | None = None) -> int:
         for path in written:
             if path is not None:
                 check_output(path, args.overwrite, "file", inputs)
-    except (cli.UsageError, FileExistsError) as error:
-        return cli.fail(prog, error, cli.EXIT_USAGE)
+    except cli.UsageError as error:
+        return cli.fail(prog, error)
+    except FileExistsError as error:
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     try:
         run = load_run(args.out, args.ground_truth)
     except cli.BAG_ERRORS as error:

@@ -218,12 +218,16 @@ class OutputRecorder:
         self.copy(topic, TF_TYPE, self.stamp_ns, tf_message_bytes(transforms))
 
     def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
-        """``/tf`` odom -> base_link of an odometry message (a non-finite pose is left out)."""
+        """``/tf`` odom -> base_link of an odometry message; one the node would drop (no
+        orientation, a non-finite pose or stamp) is left out."""
         pose = msg.pose.pose
         q = pose.orientation
-        planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
-        if all(math.isfinite(value) for value in planar):
+        try:
+            planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
             stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
+        except (ValueError, OverflowError):
+            return
+        if all(math.isfinite(value) for value in planar):
             self.tf(TF_TOPIC, [transform_message(stamp_ns, msg.header.frame_id or odom_frame,
                                                  msg.child_frame_id or base_frame, planar)])
 
@@ -480,7 +484,7 @@ def main(argv: list[str] | None = None) -> int:
                             progress=args.progress or sys.stderr.isatty(),
                             overwrite=args.overwrite, remap=remap)
     except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_USAGE)
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     except (SchemaError, ValueError, OSError) as error:
         return cli.fail(prog, error)
     print("\n".join(summary_lines(result)))
