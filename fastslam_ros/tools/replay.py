@@ -42,6 +42,8 @@ from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_
 
 INFO_TOPIC = "/fastslam_replay/info"
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
+INITIAL_POSE_TOPIC = "/initialpose"
+"""Fed to the node too when the bag has it (RViz "2D Pose Estimate" clicks, recorded)."""
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
 PROGRESS_PERIOD = 0.25
@@ -263,11 +265,12 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
           progress: bool) -> tuple[int, float]:
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
-    callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
+    callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks,
+                 INITIAL_POSE_TOPIC: node.on_initial_pose}
     classes = {c.topic: ros_message_class(c.msgtype) for c in reader.connections
-               if c.topic in INPUT_TOPICS}
+               if c.topic in callbacks}
     wanted = [c for c in reader.connections
-              if c.topic in INPUT_TOPICS or (recorder is not None and c.topic in COPIED_TOPICS)]
+              if c.topic in callbacks or (recorder is not None and c.topic in COPIED_TOPICS)]
     bar = ProgressBar(sum(c.msgcount for c in wanted if c.topic in INPUT_TOPICS)) \
         if progress else None
     clock = node.get_clock()
@@ -278,7 +281,7 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
             recorder.stamp_ns = stamp_ns
             if connection.topic in COPIED_TOPICS:
                 recorder.copy(connection.topic, connection.msgtype, stamp_ns, raw)
-        if connection.topic not in INPUT_TOPICS:
+        if connection.topic not in callbacks:
             continue
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
