@@ -213,10 +213,10 @@ def test_node_initial_pose_redraws_the_particles_before_and_after_odometry(conte
 # --- end to end ----------------------------------------------------------------------------
 
 def test_a_saved_map_localizes_a_second_run_of_the_same_world(tmp_path):
-    """fastslam-sim, 30 s: map, save, then localize a second run on the map (the full-size
+    """fastslam-sim, 15 s: map, save, then localize a second run on the map (the full-size
     figures: python3 -m fastslam_ros.tools.localization_bench)."""
     from fastslam_ros.tools.localization_bench import run_seed
-    args = argparse.Namespace(duration=30.0, offset=2.0, yaw_offset=0.5, start_sigma=1.0,
+    args = argparse.Namespace(duration=15.0, offset=2.0, yaw_offset=0.5, start_sigma=1.0,
                               start_yaw_sigma=0.2, converged=0.5)
     result = run_seed(2, tmp_path, args)
     assert result.localization_ate < result.mapping_ate
