@@ -27,7 +27,7 @@ from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformSta
 from nav_msgs.msg import Odometry, Path
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
-from rclpy.exceptions import ParameterException
+from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
@@ -351,6 +351,10 @@ class FastSLAMNode(Node):
         try:
             return self.declare_parameter(name, default,
                                           parameter_descriptor(default, spec, note)).value
+        except InvalidParameterValueException:  # outside the descriptor's range
+            given = self._parameter_overrides[name].value
+            raise ParameterError(f"parameter '{name}': must be {spec.rule()} "
+                                 f"(got {given!r})") from None
         except ParameterException as error:
             raise ParameterError(f"parameter '{name}': {error}") from None
 

@@ -98,3 +98,12 @@ def test_bad_settings_are_rejected_by_name():
         simulate(SimConfig(speed=0.0))
     with pytest.raises(ValueError, match="scenario"):
         simulate(SimConfig(scenario="moon"))
+
+
+def test_written_parameter_file_applies_under_any_namespace(tmp_path):
+    from fastslam_ros.node import read_params_file
+    from fastslam_ros.tools.sim import write_params_yaml
+    params = recommended_params(SimConfig().resolved())
+    path = write_params_yaml(tmp_path / "sim.yaml", params, "Recommended\nparameters")
+    assert path.read_text().startswith("# Recommended\n# parameters\n/**:\n")
+    assert read_params_file(path, "/robot1/fastslam") == pytest.approx(params)

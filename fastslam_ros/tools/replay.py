@@ -56,6 +56,8 @@ STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
                   QosTime(0, 0), QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)]
 """QoS recorded for ``/tf_static``: latched, as tf2's static broadcaster offers it."""
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
+INITIAL_POSE_TOPIC = "/initialpose"
+"""Fed to the node too when the bag has it (RViz "2D Pose Estimate" clicks, recorded)."""
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
 PROGRESS_PERIOD = 0.25
@@ -379,10 +381,11 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
           progress: bool, topic_of: TopicOf) -> tuple[int, float]:
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
-    callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks}
+    callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks,
+                 INITIAL_POSE_TOPIC: node.on_initial_pose}
     classes = {topic_of(c): ros_message_class(c.msgtype, topic_of(c)) for c in reader.connections
-               if topic_of(c) in INPUT_TOPICS}
-    wanted = [c for c in reader.connections if topic_of(c) in INPUT_TOPICS
+               if topic_of(c) in callbacks}
+    wanted = [c for c in reader.connections if topic_of(c) in callbacks
               or (recorder is not None and topic_of(c) in COPIED_TOPICS)]
     bar = ProgressBar(sum(c.msgcount for c in wanted if topic_of(c) in INPUT_TOPICS)) \
         if progress else None
@@ -396,7 +399,7 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
             recorder.stamp_ns = stamp_ns
             if topic in COPIED_TOPICS:
                 recorder.copy(topic, connection.msgtype, stamp_ns, raw)
-        if topic not in INPUT_TOPICS:
+        if topic not in callbacks:
             continue
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns

@@ -1,0 +1,223 @@
+"""The map lifecycle: a loaded map seeds every particle, localization keeps it fixed, a given
+pose redraws the particles; in the core, in the node, and end to end at small scale."""
+from __future__ import annotations
+
+import argparse
+import os
+
+import numpy as np
+import pytest
+import rclpy
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.context import Context
+from rclpy.parameter import Parameter
+from std_msgs.msg import Header
+from std_srvs.srv import Trigger
+
+from fastslam_ros import ros_io
+from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
+from fastslam_ros.node import FastSLAMNode, ParameterError
+from fastslam_ros.tools.synthetic import make_world
+
+DOMAIN_ID = 100 + os.getpid() % 100
+CONFIG = FastSLAMConfig(num_particles=40, sigma_range=0.1, sigma_bearing=0.02, alpha1=0.01,
+                        alpha2=0.0005, alpha3=0.01, alpha4=0.001, max_range=12.0,
+                        new_landmark_likelihood=1e-3, seed=1)
+
+
+def world():
+    return make_world(seed=4, num_landmarks=30, extent=30.0, num_steps=120, max_range=12.0,
+                      clutter_per_step=0.5)
+
+
+def feed(slam: FastSLAM, steps) -> np.ndarray:
+    """Run the steps; the position error (m) of the best particle after each."""
+    previous, errors = steps[0].odometry, []
+    for step in steps[1:]:
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        slam.update(step.ranges, step.bearings)
+        errors.append(np.hypot(*(slam.best_pose()[:2] - step.truth[:2])))
+    return np.array(errors)
+
+
+def truth_map(landmarks: np.ndarray):
+    count = len(landmarks)
+    return landmarks, np.tile(np.eye(2) * 0.01, (count, 1, 1)), np.arange(count)
+
+
+# --- core ----------------------------------------------------------------------------------
+
+def test_localization_keeps_the_loaded_map_fixed_and_tracks_better_than_dead_reckoning():
+    scene = world()
+    means, covariances, ids = truth_map(scene.landmarks)
+    slam = FastSLAM(CONFIG.replace(mode="localization"), initial_pose=scene.steps[0].truth)
+    slam.seed_map(means, covariances, ids)
+    errors = feed(slam, scene.steps)
+    for particle in (0, slam.num_particles - 1):
+        mean, packed, logodds, label, _ = slam.particle_map(particle)
+        order = np.argsort(label)
+        # No update, no removal, no clutter landmark: the map is exactly the loaded one.
+        np.testing.assert_array_equal(mean[order], means)
+        np.testing.assert_array_equal(packed[order][:, [0, 2]], np.full((len(means), 2), 0.01))
+        assert np.all(logodds == logodds[0])
+    drift = [np.hypot(*(s.odometry[:2] - s.truth[:2])) for s in scene.steps[1:]]
+    assert errors.max() < 0.3 < max(drift)
+
+
+def test_mapping_from_a_loaded_map_keeps_it_through_reset_and_adds_to_it():
+    scene = world()
+    slam = FastSLAM(CONFIG, initial_pose=scene.steps[0].truth)
+    slam.seed_map(*truth_map(scene.landmarks[:10]))
+    assert len(slam.best_map()) == 10
+    feed(slam, scene.steps[:40])
+    assert len(slam.best_map()) > 10
+    slam.reset(scene.steps[0].truth)
+    np.testing.assert_allclose(np.sort(slam.best_map().means[:, 0]),
+                               np.sort(scene.landmarks[:10, 0]))
+
+
+def test_initialize_pose_draws_the_particles_from_the_given_gaussian():
+    slam = FastSLAM(CONFIG.replace(num_particles=4000))
+    mean = np.array([2.0, -1.0, 3.0])
+    covariance = np.array([[0.5, 0.1, 0.0], [0.1, 0.2, 0.02], [0.0, 0.02, 0.05]])
+    slam.initialize_pose(mean, covariance)
+    poses = slam.particle_poses()
+    offsets = poses - mean
+    offsets[:, 2] = np.arctan2(np.sin(offsets[:, 2]), np.cos(offsets[:, 2]))
+    # 4,000 draws: the sample mean within ~4 standard errors, the covariance within 10 %.
+    assert np.all(np.abs(offsets.mean(axis=0)) < 4.0 * np.sqrt(np.diag(covariance) / 4000))
+    np.testing.assert_allclose(np.cov(offsets.T), covariance, atol=0.1 * 0.5)
+    np.testing.assert_allclose(slam.weights(), 1.0 / 4000)
+
+
+def test_localization_from_a_wrong_pose_converges_with_its_covariance():
+    scene = world()
+    slam = FastSLAM(CONFIG.replace(mode="localization", num_particles=500),
+                    initial_pose=scene.steps[0].truth)
+    slam.seed_map(*truth_map(scene.landmarks))
+    start = scene.steps[0].truth
+    slam.initialize_pose(start + [1.4, 1.4, 0.5], np.diag([2.0, 2.0, 0.25]))
+    assert np.hypot(*(slam.particle_poses()[:, :2].mean(axis=0) - start[:2])) > 1.5
+    errors = feed(slam, scene.steps)
+    assert errors[-60:].max() < 0.3
+
+
+# --- map files -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("suffix", [".yaml", ".csv"])
+def test_a_saved_map_reads_back(tmp_path, suffix):
+    saved = LandmarkMap(np.array([[1.0, 2.0], [-3.0, 1e-5]]),
+                        np.array([[[0.2, 0.01], [0.01, 0.1]], [[1e-5, 0.0], [0.0, 2e-5]]]),
+                        np.array([0.9, 0.6]), np.array([7, -1]), np.array([0, 1]))
+    path = ros_io.write_map_file(tmp_path / f"map{suffix}", saved, "map", 3.0)
+    loaded = ros_io.read_map_file(path)
+    np.testing.assert_allclose(loaded.means, saved.means)
+    np.testing.assert_allclose(loaded.covariances, saved.covariances)
+    np.testing.assert_array_equal(loaded.ids, saved.ids)
+    assert loaded.frame_id == ("map" if suffix == ".yaml" else "")
+
+
+@pytest.mark.parametrize("text", ["landmarks: [{x: 1}]", "- 1", "landmarks: [", ""])
+def test_a_bad_map_file_is_named(tmp_path, text):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ros_io.MapFileError, match="bad.yaml"):
+        ros_io.read_map_file(path)
+    with pytest.raises(ros_io.MapFileError, match="No such file"):
+        ros_io.read_map_file(tmp_path / "absent.yaml")
+
+
+# --- node ----------------------------------------------------------------------------------
+
+@pytest.fixture
+def context():
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=DOMAIN_ID)
+    yield ctx
+    rclpy.shutdown(context=ctx)
+
+
+def saved_map(tmp_path, count: int = 5):
+    means = np.column_stack([np.arange(count, dtype=float), np.ones(count)])
+    landmark_map = LandmarkMap(means, np.tile(np.eye(2) * 0.01, (count, 1, 1)), np.ones(count),
+                               np.arange(count) + 10, np.arange(count))
+    return ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 0.0)
+
+
+def node_with(context, **values) -> FastSLAMNode:
+    return FastSLAMNode(context=context, parameter_overrides=[
+        Parameter(name, value=value) for name, value in {"num_particles": 20, "seed": 1,
+                                                         "use_sim_time": True,
+                                                         **values}.items()])
+
+
+def test_node_loads_the_map_at_start_and_on_load_map(context, tmp_path):
+    path = saved_map(tmp_path)
+    node = node_with(context, map_file=str(path), mode="localization")
+    try:
+        assert len(node.slam.best_map()) == 5
+        np.testing.assert_array_equal(np.sort(node.slam.best_map().ids), np.arange(5) + 10)
+        saved_map(tmp_path, count=3)
+        response = node._on_load_map(Trigger.Request(), Trigger.Response())
+        assert response.success and "3 landmarks" in response.message
+        assert len(node.slam.best_map()) == 3
+        path.write_text("landmarks: [")
+        response = node._on_load_map(Trigger.Request(), Trigger.Response())
+        assert not response.success and "map.yaml" in response.message
+        assert len(node.slam.best_map()) == 3  # a failed load keeps the map
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.parametrize("values, named", [
+    ({"map_file": "/nonexistent/map.yaml"}, "'map_file'"),
+    ({"mode": "localization"}, "'mode', 'map_file'"),
+    ({"mode": "slam"}, "'mode'"),
+])
+def test_node_start_fails_naming_the_map_parameters(context, values, named):
+    with pytest.raises(ParameterError, match=named):
+        node_with(context, **values)
+
+
+def initial_pose(frame: str, pose, sigma: float) -> PoseWithCovarianceStamped:
+    msg = PoseWithCovarianceStamped(header=Header(frame_id=frame))
+    msg.pose.pose = ros_io.pose_msg(pose)
+    covariance = np.zeros((6, 6))
+    covariance[[0, 1, 5], [0, 1, 5]] = sigma ** 2
+    msg.pose.covariance = covariance.ravel().tolist()
+    return msg
+
+
+def test_node_initial_pose_redraws_the_particles_before_and_after_odometry(context):
+    from nav_msgs.msg import Odometry
+    node = node_with(context)
+    try:
+        node.on_initial_pose(initial_pose("map", (5.0, -2.0, 1.0), 0.01))
+        odometry = Odometry(header=Header(frame_id="odom"), child_frame_id="base_link")
+        odometry.pose.pose.orientation.w = 1.0
+        node.on_odometry(odometry)  # the first odometry keeps the pose given before it
+        np.testing.assert_allclose(node.slam.particle_poses().mean(axis=0), [5.0, -2.0, 1.0],
+                                   atol=0.02)
+        node.on_initial_pose(initial_pose("map", (-1.0, 3.0, -0.5), 0.01))
+        np.testing.assert_allclose(node.slam.particle_poses().mean(axis=0), [-1.0, 3.0, -0.5],
+                                   atol=0.02)
+        node.on_initial_pose(initial_pose("odom", (9.0, 9.0, 0.0), 0.01))
+        node.on_initial_pose(initial_pose("map", (9.0, 9.0, 0.0), float("nan")))
+        assert node.stats["initial_poses"] == 2
+        assert node.stats["dropped_wrong_frame"] == 1 and node.stats["dropped_nan"] == 1
+    finally:
+        node.destroy_node()
+
+
+# --- end to end ----------------------------------------------------------------------------
+
+def test_a_saved_map_localizes_a_second_run_of_the_same_world(tmp_path):
+    """fastslam-sim, 15 s: map, save, then localize a second run on the map (the full-size
+    figures: python3 -m fastslam_ros.tools.localization_bench)."""
+    from fastslam_ros.tools.localization_bench import run_seed
+    args = argparse.Namespace(duration=15.0, offset=2.0, yaw_offset=0.5, start_sigma=1.0,
+                              start_yaw_sigma=0.2, converged=0.5)
+    result = run_seed(2, tmp_path, args)
+    assert result.localization_ate < result.mapping_ate
+    assert result.convergence_time < 10.0
