@@ -791,7 +791,7 @@ class FastSLAMNode(Node):
             problems.append(f"{new['drops']} input(s) dropped")
         for topic in ("odom", "landmarks"):
             rate = self._rates[topic]
-            if new[f"{topic}_missing"]:
+            if new[f"{topic}_missing"] > 0:
                 problems.append(f"~{new[f'{topic}_missing']} {topic} message(s) lost (gaps in "
                                 f"the stamps up to {rate.largest_gap:.3g} s, usual interval "
                                 f"{rate.interval:.3g} s)")
