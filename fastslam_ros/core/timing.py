@@ -88,9 +88,10 @@ class Throttle:
         return False
 
 
-GAP_FACTOR = 1.8
+GAP_FACTOR = 2.5
 """A step between two stamps longer than this many recent intervals is a gap: messages were
-lost (a single lost message doubles the step; jitter of up to 80 % is not taken for loss)."""
+lost. A single lost message doubles the step and is not counted: senders stamped by a loaded
+computer's clock jitter by as much (two or more lost in a row are)."""
 SILENCE_FACTOR = 5.0
 """An input silent for this many recent intervals (and at least ``MIN_SILENCE`` s) has stopped."""
 MIN_SILENCE = 1.0
@@ -99,10 +100,10 @@ MIN_SILENCE = 1.0
 class InputRate:
     """The usual interval between the stamps of one input, and the gaps in it.
 
-    The interval is the median of the last ``window`` steps between consecutive stamps, which
-    neither a gap nor a burst moves. A step beyond ``GAP_FACTOR`` intervals counts
-    ``round(step / interval) - 1`` missing messages; steps shorter than half an interval right
-    after it (a sender catching up: nothing was lost) pay them back.
+    The interval is the mean of the last ``window`` steps between consecutive stamps, gaps left
+    out. A step beyond ``GAP_FACTOR`` intervals is a gap and counts ``round(step / interval) -
+    1`` missing messages; steps shorter than half an interval right after it (a sender catching
+    up: nothing was lost) pay them back.
     """
 
     def __init__(self, window: int = 64) -> None:
@@ -113,7 +114,6 @@ class InputRate:
         self.largest_gap = 0.0
         """Longest gap (s of stamps) seen."""
         self._owed = 0
-        self._recorded = 0
         self._last_stamp: float | None = None
         self._last_arrival: float | None = None
 
@@ -130,10 +130,9 @@ class InputRate:
                 change, self._owed = -1, self._owed - 1
             else:
                 self._owed = 0
-            self._steps.append(step)
-            self._recorded += 1
-            if self.interval is None or self._recorded % 8 == 0:
-                self.interval = float(np.median(self._steps))
+            if change <= 0:
+                self._steps.append(step)
+                self.interval = sum(self._steps) / len(self._steps)
         if self._last_stamp is None or stamp > self._last_stamp:
             self._last_stamp = stamp
         self._last_arrival = arrival
