@@ -174,7 +174,7 @@ ROS_PARAMETERS = {
              "is bounded (thinning it would give negative evidence to landmarks it did see).",
         (1, 1_000_000)),
     "path_max_poses": RosParameter(
-        2000, "~/path holds at most this many poses: a longer path is decimated evenly (always "
+        1000, "~/path holds at most this many poses: a longer path is decimated evenly (always "
               "ending at the newest pose), so its cost stays flat over any run length.",
         (3, 10_000_000)),
 }

@@ -32,7 +32,7 @@ from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
 OUTPUTS = ("pose", "path", "particles", "map", "diagnostics")
 """The node's outputs, as its publish methods group them (map: ~/landmarks and ~/map_cloud;
 pose: ~/pose and ~/map_to_odom)."""
-PUBLISH_REPEATS = 5
+PUBLISH_REPEATS = 15
 
 
 def rss_mib() -> float:
