@@ -167,8 +167,9 @@ class FastSLAM:
         """Process one sensor reading: range/bearing (K,) in the sensor frame, optional ids.
 
         Observations with a non-finite range or one below ``MIN_OBSERVATION_RANGE`` or a
-        non-finite bearing are skipped (the ROS node reports them). ``ids`` are required (>= 0) in ``known`` mode; in
-        the other modes they are labels only (see ``UpdateReport.associated_ids``).
+        non-finite bearing are skipped (the ROS node reports them). ``ids`` are required
+        (>= 0) in ``known`` mode; in the other modes they are labels only (see
+        ``UpdateReport.associated_ids``).
         """
         ranges = np.asarray(ranges, dtype=float).reshape(-1)
         bearings = np.asarray(bearings, dtype=float).reshape(-1)

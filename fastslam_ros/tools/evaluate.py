@@ -574,7 +574,8 @@ def main(argv: list[str] | None = None) -> int:
                               args.match)
     print(markdown_table(evaluation.metrics))
     if args.json:
-        prepare_output(args.json, args.overwrite, "file", inputs).write_text(json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+        prepare_output(args.json, args.overwrite, "file", inputs).write_text(
+            json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
     if args.plot:
         from fastslam_ros.tools.plot import plot_evaluation
         plot_evaluation(evaluation, prepare_output(args.plot, args.overwrite, "file", inputs))

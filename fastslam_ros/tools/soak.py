@@ -162,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
                   progress=lambda line: print(line, file=sys.stderr, flush=True))
     print(report(result))
     if args.json:
-        with prepare_output(args.json, args.overwrite, "file").open("w", encoding="utf-8") as handle:
+        path = prepare_output(args.json, args.overwrite, "file")
+        with path.open("w", encoding="utf-8") as handle:
             json.dump(result, handle, indent=2, default=str)
     return 0
 
