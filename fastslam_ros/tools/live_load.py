@@ -148,7 +148,7 @@ def run_phase(context: Context, args, odom_rate: float,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fastslam-live-load",
+    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.live_load",
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("--odom-rate", type=float, default=100.0, help="Hz [100]")
     parser.add_argument("--cloud-rate", type=float, default=20.0, help="Hz [20]")

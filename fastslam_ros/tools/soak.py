@@ -144,7 +144,7 @@ def report(result: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fastslam-soak",
+    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.soak",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--hours", type=float, default=10.0, help="hours of data [10]")
     parser.add_argument("--particles", type=int, default=10, help="M [10]")
@@ -156,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             check_output(args.json, args.overwrite, "file")
         except FileExistsError as error:
-            print(f"fastslam-soak: {error}", file=sys.stderr)
+            print(f"soak: {error}", file=sys.stderr)
             return 1
     result = soak(args.hours, args.particles, args.seed,
                   progress=lambda line: print(line, file=sys.stderr, flush=True))
