@@ -170,6 +170,9 @@ def main(argv: list[str] | None = None) -> int:
                 (f"{args.burst_rate:g} Hz odometry + {args.cloud_rate:g} Hz clouds",
                  args.burst_rate, None)):
             phases.append((name, *run_phase(context, args, odom_rate, withhold)))
+    except RuntimeError as error:
+        print(f"live_load: {error}", file=sys.stderr)
+        return 1
     finally:
         rclpy.try_shutdown(context=context)
     print("| phase | odometry sent / received / reported lost | clouds sent / received | "
