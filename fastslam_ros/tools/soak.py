@@ -143,6 +143,13 @@ def report(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def bench_soak(hours: float = 10.0) -> dict[str, Any]:
+    """``fastslam-bench --only soak``: run, print the report, return the figures."""
+    result = soak(hours, progress=lambda line: print(line, file=sys.stderr, flush=True))
+    print(report(result))
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.soak",
                                      description=__doc__.split("\n\n")[0])
