@@ -168,7 +168,7 @@ class NodeSettings:
         "is bounded (thinning it would give negative evidence to landmarks it did see).",
         low=1, high=1_000_000)
     path_max_poses: int = parameter(
-        2000, "~/path holds at most this many poses: a longer path is decimated evenly (always "
+        1000, "~/path holds at most this many poses: a longer path is decimated evenly (always "
         "ending at the newest pose), so its cost stays flat over any run length.",
         low=3, high=10_000_000)
 
@@ -861,7 +861,7 @@ class FastSLAMNode(Node):
             problems.append(f"{new['drops']} input(s) dropped")
         for topic in ("odom", "landmarks"):
             rate = self._rates[topic]
-            if new[f"{topic}_missing"]:
+            if new[f"{topic}_missing"] > 0:
                 problems.append(f"~{new[f'{topic}_missing']} {topic} message(s) lost (gaps in "
                                 f"the stamps up to {rate.largest_gap:.3g} s, usual interval "
                                 f"{rate.interval:.3g} s)")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 import rclpy
+from diagnostic_msgs.msg import DiagnosticStatus
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
@@ -119,7 +120,8 @@ def odometry_between() -> tuple[float, np.ndarray]:
     event = previous(Odometry)
     pose = event.msg.pose.pose
     return (ros_io.stamp_to_seconds(event.msg.header.stamp) + 0.0125,
-            np.array([pose.position.x, pose.position.y, ros_io.quaternion_to_yaw(pose.orientation)]))
+            np.array([pose.position.x, pose.position.y,
+                      ros_io.quaternion_to_yaw(pose.orientation)]))
 
 
 def with_points(extra, dtype_changes=None) -> tuple[int, PointCloud2]:
@@ -401,12 +403,12 @@ def running_node(context):
     node.destroy_node()
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(msg=malformed_clouds(), offset=st.integers(1, 10_000))
 def test_random_clouds_never_break_the_node(running_node, msg, offset):
     node = running_node
-    stamp = ros_io.stamp_to_seconds(node._odometry.anchor_stamp and
-                                    ros_io.seconds_to_stamp(node._odometry.latest_stamp))
+    stamp = node._odometry.latest_stamp  # each cloud a little older: none is a duplicate
     msg.header = Header(stamp=ros_io.seconds_to_stamp(stamp - offset * 1e-6),
                         frame_id="base_link")
     before = node.stats["dropped_internal_error"]
@@ -438,3 +440,34 @@ def test_poisoned_bag_replays_to_the_clean_estimate(tmp_path):
              for name in ("clean_out", "poisoned_out")]
     assert [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[0]] == \
         [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[1]]
+
+
+def test_lost_odometry_shows_in_diagnostics_with_the_gap(context):
+    """Ten odometry messages missing at 5 s: counted, and the next report WARNs naming the gap."""
+    odometry_indices = [i for i, e in enumerate(STREAM) if isinstance(e.msg, Odometry)]
+    lost = set(odometry_indices[200:210])
+    node = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+        Parameter(name, value=value) for name, value in PARAMS.items()])
+    reports = []
+    node.output_listeners.append(lambda topic, msg: reports.append(msg)
+                                 if topic == "/diagnostics" else None)
+    node.publish_to_dds = False
+    try:
+        clock = node.get_clock()
+        for index, event in enumerate(STREAM):
+            if index in lost:
+                continue
+            clock.set_ros_time_override(Time(nanoseconds=round(event.arrival * 1e9)))
+            (node.on_odometry if isinstance(event.msg, Odometry) else node.on_landmarks)(event.msg)
+        assert node.stats["odom_missing"] == 10 and node.stats["landmarks_missing"] == 0
+        gap_at = ros_io.stamp_to_seconds(STREAM[odometry_indices[210]].msg.header.stamp)
+        warnings = [ros_io.stamp_to_seconds(r.header.stamp) for r in reports
+                    if r.status[0].level == DiagnosticStatus.WARN
+                    and "~10 odom message(s) lost" in r.status[0].message]
+        assert len(warnings) == 1 and gap_at <= warnings[0] <= gap_at + 2.0
+        values = {kv.key: kv.value for kv in reports[-1].status[0].values}
+        assert float(values["odom_interval"]) == pytest.approx(0.025)
+        assert float(values["odom_largest_gap"]) == pytest.approx(0.275)
+        assert reports[-1].status[0].level == DiagnosticStatus.OK  # reported once
+    finally:
+        node.destroy_node()

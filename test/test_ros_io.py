@@ -268,3 +268,17 @@ def test_path_decimation_is_bounded_even_and_stable():
         assert np.all(np.diff(keep) > 0)
     longer = decimation(1100, 100)
     assert set(decimation(1000, 100)[:-1]) <= set(longer)  # kept poses stay kept as it grows
+
+
+def test_input_rate_counts_lost_messages_not_jitter_or_bursts():
+    from fastslam_ros.core.timing import InputRate
+    rate = InputRate()
+    stamps = list(np.arange(0.0, 2.0, 0.01))
+    del stamps[100:110]                                   # ten lost at 1.0 s
+    del stamps[150:151]                                   # one lost: as long as jitter, not counted
+    stamps += [2.0, 2.035, 2.036, 2.037, 2.04, 2.05]      # late, then catching up: none lost
+    for stamp in stamps:
+        rate.record(stamp, stamp)
+    assert rate.interval == pytest.approx(0.01, rel=0.05)
+    assert rate.missing == 10 and rate.largest_gap == pytest.approx(0.11)
+    assert rate.silence(2.06) == 0.0 and rate.silence(3.5) == pytest.approx(1.45)

@@ -113,48 +113,56 @@ class Throttle:
         return False
 
 
-GAP_FACTOR = 1.8
+GAP_FACTOR = 2.5
 """A step between two stamps longer than this many recent intervals is a gap: messages were
-lost (a single lost message doubles the step; jitter of up to 80 % is not taken for loss)."""
+lost. A single lost message doubles the step and is not counted: senders stamped by a loaded
+computer's clock jitter by as much (two or more lost in a row are)."""
 SILENCE_FACTOR = 5.0
 """An input silent for this many recent intervals (and at least ``MIN_SILENCE`` s) has stopped."""
 MIN_SILENCE = 1.0
 
 
 class InputRate:
-    """The recent interval between the stamps of one input, and the gaps in it.
+    """The usual interval between the stamps of one input, and the gaps in it.
 
-    The interval is a running mean of the steps between consecutive stamps (gaps excluded); a
-    step beyond ``GAP_FACTOR`` intervals counts ``round(step / interval) - 1`` missing messages.
+    The interval is the mean of the last ``window`` steps between consecutive stamps, gaps left
+    out. A step beyond ``GAP_FACTOR`` intervals is a gap and counts ``round(step / interval) -
+    1`` missing messages; steps shorter than half an interval right after it (a sender catching
+    up: nothing was lost) pay them back.
     """
 
-    def __init__(self, smoothing: float = 0.05) -> None:
-        self.smoothing = smoothing
+    def __init__(self, window: int = 64) -> None:
+        self._steps: deque[float] = deque(maxlen=window)
         self.interval: float | None = None
         self.missing = 0
         """Messages estimated lost, from the gaps in the stamps."""
         self.largest_gap = 0.0
         """Longest gap (s of stamps) seen."""
+        self._owed = 0
         self._last_stamp: float | None = None
         self._last_arrival: float | None = None
 
     def record(self, stamp: float, arrival: float) -> int:
-        """Note one message; returns the messages estimated lost just before it."""
-        missed = 0
+        """Note one message; returns the change of ``missing`` it made."""
+        change = 0
         if self._last_stamp is not None and stamp > self._last_stamp:
             step = stamp - self._last_stamp
             if self.interval is not None and step > GAP_FACTOR * self.interval:
-                missed = max(round(step / self.interval) - 1, 1)
-                self.missing += missed
+                change = max(round(step / self.interval) - 1, 1)
+                self._owed = change
                 self.largest_gap = max(self.largest_gap, step)
-            elif self.interval is None:
-                self.interval = step
+            elif self.interval is not None and step < 0.5 * self.interval and self._owed:
+                change, self._owed = -1, self._owed - 1
             else:
-                self.interval += self.smoothing * (step - self.interval)
+                self._owed = 0
+            if change <= 0:
+                self._steps.append(step)
+                self.interval = sum(self._steps) / len(self._steps)
         if self._last_stamp is None or stamp > self._last_stamp:
             self._last_stamp = stamp
         self._last_arrival = arrival
-        return missed
+        self.missing += change
+        return change
 
     def silence(self, now: float) -> float:
         """Seconds (node time) since the last message arrived when that is longer than the input

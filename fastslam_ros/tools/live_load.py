@@ -122,8 +122,33 @@ class Driver:
         return None
 
 
+def run_phase(context: Context, args, odom_rate: float,
+              withhold: tuple[float, int] | None):
+    """One phase against a fresh node process: (sent, the node's final counters, seconds from
+    the start (or the withheld messages) to the first WARN about lost messages)."""
+    env = {**os.environ, "ROS_DOMAIN_ID": str(args.domain)}
+    node_process = subprocess.Popen(
+        [sys.executable, "-m", "fastslam_ros.node", "--ros-args", "-p",
+         f"num_particles:={args.particles}", "-p", "seed:=1", "-p", "association:=known",
+         "-p", "sigma_range:=0.05"], env=env, stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL)
+    driver = Driver(context)
+    try:
+        if not driver.wait_for_node():
+            raise RuntimeError("the node did not come up")
+        begin = time.monotonic()
+        skipped_at = driver.drive(args.seconds, odom_rate, args.cloud_rate, withhold)
+        driver.spin_for(2.5)  # the last messages in, two more diagnostics periods
+        since = skipped_at if skipped_at is not None else begin
+        return dict(driver.sent), driver.counters(), driver.first_warning_after(since, "lost")
+    finally:
+        driver.node.destroy_node()
+        node_process.terminate()
+        node_process.wait(timeout=10)
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fastslam-live-load",
+    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.live_load",
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("--odom-rate", type=float, default=100.0, help="Hz [100]")
     parser.add_argument("--cloud-rate", type=float, default=20.0, help="Hz [20]")
@@ -134,53 +159,29 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--domain", type=int, default=90 + os.getpid() % 100,
                         help="ROS domain id of the test [90 + pid % 100]")
     args = parser.parse_args(argv)
-    env = {**os.environ, "ROS_DOMAIN_ID": str(args.domain)}
-    node_process = subprocess.Popen(
-        [sys.executable, "-m", "fastslam_ros.node", "--ros-args", "-p",
-         f"num_particles:={args.particles}", "-p", "seed:=1", "-p", "association:=known",
-         "-p", "sigma_range:=0.05"], env=env, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL)
     context = Context()
     rclpy.init(context=context, domain_id=args.domain)
+    phases = []
     try:
-        driver = Driver(context)
-        if not driver.wait_for_node():
-            print("fastslam-live-load: the node did not come up", file=sys.stderr)
-            return 1
-        phases = []
         for name, odom_rate, withhold in (
                 (f"{args.odom_rate:g} Hz odometry + {args.cloud_rate:g} Hz clouds",
                  args.odom_rate, None),
                 ("same, 10 odometry messages withheld at 3 s", args.odom_rate, (3.0, 10)),
                 (f"{args.burst_rate:g} Hz odometry + {args.cloud_rate:g} Hz clouds",
                  args.burst_rate, None)):
-            sent_before = dict(driver.sent)
-            counters_before = driver.counters()
-            begin = time.monotonic()
-            skipped_at = driver.drive(args.seconds, odom_rate, args.cloud_rate, withhold)
-            driver.spin_for(2.5)  # the last messages, then two diagnostics periods
-            counters = driver.counters()
-
-            def grew(key: str) -> int:
-                return int(counters.get(key, 0)) - int(counters_before.get(key, 0))
-            sent = {k: driver.sent[k] - sent_before[k] for k in driver.sent}
-            since = skipped_at if skipped_at is not None else begin
-            phases.append((name, sent, {k: grew(k) for k in (
-                "received_odom", "received_landmarks", "odom_missing", "landmarks_missing",
-                "late_observations", "stale_observations")},
-                driver.first_warning_after(since, "lost")))
-        print("| phase | odometry sent / received / reported lost | clouds sent / received | "
-              "WARN 'lost' after (s) |")
-        print("|---|---|---|---|")
-        for name, sent, got, warned in phases:
-            print(f"| {name} | {sent['odom']} / {got['received_odom']} / {got['odom_missing']} | "
-                  f"{sent['landmarks']} / {got['received_landmarks']} | "
-                  f"{'-' if warned is None else f'{warned:.2f}'} |")
-        driver.node.destroy_node()
+            phases.append((name, *run_phase(context, args, odom_rate, withhold)))
+    except RuntimeError as error:
+        print(f"live_load: {error}", file=sys.stderr)
+        return 1
     finally:
         rclpy.try_shutdown(context=context)
-        node_process.terminate()
-        node_process.wait(timeout=10)
+    print("| phase | odometry sent / received / reported lost | clouds sent / received | "
+          "WARN 'lost' after (s) |")
+    print("|---|---|---|---|")
+    for name, sent, got, warned in phases:
+        print(f"| {name} | {sent['odom']} / {got.get('received_odom')} / "
+              f"{got.get('odom_missing')} | {sent['landmarks']} / "
+              f"{got.get('received_landmarks')} | {'-' if warned is None else f'{warned:.2f}'} |")
     return 0
 
 

@@ -3,7 +3,8 @@
 An existing output path is refused unless the user passed ``--overwrite``; with it, only what
 the tool itself would write is removed: a rosbag2 bag folder (``metadata.yaml`` and storage files
 only) for a bag output, a regular file for a file output. Never the working directory or one
-of its parents, never a tool's own input, nor a folder that holds it or lies inside it.
+of its parents, never a tool's own input, nor a folder that holds it, nor anything inside an
+input bag (a new file inside an input folder, a dataset, is fine).
 """
 from __future__ import annotations
 
@@ -27,9 +28,12 @@ def _is_bag(path: Path) -> bool:
                for entry in path.iterdir())
 
 
-def _overlaps(path: Path, other: Path) -> bool:
-    """Whether one of two resolved paths is the other or lies inside it."""
-    return path == other or path in other.parents or other in path.parents
+def _endangers(output: Path, source: Path) -> bool:
+    """Whether writing ``output`` could change the input ``source`` (both resolved): it is the
+    input or holds it, or lies inside a bag input or replaces something inside any input."""
+    if output == source or output in source.parents:
+        return True
+    return source in output.parents and ((source / "metadata.yaml").exists() or output.exists())
 
 
 def check_output(path: str | Path, overwrite: bool, kind: str = "bag",
@@ -47,7 +51,7 @@ def check_output(path: str | Path, overwrite: bool, kind: str = "bag",
     path = Path(path)
     resolved = path.expanduser().resolve()
     for source in inputs:
-        if _overlaps(resolved, Path(source).expanduser().resolve()):
+        if _endangers(resolved, Path(source).expanduser().resolve()):
             raise OutputExistsError(f"{path}: is (or holds, or lies in) the input {source}; "
                                     "choose another output")
     if resolved == Path.cwd().resolve() or resolved in Path.cwd().resolve().parents:

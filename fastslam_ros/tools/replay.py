@@ -3,8 +3,9 @@
 Every ``/odom`` and ``/landmarks`` message of the bag is deserialized straight into its rclpy
 message class and handed, in bag-time order, to the node's subscription callbacks; before each
 one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
-DDS (the node's context has discovery off: no other process sees it) and nothing waits, so a replay runs as fast as the filter allows and gives the same
-outputs as a live run at the same times. Every message the node publishes is recorded into
+DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
+a replay runs as fast as the filter allows and gives the same outputs as a live run at the
+same times. Every message the node publishes is recorded into
 OUT (MCAP) at the bag time of the input being processed, together with copies of the bag's
 ``/odom``, ``/landmarks`` and ground-truth topics and one ``/fastslam_replay/info`` message
 (``std_msgs/String``, JSON: wall and CPU time, bag duration, real-time factor, node counters,

@@ -32,7 +32,7 @@ from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
 OUTPUTS = ("pose", "path", "particles", "map", "diagnostics")
 """The node's outputs, as its publish methods group them (map: ~/landmarks and ~/map_cloud;
 pose: ~/pose and ~/map_to_odom)."""
-PUBLISH_REPEATS = 5
+PUBLISH_REPEATS = 15
 
 
 def rss_mib() -> float:
@@ -143,8 +143,15 @@ def report(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def bench_soak(hours: float = 10.0) -> dict[str, Any]:
+    """``fastslam-bench --only soak``: run, print the report, return the figures."""
+    result = soak(hours, progress=lambda line: print(line, file=sys.stderr, flush=True))
+    print(report(result))
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fastslam-soak",
+    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.soak",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--hours", type=float, default=10.0, help="hours of data [10]")
     parser.add_argument("--particles", type=int, default=10, help="M [10]")
@@ -156,13 +163,14 @@ def main(argv: list[str] | None = None) -> int:
         try:
             check_output(args.json, args.overwrite, "file")
         except FileExistsError as error:
-            print(f"fastslam-soak: {error}", file=sys.stderr)
+            print(f"soak: {error}", file=sys.stderr)
             return 1
     result = soak(args.hours, args.particles, args.seed,
                   progress=lambda line: print(line, file=sys.stderr, flush=True))
     print(report(result))
     if args.json:
-        with prepare_output(args.json, args.overwrite, "file").open("w", encoding="utf-8") as handle:
+        path = prepare_output(args.json, args.overwrite, "file")
+        with path.open("w", encoding="utf-8") as handle:
             json.dump(result, handle, indent=2, default=str)
     return 0
 
