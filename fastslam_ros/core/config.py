@@ -15,6 +15,7 @@ ASSOCIATION_MODES = ("known", "ml", "monte_carlo", "two_gate")
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 BEST_PARTICLE_RULES = ("heaviest", "central")
 MONTE_CARLO_WEIGHTS = ("marginal", "sampled")
+BACKENDS = ("auto", "numpy", "numba")
 
 
 @dataclass(frozen=True)
@@ -138,6 +139,9 @@ class FastSLAMConfig:
     """Side (m) of the spatial cells that index each particle's map."""
     seed: int = -1
     """Seed of the random generator; -1 draws one from the OS."""
+    backend: str = "auto"
+    """Per-reading math: ``numpy`` (the reference), ``numba`` (compiled, parallel over
+    particles; the same results; needs the ``fast`` extra) or ``auto`` (numba when installed)."""
 
     def validate(self) -> "FastSLAMConfig":
         """Raise ``ValueError`` naming the first bad field; return self when all are good."""
@@ -191,8 +195,20 @@ class FastSLAMConfig:
              "best_switch_margin", "0 with best_particle central (the margin applies to heaviest)")
         need(self.cell_size > 0.0, "cell_size", "> 0")
         need(isinstance(self.seed, int) and self.seed >= -1, "seed", "an integer >= -1")
+        need(self.backend in BACKENDS, "backend", f"one of {BACKENDS}")
+        need(self.backend != "numba" or numba_available(), "backend",
+             "numpy or auto when numba is not installed (pip install numba)")
         return self
 
     def replace(self, **changes) -> "FastSLAMConfig":
         """A validated copy with some fields changed."""
         return dataclasses.replace(self, **changes).validate()
+
+
+def numba_available() -> bool:
+    """numba can be imported (the compiled backend's optional dependency)."""
+    try:
+        import numba  # noqa: F401, PLC0415
+    except ImportError:
+        return False
+    return True

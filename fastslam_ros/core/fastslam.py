@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import association as assoc
-from .config import FastSLAMConfig
+from .config import FastSLAMConfig, numba_available
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
@@ -39,6 +39,7 @@ REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
 within which landmarks join the working set and are scored against the observations: a
 landmark whose mean lies farther out is no plausible match for any observation."""
+_NO_DRAWS = np.zeros(0)
 NEW_SLOTS_PER_OBSERVATION = 3
 """Free working-set columns per observation of the reading that gathers it: each observation
 that creates a landmark (in any particle) takes one, and a full working set is gathered
@@ -93,7 +94,24 @@ class FastSLAM:
                              config.translation_variance_per_radian)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
         self._log_outlier = assoc.log_outlier_density(config)
+        self.kernels = self._load_kernels()
+        """The compiled backend (``core.kernels``) when it runs, else None (numpy)."""
+        self.backend = "numpy" if self.kernels is None else "numba"
         self.reset(initial_pose)
+
+    def _load_kernels(self):
+        """``core.kernels``, compiled (or loaded from cache) now, when ``backend`` asks for it
+        and the configuration is one it covers; None: the numpy path."""
+        config = self.config
+        if config.backend == "numpy" or (config.backend == "auto" and not numba_available()):
+            return None
+        # Settings the compiled path does not cover run on numpy.
+        if (config.monte_carlo_weight != "marginal" or config.proposal_iterations != 1
+                or config.association_passes != 1):
+            return None
+        from . import kernels  # noqa: PLC0415 (optional dependency)
+        kernels.warm_up()
+        return kernels
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, initial_pose=(0.0, 0.0, 0.0)) -> None:
@@ -147,7 +165,8 @@ class FastSLAM:
             return
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
-        self._prior = propagate_gaussian(mean, cov, control, variances)
+        propagate = propagate_gaussian if self.kernels is None else self.kernels.propagate_gaussian
+        self._prior = propagate(mean, cov, control, variances)
         if self._prior[1][:, 2, 2].max() > self.config.max_prior_heading_sigma ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
@@ -156,7 +175,8 @@ class FastSLAM:
         """Draw every particle's pose from its Gaussian prior, which is then consumed."""
         mean, cov = self._prior
         self._prior = None
-        sampled = sample_pose(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
+        sample = sample_pose if self.kernels is None else self.kernels.sample_pose
+        sampled = sample(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
         sampled[:, 2] = wrap_angle(sampled[:, 2])
         return sampled
 
@@ -320,6 +340,11 @@ class FastSLAM:
         config = self.config
         count = len(ranges)
         mode = config.association
+        if self.kernels is not None:
+            choice, log_factor, inverse_q = self._associate_compiled(ws, mean, cov, ranges,
+                                                                     bearings, labels)
+            return assoc.reject_outliers(choice, log_factor, config.outlier_probability,
+                                         self._log_outlier) + (inverse_q,)
         if mode == "known":
             candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
             if cov is not None and config.outlier_probability == 0.0:
@@ -373,6 +398,23 @@ class FastSLAM:
                                      config.outlier_probability,
                                      self._log_outlier) + (inverse_q.reshape(grid),)
 
+    def _associate_compiled(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
+                            bearings: np.ndarray, labels: np.ndarray):
+        """``_associate`` on the compiled backend: (choices, log factors, log(1 / q)) (K, M)
+        before the outlier test, on the same draws as the numpy path."""
+        config = self.config
+        mode = config.association
+        known = mode == "known"
+        kept = (np.zeros(0, np.int64) if known
+                else self.kernels.columns_in_reach(ws, mean, self._reach(ranges)))
+        draws = (self.rng.random(len(ranges) * self.num_particles) if mode == "monte_carlo"
+                 else _NO_DRAWS)
+        score_known = not (cov is not None and config.outlier_probability == 0.0)
+        return self.kernels.associate_reading(
+            ws, kept, mean, cov, ranges, bearings, labels, self._noise(ranges), self.offset,
+            mode, self._log_p0, config.association_gate, config.new_landmark_gate, draws,
+            score_known)
+
     def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
         """Working-set columns (of the landmarks that existed before this reading) holding a
         landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose: the
@@ -397,7 +439,8 @@ class FastSLAM:
         used = choices >= 0
         if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
+        propose = observation_proposal if self.kernels is None else self.kernels.observation_proposal
+        return propose(mean, cov, ws.records_at(choices), ranges[:, None],
                                     bearings[:, None], used, self.offset,
                                     self._noise(ranges[:, None]), self.config.proposal_iterations)
 
@@ -449,6 +492,13 @@ class FastSLAM:
         column[creators] = first_new + np.arange(len(creators))
         if repeated is not None:
             choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
+        if self.kernels is not None:
+            first_key = int(self.landmarks.new_keys(int(creating.sum()))[0]) if creating.any() else 0
+            self.kernels.apply_observations(ws, observed, choices, creating, column, first_key,
+                                            self.poses, ranges, bearings, labels,
+                                            self._noise(ranges), self.offset,
+                                            config.logodds_observed, config.logodds_max)
+            return creating
         obs, particle = creating.nonzero()
         if len(obs):
             slot = column[obs]
@@ -495,6 +545,9 @@ class FastSLAM:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""
         config = self.config
         if config.logodds_missed == 0.0:
+            return
+        if self.kernels is not None:
+            self.kernels.missed_evidence(ws, observed, self.poses, self.offset, config)
             return
         # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
         existing = slice(0, ws.first_new_slot)
