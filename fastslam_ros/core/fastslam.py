@@ -111,6 +111,7 @@ class FastSLAM:
             return None
         from . import kernels  # noqa: PLC0415 (optional dependency)
         kernels.warm_up()
+        kernels.use_threads(config.num_particles)
         return kernels
 
     # ------------------------------------------------------------------ lifecycle
@@ -203,6 +204,8 @@ class FastSLAM:
         bearings = wrap_angle(bearings)
 
         fastslam2 = self.config.algorithm == "fastslam2"
+        if self.kernels is not None:
+            self.kernels.use_threads(self.num_particles)
         self._advance_motion()
         proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
                                                                                     None)
@@ -439,8 +442,12 @@ class FastSLAM:
         used = choices >= 0
         if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        propose = observation_proposal if self.kernels is None else self.kernels.observation_proposal
-        return propose(mean, cov, ws.records_at(choices), ranges[:, None],
+        if self.kernels is None:
+            propose, landmarks = observation_proposal, ws.records_at(choices)
+        else:
+            propose, landmarks = (self.kernels.observation_proposal,
+                                  self.kernels.records_at(ws, choices))
+        return propose(mean, cov, landmarks, ranges[:, None],
                                     bearings[:, None], used, self.offset,
                                     self._noise(ranges[:, None]), self.config.proposal_iterations)
 

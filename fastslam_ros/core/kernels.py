@@ -128,15 +128,21 @@ def _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
     predicted_bearing = math.atan2(dy, dx)
     cxy = cxy0 + extra_xy
     cyy = cyy0 + extra_yy
+    last_noise = np.nan
+    inv_xx = inv_xy2 = inv_yy = log_norm = 0.0
     for k in range(ranges.shape[0]):
-        cxx = base00 + noise_r[k] + extra_xx
+        if noise_r[k] != last_noise:
+            # S depends on the observation only through its range noise: mostly one S.
+            last_noise = noise_r[k]
+            cxx = base00 + noise_r[k] + extra_xx
+            det = cxx * cyy - cxy * cxy
+            inv_xx, inv_xy2, inv_yy = cyy / det, -2.0 * cxy / det, cxx / det
+            log_norm = LOG_TWO_PI + 0.5 * math.log(det)
         nu_r = ranges[k] - r
         nu_b = _wrap(bearings[k] + heading - predicted_bearing)
-        det = cxx * cyy - cxy * cxy
-        inv_xx, inv_xy2, inv_yy = cyy / det, -2.0 * cxy / det, cxx / det
         distance = ((nu_r * inv_xx) + inv_xy2 * nu_b) * nu_r + (nu_b * inv_yy) * nu_b
         mahalanobis[k, column] = distance
-        log_lik[k, column] = distance * -0.5 - (LOG_TWO_PI + 0.5 * math.log(det))
+        log_lik[k, column] = distance * -0.5 - log_norm
 
 
 @njit(**_JIT)
@@ -332,11 +338,31 @@ _NO_DRAWS = np.zeros(0)
 
 def _noise_arrays(noise, count: int) -> tuple[np.ndarray, float]:
     """(range variance per observation (K,), bearing variance) from ``FastSLAM._noise``."""
-    range_variance = np.broadcast_to(np.asarray(noise[0], dtype=float).reshape(-1), (count,))
-    return np.ascontiguousarray(range_variance), float(noise[1])
+    range_variance = noise[0]
+    if isinstance(range_variance, np.ndarray) and range_variance.size == count:
+        return np.ascontiguousarray(range_variance, dtype=float).reshape(count), float(noise[1])
+    return np.full(count, float(range_variance)), float(noise[1])
 
 
 # ---------------------------------------------------------------------------- proposal
+@njit(**_PARALLEL)
+def _records_kernel(state, columns):
+    count, num_particles = columns.shape
+    out = np.empty((count, num_particles, state.shape[2]))
+    for m in prange(num_particles):
+        for k in range(count):
+            column = max(columns[k, m], 0)
+            for i in range(state.shape[2]):
+                out[k, m, i] = state[m, column, i]
+    return out
+
+
+def records_at(ws, columns: np.ndarray) -> np.ndarray:
+    """``WorkingSet.records_at`` for (K, M) columns."""
+    return _records_kernel(ws.state, np.ascontiguousarray(columns, dtype=np.int64))
+
+
+
 @njit(**_PARALLEL)
 def _proposal_kernel(mean, cov, landmarks, ranges, bearings, used, ox, oy, oyaw, noise_r,
                      noise_b):
@@ -434,9 +460,9 @@ def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarra
     count = used.shape[0]
     noise_r, noise_b = _noise_arrays(noise_diag, count)
     return _proposal_kernel(np.ascontiguousarray(mean), np.ascontiguousarray(cov),
-                            np.ascontiguousarray(landmarks), np.ascontiguousarray(
-                                np.broadcast_to(ranges, (count, 1))[:, 0]),
-                            np.ascontiguousarray(np.broadcast_to(bearings, (count, 1))[:, 0]),
+                            np.ascontiguousarray(landmarks),
+                            np.ascontiguousarray(ranges, dtype=float).reshape(count),
+                            np.ascontiguousarray(bearings, dtype=float).reshape(count),
                             np.ascontiguousarray(used), offset.x, offset.y, offset.yaw,
                             noise_r, noise_b)
 
@@ -658,14 +684,14 @@ def warm_up() -> float:
     ranges, bearings = np.array([1.0, 2.0]), np.array([0.0, 0.1])
     labels = np.array([0, 1], np.int64)
     offset = SensorOffset(0.1, 0.0, 0.0)
-    noise = (np.array([0.01]), 0.001)
+    noise = (0.01, 0.001)
     kept = columns_in_reach(ws, poses, 5.0)
     for mode in MODE_CODES:
         for pose_cov in (None, cov):
             associate_reading(ws, kept, poses, pose_cov, ranges, bearings, labels, noise,
                               offset, mode, -5.0, 9.0, 25.0, np.full(k * m, 0.5), True)
     used = np.ones((k, m), bool)
-    records = ws.state[:, :2].transpose(1, 0, 2).copy()
+    records = records_at(ws, np.zeros((k, m), np.int64))
     mean, sigma, _ = observation_proposal(poses, cov, records, ranges[:, None],
                                           bearings[:, None], used, offset, noise)
     sample_pose(mean, sigma, np.zeros((m, 3)))
@@ -685,11 +711,20 @@ class _WarmConfig:
     logodds_missed, logodds_remove = -0.5, -1.5
 
 
-def threads() -> int:
-    """Threads the parallel kernels use (``NUMBA_NUM_THREADS`` or ``set_threads``)."""
-    return numba.get_num_threads()
+PARALLEL_MIN_PARTICLES = 500
+"""Below this many particles the kernels run on the calling thread: waking a second thread
+costs more than it saves, and on a busy machine far more (the reading waits for the slower
+thread)."""
+_max_threads = numba.config.NUMBA_NUM_THREADS
+
+
+def use_threads(num_particles: int) -> None:
+    """Threads for the next kernels of a filter with ``num_particles`` (on this thread)."""
+    numba.set_num_threads(1 if num_particles < PARALLEL_MIN_PARTICLES else _max_threads)
 
 
 def set_threads(count: int) -> None:
-    """Use ``count`` threads in the parallel kernels (at most the machine's cores)."""
-    numba.set_num_threads(count)
+    """At most ``count`` threads in the parallel kernels (<= ``NUMBA_NUM_THREADS``, which
+    defaults to the machine's cores)."""
+    global _max_threads
+    _max_threads = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
