@@ -15,6 +15,7 @@ import dataclasses
 import inspect
 import math
 import sys
+import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -106,7 +107,7 @@ CORE_CHOICES = {name: " | ".join(choices) for name, choices in (
     ("algorithm", config_rules.ALGORITHMS), ("association", config_rules.ASSOCIATION_MODES),
     ("monte_carlo_weight", config_rules.MONTE_CARLO_WEIGHTS),
     ("resampling", config_rules.RESAMPLING_SCHEMES),
-    ("best_particle", config_rules.BEST_PARTICLE_RULES))}
+    ("best_particle", config_rules.BEST_PARTICLE_RULES), ("backend", config_rules.BACKENDS))}
 """The allowed values of the core's string parameters, from the tuples ``validate()`` checks."""
 
 
@@ -220,9 +221,13 @@ class FastSLAMNode(Node):
         self.add_on_set_parameters_callback(self._check_parameter_change)
         self.add_post_set_parameters_callback(self._apply_parameter_change)
 
+        started = time.perf_counter()
         self.slam = FastSLAM(self.config)
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
-        feeds it."""
+        feeds it. Built before the subscriptions: the compiled backend is ready (compiled or
+        loaded from its cache) before the first message."""
+        self.get_logger().info(f"core backend {self.slam.backend} ready in "
+                               f"{time.perf_counter() - started:.1f} s")
         self._odometry = OdometryHistory()
         self._pending: list[Observation] = []
         self._newest_stamp: float | None = None
