@@ -359,9 +359,9 @@ class FastSLAM:
             landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
-            kept = self._columns_in_reach(ws, mean, ranges)
+            kept, near = self._columns_in_reach(ws, mean, ranges)
             landmark = ws.state[:, kept][None]                               # (1, M, E, 6)
-            valid = ws.valid[:, kept][None]
+            valid = near[:, kept][None]
         # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
         landmark_x = np.where(valid, landmark[..., 0], mean[:, 0, None] + 1.0)
         landmark_y = np.where(valid, landmark[..., 1], mean[:, 1, None])
@@ -408,27 +408,29 @@ class FastSLAM:
         config = self.config
         mode = config.association
         known = mode == "known"
-        kept = (np.zeros(0, np.int64) if known
-                else self.kernels.columns_in_reach(ws, mean, self._reach(ranges)))
+        reach = self._reach(ranges)
+        kept = np.zeros(0, np.int64) if known else self.kernels.columns_in_reach(ws, mean, reach)
         draws = (self.rng.random(len(ranges) * self.num_particles) if mode == "monte_carlo"
                  else _NO_DRAWS)
         score_known = not (cov is not None and config.outlier_probability == 0.0)
         return self.kernels.associate_reading(
-            ws, kept, mean, cov, ranges, bearings, labels, self._noise(ranges), self.offset,
-            mode, self._log_p0, config.association_gate, config.new_landmark_gate, draws,
-            score_known)
+            ws, kept, reach, mean, cov, ranges, bearings, labels, self._noise(ranges),
+            self.offset, mode, self._log_p0, config.association_gate, config.new_landmark_gate,
+            draws, score_known)
 
     def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
         """Working-set columns (of the landmarks that existed before this reading) holding a
-        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose: the
-        working set holds whole cells of a box around all particles, about twice the area."""
+        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose (the
+        working set holds whole cells of a box around all particles, about twice the area),
+        and which particle's entries are in reach (M, existing): only those are candidates."""
         existing = ws.first_new_slot
         reach = self._reach(ranges)
         dx = ws.mean[:, :existing, 0] - poses[:, 0, None]
         dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
         near = dx * dx
         near += dy * dy
-        return (ws.valid[:, :existing] & (near <= reach * reach)).any(axis=0).nonzero()[0]
+        near = ws.valid[:, :existing] & (near <= reach * reach)
+        return near.any(axis=0).nonzero()[0], near
 
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""

@@ -267,7 +267,7 @@ def _two_gates(log_lik, mahalanobis, log_p0, gate, new_gate, choice, factor, m):
 
 
 @njit(**_PARALLEL)
-def _associate_kernel(state, valid, label, existing, kept, mean, cov, has_cov, ranges,
+def _associate_kernel(state, valid, label, existing, kept, reach, mean, cov, has_cov, ranges,
                       bearings, labels, noise_r, noise_b, ox, oy, oyaw, mode, log_p0, gate,
                       new_gate, draws, score_known):
     count = ranges.shape[0]
@@ -276,6 +276,7 @@ def _associate_kernel(state, valid, label, existing, kept, mean, cov, has_cov, r
     factor = np.empty((count, num_particles))
     inverse_q = np.zeros((count, num_particles))
     width = kept.shape[0]
+    limit = reach * reach
     for m in prange(num_particles):
         if mode == 0:
             for k in range(count):
@@ -297,7 +298,9 @@ def _associate_kernel(state, valid, label, existing, kept, mean, cov, has_cov, r
         mahalanobis = np.empty((count, width))
         for c in range(width):
             j = kept[c]
-            if valid[m, j]:
+            dx = state[m, j, 0] - mean[m, 0]
+            dy = state[m, j, 1] - mean[m, 1]
+            if valid[m, j] and dx * dx + dy * dy <= limit:
                 _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
                             noise_r, noise_b, log_lik, mahalanobis, c)
             else:
@@ -316,18 +319,20 @@ def _associate_kernel(state, valid, label, existing, kept, mean, cov, has_cov, r
     return choice, factor, inverse_q
 
 
-def associate_reading(ws, kept, mean, cov, ranges, bearings, labels, noise, offset, mode: str,
-                      log_p0: float, gate: float, new_gate: float, draws, score_known: bool):
+def associate_reading(ws, kept, reach: float, mean, cov, ranges, bearings, labels, noise,
+                      offset, mode: str, log_p0: float, gate: float, new_gate: float, draws,
+                      score_known: bool):
     """Choices (K, M) (working-set columns or ``NEW`` / ``IGNORE``), log factors (K, M) and
     log(1 / q) (K, M) of one reading, as ``FastSLAM._associate`` forms them before the outlier
-    test. ``kept``: the candidate columns (``columns_in_reach``; unused with known ids);
+    test. ``kept``: the candidate columns (``columns_in_reach``; unused with known ids), of
+    which a particle scores those within ``reach`` of its pose;
     ``draws``: the (K * M) uniforms of ``monte_carlo``; ``score_known``: known ids score their
     landmark (otherwise the factor is 0, FastSLAM 2.0 weighing by the proposal)."""
     noise_r, noise_b = _noise_arrays(noise, len(ranges))
     has_cov = cov is not None
     return _associate_kernel(
         ws.state, ws.valid, ws.label, ws.first_new_slot, np.asarray(kept, np.int64),
-        np.ascontiguousarray(mean), np.ascontiguousarray(cov) if has_cov else _NO_COV, has_cov,
+        float(reach), np.ascontiguousarray(mean), np.ascontiguousarray(cov) if has_cov else _NO_COV, has_cov,
         ranges, bearings, labels, noise_r, noise_b, offset.x, offset.y, offset.yaw,
         MODE_CODES[mode], log_p0, gate, new_gate, draws, score_known)
 
@@ -688,7 +693,7 @@ def warm_up() -> float:
     kept = columns_in_reach(ws, poses, 5.0)
     for mode in MODE_CODES:
         for pose_cov in (None, cov):
-            associate_reading(ws, kept, poses, pose_cov, ranges, bearings, labels, noise,
+            associate_reading(ws, kept, 5.0, poses, pose_cov, ranges, bearings, labels, noise,
                               offset, mode, -5.0, 9.0, 25.0, np.full(k * m, 0.5), True)
     used = np.ones((k, m), bool)
     records = records_at(ws, np.zeros((k, m), np.int64))
