@@ -294,19 +294,22 @@ def _associate_kernel(state, valid, label, existing, kept, reach, mean, cov, has
                 else:
                     factor[k, m] = 0.0
             continue
-        log_lik = np.empty((count, width))
-        mahalanobis = np.empty((count, width))
+        # This particle's candidates, in column order: the rules see the same choices as on
+        # the full row with -inf / +inf for the others, which can never be picked.
+        local = np.empty(width, np.int64)
+        found = 0
         for c in range(width):
             j = kept[c]
             dx = state[m, j, 0] - mean[m, 0]
             dy = state[m, j, 1] - mean[m, 1]
             if valid[m, j] and dx * dx + dy * dy <= limit:
-                _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
-                            noise_r, noise_b, log_lik, mahalanobis, c)
-            else:
-                for k in range(count):
-                    log_lik[k, c] = -np.inf
-                    mahalanobis[k, c] = np.inf
+                local[found] = j
+                found += 1
+        log_lik = np.empty((count, found))
+        mahalanobis = np.empty((count, found))
+        for c in range(found):
+            _score_pair(m, local[c], state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
+                        noise_r, noise_b, log_lik, mahalanobis, c)
         if mode == 1:
             _exclusive_ml(log_lik, log_p0, choice, factor, m)
         elif mode == 2:
@@ -315,7 +318,7 @@ def _associate_kernel(state, valid, label, existing, kept, reach, mean, cov, has
             _two_gates(log_lik, mahalanobis, log_p0, gate, new_gate, choice, factor, m)
         for k in range(count):
             if choice[k, m] >= 0:
-                choice[k, m] = kept[choice[k, m]]
+                choice[k, m] = local[choice[k, m]]
     return choice, factor, inverse_q
 
 
