@@ -122,7 +122,8 @@ def sweep(particle_counts, seed: int, steps: int, repeat: int, backends) -> tupl
         mine = [row for row in rows if row["backend"] == backend]
         m = np.array([row["particles"] for row in mine], float)
         t = np.array([row["ms_per_reading"] for row in mine])
-        b, a = np.polyfit(m, t, 1) if len(m) > 1 else (np.nan, t[0])
+        # Relative residuals (weights 1 / t): the fixed cost is not lost in the large-M times.
+        b, a = np.polyfit(m, t, 1, w=1.0 / t) if len(m) > 1 else (np.nan, t[0])
         fits.append(dict(backend=backend, fixed_ms_per_reading=float(a),
                          us_per_particle=1e3 * float(b)))
     return rows, fits
