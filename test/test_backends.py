@@ -1,8 +1,10 @@
 """The compiled backend against the numpy one at a larger M, and the core without numba."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -73,3 +75,18 @@ def test_core_runs_without_numba():
         "    raise AssertionError('backend numba accepted without numba')\n")
     subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
                    env={"PYTHONPATH": str(REPO_ROOT), "PATH": "/usr/bin:/bin"})
+
+
+@needs_numba
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs /proc as an unwritable folder")
+def test_compiled_backend_runs_with_an_unwritable_cache_folder():
+    """A cache folder that cannot be written (as on a read-only install): numba falls back
+    to its next cache location, and the filter still runs compiled."""
+    script = (
+        "from fastslam_ros.core import FastSLAM, FastSLAMConfig\n"
+        "slam = FastSLAM(FastSLAMConfig(num_particles=5, seed=1, backend='numba'))\n"
+        "slam.update([2.0], [0.1])\n"
+        "assert slam.backend == 'numba'\n")
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
+                   env={**os.environ, "PYTHONPATH": str(REPO_ROOT),
+                        "NUMBA_CACHE_DIR": "/proc/self/unwritable-numba-cache"})
