@@ -39,11 +39,11 @@ REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
 within which landmarks join the working set and are scored against the observations: a
 landmark whose mean lies farther out is no plausible match for any observation."""
-_NO_DRAWS = np.zeros(0)
 NEW_SLOTS_PER_OBSERVATION = 3
 """Free working-set columns per observation of the reading that gathers it: each observation
 that creates a landmark (in any particle) takes one, and a full working set is gathered
 again."""
+_NO_DRAWS = np.zeros(0)
 
 
 @dataclass
@@ -502,7 +502,8 @@ class FastSLAM:
         if repeated is not None:
             choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
         if self.kernels is not None:
-            first_key = int(self.landmarks.new_keys(int(creating.sum()))[0]) if creating.any() else 0
+            created = int(creating.sum())
+            first_key = int(self.landmarks.new_keys(created)[0]) if created else 0
             self.kernels.apply_observations(ws, observed, choices, creating, column, first_key,
                                             self.poses, ranges, bearings, labels,
                                             self._noise(ranges), self.offset,

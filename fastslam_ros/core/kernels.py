@@ -341,7 +341,8 @@ def associate_reading(ws, kept, reach: float, mean, cov, ranges, bearings, label
     has_cov = cov is not None
     return _associate_kernel(
         ws.state, ws.valid, ws.label, ws.first_new_slot, np.asarray(kept, np.int64),
-        float(reach), np.ascontiguousarray(mean), np.ascontiguousarray(cov) if has_cov else _NO_COV, has_cov,
+        float(reach), np.ascontiguousarray(mean),
+        np.ascontiguousarray(cov) if has_cov else _NO_COV, has_cov,
         ranges, bearings, labels, noise_r, noise_b, offset.x, offset.y, offset.yaw,
         MODE_CODES[mode], log_p0, gate, new_gate, draws, score_known)
 
@@ -352,10 +353,10 @@ _NO_DRAWS = np.zeros(0)
 
 def _noise_arrays(noise, count: int) -> tuple[np.ndarray, float]:
     """(range variance per observation (K,), bearing variance) from ``FastSLAM._noise``."""
-    range_variance = noise[0]
+    range_variance, bearing_variance = noise[0], float(noise[1])
     if isinstance(range_variance, np.ndarray) and range_variance.size == count:
-        return np.ascontiguousarray(range_variance, dtype=float).reshape(count), float(noise[1])
-    return np.full(count, float(range_variance)), float(noise[1])
+        return np.ascontiguousarray(range_variance, dtype=float).reshape(count), bearing_variance
+    return np.full(count, float(range_variance)), bearing_variance
 
 
 # ---------------------------------------------------------------------------- proposal
