@@ -29,6 +29,7 @@ from .config import FastSLAMConfig, numba_available
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
+from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import SensorOffset, observation_terms
 from .path_history import PathHistory
@@ -39,10 +40,6 @@ REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
 within which landmarks join the working set and are scored against the observations: a
 landmark whose mean lies farther out is no plausible match for any observation."""
-NEW_SLOTS_PER_OBSERVATION = 3
-"""Free working-set columns per observation of the reading that gathers it: each observation
-that creates a landmark (in any particle) takes one, and a full working set is gathered
-again."""
 _NO_DRAWS = np.zeros(0)
 
 
@@ -122,9 +119,8 @@ class FastSLAM:
         self.log_weights = np.full(count, -np.log(count))
         self.landmarks = LandmarkStore(count, self.config.cell_size)
         self.history = PathHistory(count)
-        self._working: WorkingSet | None = None
-        self._working_box = (0, 0, 0, 0)
-        self._working_labels: set[int] = set()
+        self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
+        """The landmarks near the robot that readings work on (kept across readings)."""
         self._pending = np.zeros(3)
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
@@ -210,7 +206,8 @@ class FastSLAM:
         proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
                                                                                     None)
 
-        ws = self._working_set(proposal_mean, ranges, labels if known else None)
+        ws = self.working.for_reading(proposal_mean, self._reach(ranges), len(ranges),
+                                      labels if known else None)
         choices, log_factors, robust, inverse_q = self._associate(
             ws, proposal_mean, proposal_cov, ranges, bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
@@ -232,7 +229,7 @@ class FastSLAM:
         self.num_updates += 1
         report = self._finish_update(ws, choices, creating)
         # This reading's new-landmark columns now hold landmarks (in some particles).
-        self._working.first_new_slot += int(creating.any(axis=1).sum())
+        self.working.created(int(creating.any(axis=1).sum()))
         return report
 
     def _noise(self, ranges):
@@ -243,74 +240,13 @@ class FastSLAM:
         return (self.noise_diag[0] + (self.config.sigma_range_per_meter * ranges) ** 2,
                 self.noise_diag[1])
 
-    def _working_set(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
-        """Every particle's landmarks in the cells the sensor can reach from ``poses``, with a
-        free column per observation for new landmarks.
-
-        The working set of the previous reading is reused while it still holds those cells (and,
-        with known ids, the cells of the observed ids) and has free columns; otherwise it is
-        written back and a new one gathered. So the robot pays for gathering and writing back
-        once per cell change, not once per reading.
-        """
-        reach = self._reach(ranges)
-        low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
-        store = self.landmarks
-        box = store.cell_box(low, high)
-        # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
-        label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
-                     else None)
-        ws = self._working
-        if ws is not None:
-            # Cells are only registered when the working set is written back, so a box of
-            # cells inside the gathered box holds no cell the working set lacks.
-            gathered = self._working_box
-            inside = (box[0] >= gathered[0] and box[1] >= gathered[1]
-                      and box[2] <= gathered[2] and box[3] <= gathered[3])
-            if inside and ws.free_slots >= len(ranges) and self._holds_labels(ws, label_set):
-                return ws
-            # Writing back registers the cells of new landmarks: look the region up after it.
-            self.flush()
-        region = store.columns_in_box(low, high)
-        # Known ids: also the cells holding each observed id, wherever it lies.
-        extra = (store.label_columns(np.array(label_set, np.int64)) if label_set is not None
-                 else None)
-        columns = np.broadcast_to(region, (self.num_particles, len(region)))
-        if extra is not None:
-            in_region = np.zeros(max(store.num_cells, 1), dtype=bool)
-            in_region[region] = True
-            extra = np.where((extra >= 0) & ~in_region[np.maximum(extra, 0)], extra, -1)
-            extra = np.sort(extra, axis=1)
-            extra[:, 1:][extra[:, 1:] == extra[:, :-1]] = -1
-            columns = np.concatenate([columns, extra], axis=1)
-        self._working = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
-                                     * max(len(ranges), 1))
-        self._working_box = box
-        self._working_labels = set() if label_set is None else set(label_set)
-        return self._working
-
-    def _holds_labels(self, ws: WorkingSet, label_set) -> bool:
-        """Known ids: every particle's landmark with one of these labels is in the working set
-        (or not in the store). Each label is looked up once per working set."""
-        if label_set is None:
-            return True
-        unseen = [label for label in label_set if label not in self._working_labels]
-        if not unseen:
-            return True
-        if not ws.covers(self.landmarks.label_columns(np.array(unseen, np.int64))):
-            return False
-        self._working_labels.update(unseen)
-        return True
-
     def flush(self) -> None:
         """Write the working set back into ``landmarks`` (the shared store) and drop it.
 
         ``update`` does this by itself when the robot reaches other cells; call it before
         reading ``landmarks`` directly. ``particle_map`` and ``best_map`` do not need it.
         """
-        if self._working is not None:
-            self.landmarks.scatter(self._working,
-                                   track_labels=self.config.association == "known")
-            self._working = None
+        self.working.flush()
 
     def _known_candidates(self, ws: WorkingSet, labels: np.ndarray) -> np.ndarray:
         """(K, M, 1) working-set column of the landmark carrying each observation's id (-1:
@@ -591,7 +527,7 @@ class FastSLAM:
             indices = RESAMPLERS[self.config.resampling](weights, self.rng)
             self.poses = self.poses[indices]
             self.landmarks.resample(indices)
-            self._working = self._working.take(indices)
+            self.working.resample(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
             if self.config.best_particle == "central":
@@ -661,7 +597,7 @@ class FastSLAM:
     def particle_map(self, particle: int):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle's
         landmarks: the store's, with the working set's in place of the cells it holds."""
-        ws = self._working
+        ws = self.working.current
         if ws is None:
             return self.landmarks.particle_map(particle)
         stored = self.landmarks.particle_map(particle, skip_columns=ws.columns[particle])
