@@ -24,6 +24,8 @@ setup(
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
         "test": ["pytest>=7", "pytest-timeout>=2", "hypothesis>=6", "ruff>=0.5"],
+        # The compiled backend of the core (``backend: auto`` uses it when installed).
+        "fast": ["numba>=0.59"],
     },
     zip_safe=True,
     maintainer="fastslam_ros maintainers",

@@ -289,11 +289,15 @@ class FastSLAMNode(Node):
         self.add_on_set_parameters_callback(self._check_parameter_change)
         self.add_post_set_parameters_callback(self._apply_parameter_change)
 
+        started = time.perf_counter()
         self.slam = FastSLAM(self.config)
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
-        feeds it."""
+        feeds it. Built before the subscriptions: the compiled backend is ready (compiled or
+        loaded from its cache) before the first message."""
         self._initial_pose: tuple[np.ndarray, np.ndarray] | None = None
         """A pose given on ``initialpose`` before the first odometry, applied with it."""
+        self.get_logger().info(f"core backend {self.slam.backend} ready in "
+                               f"{time.perf_counter() - started:.1f} s")
         self._odometry = OdometryHistory()
         self._odometry_correction = np.zeros(3)
         """Pose of the raw odometry frame in the odometry frame the filter follows: it bridges

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from fastslam_ros.core.config import numba_available
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -24,3 +26,11 @@ def dataset_dir():
                         "shared/datasets beside the repository)")
         return path
     return get
+
+
+@pytest.fixture(params=["numpy", pytest.param("numba", marks=pytest.mark.skipif(
+    not numba_available(), reason="numba is not installed (pip install numba): the compiled "
+    "backend cannot run, the numpy one is tested"))])
+def backend(request) -> str:
+    """Each filter test runs on the numpy reference and on the compiled backend."""
+    return request.param

@@ -257,15 +257,20 @@ def test_bench_prints_and_writes_its_figures(tmp_path, capsys):
     """A tiny run of every part: the rows it promises, with positive rates and best >= median
     (figures themselves are not asserted: speed belongs to the benchmark, not to tests)."""
     figures = tmp_path / "bench.json"
-    assert bench.main(["--particles", "10", "--steps", "30", "--repeat", "2",
-                       "--json", str(figures)]) == 0
+    assert bench.main(["--particles", "10", "--steps", "30", "--repeat", "2", "--backend",
+                       "numpy", "--sweep", "5,10", "--json", str(figures)]) == 0
     printed = capsys.readouterr().out
     assert "### Throughput" in printed and "### Landmark store memory" in printed
+    assert "### Fit per reading" in printed
     results = json.loads(figures.read_text())
-    assert {(r["algorithm"], r["association"]) for r in results["throughput"]} == {
-        (a, m) for a in ("fastslam1", "fastslam2") for m in ("ml", "known")}
+    assert {(r["algorithm"], r["association"], r["backend"]) for r in results["throughput"]} == {
+        (a, m, "numpy") for a in ("fastslam1", "fastslam2")
+        for m in ("ml", "known", "monte_carlo", "two_gate")}
     for row in results["throughput"]:
         assert row["runs"] == 2 and row["obs_per_s_best"] >= row["obs_per_s_median"] > 0
+    assert [r["particles"] for r in results["sweep"]] == [5, 10]
+    assert results["fit"][0]["backend"] == "numpy"
+    assert [r["landmarks"] for r in results["scaling"]][-1] > 40000
     assert [r["landmarks"] for r in results["memory"]] == [10000, 50000]
     assert all(r["ratio"] < 1.0 for r in results["memory"])
 

@@ -9,10 +9,21 @@ from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools.synthetic import make_world
 
 
+BACKEND = {"name": "numpy"}
+"""The backend ``config`` builds the filters of the running test with."""
+
+
+@pytest.fixture(autouse=True)
+def on_each_backend(backend, monkeypatch):
+    """Every behaviour test runs on the numpy reference and on the compiled backend."""
+    monkeypatch.setitem(BACKEND, "name", backend)
+
+
 def config(**changes) -> FastSLAMConfig:
     base = FastSLAMConfig(num_particles=50, sigma_range=0.1, sigma_bearing=0.02,
                           alpha1=0.01, alpha2=0.0005, alpha3=0.01, alpha4=0.001,
-                          max_range=12.0, new_landmark_likelihood=1e-3, seed=1)
+                          max_range=12.0, new_landmark_likelihood=1e-3, seed=1,
+                          backend=BACKEND["name"])
     return base.replace(**changes)
 
 

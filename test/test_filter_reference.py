@@ -50,14 +50,16 @@ def sorted_map(means, covs, logodds, labels):
                          [case + (None,) for case in CASES]
                          + [case + (ROBUST,) for case in ROBUST_CASES]
                          + [("fastslam2", "monte_carlo", 5.0, ROBUST)])
-def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush, extra):
+def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush, extra,
+                                             backend):
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
-    config = small_config(algorithm, association, flush, extra)
+    config = small_config(algorithm, association, flush, {**(extra or {}), "backend": backend})
     start = world.steps[0].truth
     monkeypatch.setattr(fastslam_module, "MAX_PRIOR_HEADING_SIGMA", MAX_PRIOR_HEADING_SIGMA)
     fast = FastSLAM(config, rng=np.random.default_rng(11), initial_pose=start)
+    assert fast.backend == backend
     slow = ReferenceFastSLAM(config, np.random.default_rng(11), start, MAX_PRIOR_HEADING_SIGMA)
     previous = world.steps[0].odometry
     created = resampled = 0

@@ -19,6 +19,7 @@ ASSOCIATION_MODES = ("known", "ml", "monte_carlo", "two_gate")
 RESAMPLING_SCHEMES = ("systematic", "stratified", "residual", "multinomial")
 BEST_PARTICLE_RULES = ("heaviest", "central")
 MODES = ("mapping", "localization")
+BACKENDS = ("auto", "numpy", "numba")
 
 TWO_PI = 2.0 * math.pi
 LOGODDS_MAX = 10.0
@@ -141,6 +142,10 @@ class FastSLAMConfig:
         low=MIN_CELL_SIZE, high=1e4)
     seed: int = parameter(-1, "Seed of the random generator; -1 draws one from the OS.",
                           low=-1, high=2**31 - 1)
+    backend: str = parameter(
+        "auto", "Per-reading math: numpy (the reference), numba (compiled, parallel over "
+        "particles; the same results; needs the fast extra) or auto (numba when installed).",
+        choices=BACKENDS)
 
     def validate(self) -> "FastSLAMConfig":
         """Raise ``ParameterValueError`` naming the bad field(s); return self when all are good.
@@ -160,8 +165,19 @@ class FastSLAMConfig:
              "min_range < max_range")
         need(self.logodds_remove < self.logodds_observed, ("logodds_remove", "logodds_observed"),
              "logodds_remove < logodds_observed")
+        need(self.backend != "numba" or numba_available(), ("backend",),
+             "numpy or auto when numba is not installed (pip install numba)")
         return self
 
     def replace(self, **changes) -> "FastSLAMConfig":
         """A validated copy with some fields changed."""
         return dataclasses.replace(self, **changes).validate()
+
+
+def numba_available() -> bool:
+    """numba can be imported (the compiled backend's optional dependency)."""
+    try:
+        import numba  # noqa: F401, PLC0415
+    except ImportError:
+        return False
+    return True

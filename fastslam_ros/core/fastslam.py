@@ -25,10 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import association as assoc
-from .config import LOGODDS_MAX, FastSLAMConfig
+from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
 from .geometry import compose, relative_pose, wrap_angle
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
+from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
 from .path_history import PathHistory
@@ -43,10 +44,7 @@ MAX_PRIOR_HEADING_SIGMA = 0.3
 """FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so the
 proposal sees all of its uncertainty; once its heading standard deviation exceeds this (rad)
 the particles are sampled from it, before the proposal's linearisation fails."""
-NEW_SLOTS_PER_OBSERVATION = 3
-"""Free working-set columns per observation of the reading that gathers it: each observation
-that creates a landmark (in any particle) takes one, and a full working set is gathered
-again."""
+_NO_DRAWS = np.zeros(0)
 
 
 @dataclass
@@ -101,7 +99,21 @@ class FastSLAM:
         self._seed: tuple[np.ndarray, ...] | None = None
         self.num_recoveries = 0
         """Updates after which ``check_state`` found a non-finite state and repaired it."""
+        self.kernels = self._load_kernels()
+        """The compiled backend (``core.kernels``) when it runs, else None (numpy)."""
+        self.backend = "numpy" if self.kernels is None else "numba"
         self.reset(initial_pose)
+
+    def _load_kernels(self):
+        """``core.kernels``, compiled (or loaded from cache) now, when ``backend`` asks for it
+        and the configuration is one it covers; None: the numpy path."""
+        config = self.config
+        if config.backend == "numpy" or (config.backend == "auto" and not numba_available()):
+            return None
+        from . import kernels  # noqa: PLC0415 (optional dependency)
+        kernels.warm_up()
+        kernels.use_threads(config.num_particles)
+        return kernels
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, initial_pose=(0.0, 0.0, 0.0)) -> None:
@@ -109,11 +121,8 @@ class FastSLAM:
         count = self.config.num_particles
         self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
         self.log_weights = np.full(count, -np.log(count))
-        self._working: WorkingSet | None = None
         self._seed_landmarks()
         self.history = PathHistory(count)
-        self._working_box = (0, 0, 0, 0)
-        self._working_labels: set[int] = set()
         self._pending = np.zeros(3)
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
@@ -141,13 +150,15 @@ class FastSLAM:
             logodds = np.minimum(np.log(probability / (1.0 - probability)), LOGODDS_MAX)
         packed = pack(np.asarray(covariances, dtype=float).reshape(count, 2, 2))
         self._seed = (means, packed, labels, logodds)
-        self._working = None
         self._seed_landmarks()
 
     def _seed_landmarks(self) -> None:
-        """A fresh landmark store holding the seeded map (if any) in every particle."""
+        """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
+        in every particle."""
         count = self.num_particles
         self.landmarks = LandmarkStore(count, self.config.cell_size)
+        self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
+        """The landmarks near the robot that readings work on (kept across readings)."""
         if self._seed is None or len(self._seed[0]) == 0:
             return
         means, packed, labels, logodds = self._seed
@@ -202,7 +213,8 @@ class FastSLAM:
             return
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
-        self._prior = propagate_gaussian(mean, cov, control, variances)
+        propagate = propagate_gaussian if self.kernels is None else self.kernels.propagate_gaussian
+        self._prior = propagate(mean, cov, control, variances)
         if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
@@ -211,7 +223,8 @@ class FastSLAM:
         """Draw every particle's pose from its Gaussian prior, which is then consumed."""
         mean, cov = self._prior
         self._prior = None
-        sampled = sample_pose(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
+        sample = sample_pose if self.kernels is None else self.kernels.sample_pose
+        sampled = sample(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
         sampled[:, 2] = wrap_angle(sampled[:, 2])
         return sampled
 
@@ -239,11 +252,14 @@ class FastSLAM:
         bearings = wrap_angle(bearings)
 
         fastslam2 = self.config.algorithm == "fastslam2"
+        if self.kernels is not None:
+            self.kernels.use_threads(self.num_particles)
         self._advance_motion()
         proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
                                                                                     None)
 
-        ws = self._working_set(proposal_mean, ranges, labels if known else None)
+        ws = self.working.for_reading(proposal_mean, self._reach(ranges), len(ranges),
+                                      labels if known else None)
         choices, log_factors, robust, inverse_q = self._associate(
             ws, proposal_mean, proposal_cov, ranges, bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
@@ -264,7 +280,7 @@ class FastSLAM:
         self.num_updates += 1
         report = self._finish_update(ws, choices, creating)
         # This reading's new-landmark columns now hold landmarks (in some particles).
-        self._working.first_new_slot += int(creating.any(axis=1).sum())
+        self.working.created(int(creating.any(axis=1).sum()))
         self.check_state()
         return report
 
@@ -276,74 +292,13 @@ class FastSLAM:
         return (self.noise_diag[0] + (self.config.sigma_range_per_meter * ranges) ** 2,
                 self.noise_diag[1])
 
-    def _working_set(self, poses: np.ndarray, ranges: np.ndarray, labels) -> WorkingSet:
-        """Every particle's landmarks in the cells the sensor can reach from ``poses``, with a
-        free column per observation for new landmarks.
-
-        The working set of the previous reading is reused while it still holds those cells (and,
-        with known ids, the cells of the observed ids) and has free columns; otherwise it is
-        written back and a new one gathered. So the robot pays for gathering and writing back
-        once per cell change, not once per reading.
-        """
-        reach = self._reach(ranges)
-        low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
-        store = self.landmarks
-        box = store.cell_box(low, high)
-        # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
-        label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
-                     else None)
-        ws = self._working
-        if ws is not None:
-            # Cells are only registered when the working set is written back, so a box of
-            # cells inside the gathered box holds no cell the working set lacks.
-            gathered = self._working_box
-            inside = (box[0] >= gathered[0] and box[1] >= gathered[1]
-                      and box[2] <= gathered[2] and box[3] <= gathered[3])
-            if inside and ws.free_slots >= len(ranges) and self._holds_labels(ws, label_set):
-                return ws
-            # Writing back registers the cells of new landmarks: look the region up after it.
-            self.flush()
-        region = store.columns_in_box(low, high)
-        # Known ids: also the cells holding each observed id, wherever it lies.
-        extra = (store.label_columns(np.array(label_set, np.int64)) if label_set is not None
-                 else None)
-        columns = np.broadcast_to(region, (self.num_particles, len(region)))
-        if extra is not None:
-            in_region = np.zeros(max(store.num_cells, 1), dtype=bool)
-            in_region[region] = True
-            extra = np.where((extra >= 0) & ~in_region[np.maximum(extra, 0)], extra, -1)
-            extra = np.sort(extra, axis=1)
-            extra[:, 1:][extra[:, 1:] == extra[:, :-1]] = -1
-            columns = np.concatenate([columns, extra], axis=1)
-        self._working = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
-                                     * max(len(ranges), 1))
-        self._working_box = box
-        self._working_labels = set() if label_set is None else set(label_set)
-        return self._working
-
-    def _holds_labels(self, ws: WorkingSet, label_set) -> bool:
-        """Known ids: every particle's landmark with one of these labels is in the working set
-        (or not in the store). Each label is looked up once per working set."""
-        if label_set is None:
-            return True
-        unseen = [label for label in label_set if label not in self._working_labels]
-        if not unseen:
-            return True
-        if not ws.covers(self.landmarks.label_columns(np.array(unseen, np.int64))):
-            return False
-        self._working_labels.update(unseen)
-        return True
-
     def flush(self) -> None:
         """Write the working set back into ``landmarks`` (the shared store) and drop it.
 
         ``update`` does this by itself when the robot reaches other cells; call it before
         reading ``landmarks`` directly. ``particle_map`` and ``best_map`` do not need it.
         """
-        if self._working is not None:
-            self.landmarks.scatter(self._working,
-                                   track_labels=self.config.association == "known")
-            self._working = None
+        self.working.flush()
 
     def _known_candidates(self, ws: WorkingSet, labels: np.ndarray) -> np.ndarray:
         """(K, M, 1) working-set column of the landmark carrying each observation's id (-1:
@@ -375,6 +330,11 @@ class FastSLAM:
         config = self.config
         count = len(ranges)
         mode = config.association
+        if self.kernels is not None:
+            choice, log_factor, inverse_q = self._associate_compiled(ws, mean, cov, ranges,
+                                                                     bearings, labels)
+            return assoc.reject_outliers(choice, log_factor, config.outlier_probability,
+                                         self._log_outlier) + (inverse_q,)
         if mode == "known":
             candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
             if cov is not None and config.outlier_probability == 0.0:
@@ -386,9 +346,9 @@ class FastSLAM:
             landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
-            kept = self._columns_in_reach(ws, mean, ranges)
+            kept, near = self._columns_in_reach(ws, mean, ranges)
             landmark = ws.state[:, kept][None]                               # (1, M, E, 6)
-            valid = ws.valid[:, kept][None]
+            valid = near[:, kept][None]
         # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
         landmark_x = np.where(valid, landmark[..., 0], mean[:, 0, None] + 1.0)
         landmark_y = np.where(valid, landmark[..., 1], mean[:, 1, None])
@@ -426,17 +386,36 @@ class FastSLAM:
                                      config.outlier_probability,
                                      self._log_outlier) + (inverse_q.reshape(grid),)
 
+    def _associate_compiled(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
+                            bearings: np.ndarray, labels: np.ndarray):
+        """``_associate`` on the compiled backend: (choices, log factors, log(1 / q)) (K, M)
+        before the outlier test, on the same draws as the numpy path."""
+        config = self.config
+        mode = config.association
+        known = mode == "known"
+        reach = self._reach(ranges)
+        kept = np.zeros(0, np.int64) if known else self.kernels.columns_in_reach(ws, mean, reach)
+        draws = (self.rng.random(len(ranges) * self.num_particles) if mode == "monte_carlo"
+                 else _NO_DRAWS)
+        score_known = not (cov is not None and config.outlier_probability == 0.0)
+        return self.kernels.associate_reading(
+            ws, kept, reach, mean, cov, ranges, bearings, labels, self._noise(ranges),
+            self.offset, mode, self._log_p0, config.association_gate, config.new_landmark_gate,
+            draws, score_known)
+
     def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
         """Working-set columns (of the landmarks that existed before this reading) holding a
-        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose: the
-        working set holds whole cells of a box around all particles, about twice the area."""
+        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose (the
+        working set holds whole cells of a box around all particles, about twice the area),
+        and which particle's entries are in reach (M, existing): only those are candidates."""
         existing = ws.first_new_slot
         reach = self._reach(ranges)
         dx = ws.mean[:, :existing, 0] - poses[:, 0, None]
         dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
         near = dx * dx
         near += dy * dy
-        return (ws.valid[:, :existing] & (near <= reach * reach)).any(axis=0).nonzero()[0]
+        near = ws.valid[:, :existing] & (near <= reach * reach)
+        return near.any(axis=0).nonzero()[0], near
 
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
@@ -450,7 +429,12 @@ class FastSLAM:
         used = choices >= 0
         if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
+        if self.kernels is None:
+            propose, landmarks = observation_proposal, ws.records_at(choices)
+        else:
+            propose, landmarks = (self.kernels.observation_proposal,
+                                  self.kernels.records_at(ws, choices))
+        return propose(mean, cov, landmarks, ranges[:, None],
                                     bearings[:, None], used, self.offset,
                                     self._noise(ranges[:, None]))
 
@@ -501,6 +485,14 @@ class FastSLAM:
         column[creators] = first_new + np.arange(len(creators))
         if repeated is not None:
             choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
+        if self.kernels is not None:
+            created = int(creating.sum())
+            first_key = int(self.landmarks.new_keys(created)[0]) if created else 0
+            self.kernels.apply_observations(ws, observed, choices, creating, column, first_key,
+                                            self.poses, ranges, bearings, labels,
+                                            self._noise(ranges), self.offset,
+                                            config.logodds_observed, LOGODDS_MAX)
+            return creating
         obs, particle = creating.nonzero()
         if len(obs):
             slot = column[obs]
@@ -548,6 +540,9 @@ class FastSLAM:
         config = self.config
         if config.logodds_missed == 0.0:
             return
+        if self.kernels is not None:
+            self.kernels.missed_evidence(ws, observed, self.poses, self.offset, config)
+            return
         # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
         existing = slice(0, ws.first_new_slot)
         mean = ws.mean[:, existing]
@@ -580,7 +575,7 @@ class FastSLAM:
             indices = RESAMPLERS[self.config.resampling](weights, self.rng)
             self.poses = self.poses[indices]
             self.landmarks.resample(indices)
-            self._working = self._working.take(indices)
+            self.working.resample(indices)
             self.history.resample(indices)
             self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
             if self.config.best_particle == "central":
@@ -612,7 +607,7 @@ class FastSLAM:
         poison every later one. With no finite particle left the filter resets at the best
         particle's last finite pose (the map is lost).
         """
-        ws, count = self._working, self.num_particles
+        ws, count = self.working.current, self.num_particles
         bad = ~np.isfinite(self.poses).all(axis=1)
         if self._prior is not None:
             bad |= ~(np.isfinite(self._prior[0]).all(axis=1)
@@ -637,8 +632,7 @@ class FastSLAM:
         if self._prior is not None:
             self._prior = (self._prior[0][indices], self._prior[1][indices])
         self.landmarks.resample(indices)
-        if ws is not None:
-            self._working = ws.take(indices)
+        self.working.resample(indices)
         self.history.resample(indices)
         self.log_weights = np.full(count, -np.log(count))
         if bad[self._best]:
@@ -687,7 +681,7 @@ class FastSLAM:
     def particle_map(self, particle: int):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle's
         landmarks: the store's, with the working set's in place of the cells it holds."""
-        ws = self._working
+        ws = self.working.current
         if ws is None:
             return self.landmarks.particle_map(particle)
         stored = self.landmarks.particle_map(particle, skip_columns=ws.columns[particle])

@@ -1,0 +1,92 @@
+"""The compiled backend against the numpy one at a larger M, and the core without numba."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from fastslam_ros.core.config import numba_available
+from fastslam_ros.tools.synthetic import make_world
+
+from conftest import REPO_ROOT
+
+needs_numba = pytest.mark.skipif(not numba_available(),
+                                 reason="numba is not installed: no compiled backend to compare")
+
+
+@needs_numba
+@pytest.mark.parametrize("algorithm", ["fastslam1", "fastslam2"])
+@pytest.mark.parametrize("association", ["known", "ml", "monte_carlo", "two_gate"])
+def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association):
+    """Same draws: identical associations, creations, removals and resampling; floats 1e-9."""
+    world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=60, max_range=9.0,
+                       clutter_per_step=0.5, detection_probability=0.85)
+    base = FastSLAMConfig(num_particles=150, algorithm=algorithm, association=association,
+                          sigma_range=0.1, sigma_bearing=0.02, max_range=9.0, cell_size=5.0,
+                          new_landmark_likelihood=1e-3, sensor_x=0.2, resample_threshold=0.8,
+                          logodds_missed=-0.7, logodds_remove=-1.0)
+    filters = [FastSLAM(base.replace(backend=name), rng=np.random.default_rng(4),
+                        initial_pose=world.steps[0].truth) for name in ("numpy", "numba")]
+    assert [slam.backend for slam in filters] == ["numpy", "numba"]
+    previous = world.steps[0].odometry
+    resampled = 0
+    for k, step in enumerate(world.steps[1:]):
+        ids = step.ids if association != "known" else np.maximum(step.ids, 0)
+        reports = []
+        for slam in filters:
+            slam.predict(previous, step.odometry)
+            reports.append(slam.update(step.ranges, step.bearings, ids, stamp=float(k)))
+        previous = step.odometry
+        numpy_report, numba_report = reports
+        np.testing.assert_array_equal(numpy_report.associated_ids, numba_report.associated_ids)
+        np.testing.assert_array_equal(numpy_report.is_new, numba_report.is_new)
+        assert numpy_report.resampled == numba_report.resampled
+        resampled += numpy_report.resampled
+        np.testing.assert_allclose(filters[0].poses, filters[1].poses, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(filters[0].log_weights, filters[1].log_weights, atol=1e-9,
+                                   rtol=0)
+    assert resampled > 0
+    for m in range(0, base.num_particles, 7):
+        # Same landmarks (creations and removals), same keys, same estimates.
+        numpy_map, numba_map = (slam.particle_map(m) for slam in filters)
+        order = [np.argsort(keys) for keys in (numpy_map[4], numba_map[4])]
+        for a, b in zip(numpy_map, numba_map):
+            np.testing.assert_allclose(a[order[0]], b[order[1]], atol=1e-9, rtol=0)
+
+
+def test_core_runs_without_numba():
+    """numba hidden: ``auto`` runs numpy, ``numba`` fails naming the parameter."""
+    script = (
+        "import sys; sys.modules['numba'] = None\n"
+        "from fastslam_ros.core import FastSLAM, FastSLAMConfig\n"
+        "slam = FastSLAM(FastSLAMConfig(num_particles=5, seed=1))\n"
+        "slam.update([2.0], [0.1])\n"
+        "assert slam.backend == 'numpy' and 'fastslam_ros.core.kernels' not in sys.modules\n"
+        "try:\n"
+        "    FastSLAMConfig(backend='numba').validate()\n"
+        "except ValueError as error:\n"
+        "    assert str(error).startswith('backend:'), error\n"
+        "else:\n"
+        "    raise AssertionError('backend numba accepted without numba')\n")
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
+                   env={"PYTHONPATH": str(REPO_ROOT), "PATH": "/usr/bin:/bin"})
+
+
+@needs_numba
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs /proc as an unwritable folder")
+def test_compiled_backend_runs_with_an_unwritable_cache_folder():
+    """A cache folder that cannot be written (as on a read-only install): numba falls back
+    to its next cache location, and the filter still runs compiled."""
+    script = (
+        "from fastslam_ros.core import FastSLAM, FastSLAMConfig\n"
+        "slam = FastSLAM(FastSLAMConfig(num_particles=5, seed=1, backend='numba'))\n"
+        "slam.update([2.0], [0.1])\n"
+        "assert slam.backend == 'numba'\n")
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
+                   env={**os.environ, "PYTHONPATH": str(REPO_ROOT),
+                        "NUMBA_CACHE_DIR": "/proc/self/unwritable-numba-cache"})
