@@ -336,7 +336,7 @@ def test_a_non_finite_filter_state_is_repaired_and_counted(context, clean):
                 (node.on_odometry if isinstance(event.msg, Odometry)
                  else node.on_landmarks)(event.msg)
         feed(STREAM[:INJECT_AT])
-        ws = node.slam._working             # one particle's landmarks in view poisoned
+        ws = node.slam.working.current      # one particle's landmarks in view poisoned
         ws.cov[3, ws.valid[3]] = math.nan
         feed(STREAM[INJECT_AT:INJECT_AT + 40])
         assert node.stats["filter_recoveries"] == 1
