@@ -312,10 +312,10 @@ def _yaml_scalar(value: float | int | str) -> str:
 
 
 def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
-                      comment: str) -> Path:
-    """A ROS 2 parameter file (``fastslam: ros__parameters:``) holding ``params``."""
+                      comment: str, node: str = "fastslam") -> Path:
+    """A ROS 2 parameter file (``<node>: ros__parameters:``) holding ``params``."""
     lines = [f"# {line}" for line in comment.splitlines()]
-    lines += ["fastslam:", "  ros__parameters:"]
+    lines += [f"{node}:", "  ros__parameters:"]
     lines += [f"    {name}: {_yaml_scalar(value)}" for name, value in params.items()]
     path = Path(path)
     path.write_text("\n".join(lines) + "\n")
@@ -355,6 +355,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-sim``: simulate a scenario and write a schema-v1 bag plus its parameter file."""
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    if "people" in (arguments[i + 1] for i, a in enumerate(arguments[:-1]) if a == "--scenario") \
+            or "--scenario=people" in arguments:
+        from fastslam_ros.tools import people_sim
+        return people_sim.main(arguments)
     args = build_parser().parse_args(argv)
     values = {item.name: getattr(args, item.name) for item in dataclasses.fields(SimConfig)}
     try:
