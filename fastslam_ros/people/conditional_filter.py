@@ -45,6 +45,9 @@ from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_l
                                               sensor_poses)
 from fastslam_ros.people.settings import TrackerSettings
 
+MISSED_PARTICLE_WEIGHT = 0.1
+"""Relative weight of a person particle in seen free space (1 - detection probability there)."""
+RESAMPLE_MISSED = False
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
@@ -288,24 +291,40 @@ class PeopleTracker:
 
     def _missed_evidence(self, sensors: np.ndarray, scan: Scan, observed: np.ndarray,
                          max_range: float) -> np.ndarray:
-        """Existence update of every live person; returns the people removed per particle."""
+        """Negative information: update the people not detected; returns the people removed
+        per robot particle.
+
+        A person particle lies in seen free space when it is in the perceptual range and the
+        beam toward it passed more than ``person_radius`` beyond it. Such particles are
+        weighed by MISSED_PARTICLE_WEIGHT and the person's particles resampled, so that an
+        occluded person's particles move into the space the robot cannot see (behind a wall,
+        behind another person); a person most of whose particles lie in seen free space is in
+        view and was not detected: tau- (an occluded one gets nothing).
+        """
         s = self.settings
-        mean = self.people.mean(axis=2)
-        dx = mean[..., 0] - sensors[:, 0:1]
-        dy = mean[..., 1] - sensors[:, 1:2]
-        distance = np.hypot(dx, dy)
-        bearing = np.arctan2(dy, dx) - sensors[:, 2:3]
-        in_view = self.alive & ~observed & in_perceptual_range(
-            distance, bearing, s.min_range, max_range - s.occlusion_margin)
-        # The beams toward the person's centre and its two edges must all pass beyond it.
-        half_width = np.arctan2(s.person_radius, np.maximum(distance, s.person_radius))
-        measured = np.where(np.isfinite(scan.ranges) & (scan.ranges >= s.min_range),
-                            scan.ranges, np.inf)
-        passed = np.ones_like(in_view)
-        for side in (-1.0, 0.0, 1.0):
-            beam = scan.beam_index(bearing + side * half_width)
-            passed &= measured[beam] > distance + s.occlusion_margin
-        missed = in_view & passed
+        m, n = np.nonzero(self.alive & ~observed)
+        if len(m):
+            particles = self.people[m, n]                              # (K, M_p, 2)
+            dx = particles[..., 0] - sensors[m, None, 0]
+            dy = particles[..., 1] - sensors[m, None, 1]
+            distance = np.hypot(dx, dy)
+            bearing = np.arctan2(dy, dx) - sensors[m, None, 2]
+            measured = np.where(np.isfinite(scan.ranges) & (scan.ranges >= s.min_range),
+                                scan.ranges, np.inf)[scan.beam_index(bearing)]
+            seen_free = in_perceptual_range(distance, bearing, s.min_range, max_range) & (
+                measured > distance + s.person_radius)
+            fraction = seen_free.mean(axis=1)
+            partly = (fraction > 0.0) & (fraction < 1.0) & RESAMPLE_MISSED
+            if partly.any():
+                weights = np.where(seen_free[partly], MISSED_PARTICLE_WEIGHT, 1.0)
+                weights /= weights.sum(axis=1, keepdims=True)
+                index = batched_systematic_resample(weights, self.rng)
+                self.people[m[partly], n[partly]] = np.take_along_axis(
+                    particles[partly], index[..., None], axis=1)
+            missed = np.zeros_like(observed)
+            missed[m, n] = fraction >= 0.5
+        else:
+            missed = np.zeros_like(observed)
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
         gone = self.alive & removed(self.logodds, s.logodds_remove)

@@ -547,6 +547,9 @@ def main(argv: list[str] | None = None) -> int:
                              "the distances; auto: by id only for a run with known association "
                              "[auto]")
     args = parser.parse_args(argv)
+    from fastslam_ros.tools import people_eval
+    if args.out.exists() and people_eval.is_people_run(bag_topics(args.out)):
+        return people_eval.main(argv)
     try:
         run = load_run(args.out, args.ground_truth)
     except (FileNotFoundError, OSError, ValueError) as error:

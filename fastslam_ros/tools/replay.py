@@ -45,7 +45,7 @@ INFO_TOPIC = "/fastslam_replay/info"
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
-NODE_SECTIONS = ("/**", "**", "fastslam", "/fastslam")
+NODE_SECTIONS = ("/**", "**", "fastslam", "/fastslam", "people_tracker", "/people_tracker")
 """Sections of a ROS 2 parameter file that apply to the node, later ones winning."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
@@ -340,6 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-record", action="store_true", help="do not write an output bag")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
+    parser.add_argument("--node", choices=("fastslam", "people_tracker"), default="fastslam",
+                        help="the node to replay the bag through [fastslam]")
     args = parser.parse_args(argv)
     try:
         params = dict(parse_assignment(text) for text in args.assignments)
@@ -349,8 +351,11 @@ def main(argv: list[str] | None = None) -> int:
         params["seed"] = args.seed
     out = None if args.no_record else (args.out or args.bag.with_name(args.bag.name + "_out"))
     try:
-        result = replay_bag(args.bag, params, args.params, out,
-                            progress=args.progress or sys.stderr.isatty())
+        replay = replay_bag
+        if args.node == "people_tracker":
+            from fastslam_ros.tools.people_replay import replay_people_bag as replay
+        result = replay(args.bag, params, args.params, out,
+                        progress=args.progress or sys.stderr.isatty())
     except (FileNotFoundError, SchemaError, ValueError, OSError) as error:
         print(f"fastslam-replay: {error}", file=sys.stderr)
         return 1
