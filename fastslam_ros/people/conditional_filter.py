@@ -45,9 +45,14 @@ from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_l
                                               sensor_poses)
 from fastslam_ros.people.settings import TrackerSettings
 
-MISSED_PARTICLE_WEIGHT = 0.1
-"""Relative weight of a person particle in seen free space (1 - detection probability there)."""
-RESAMPLE_MISSED = False
+MISSED_FRACTION = 0.5
+"""A person with at least this fraction of its particles in seen free space is in view."""
+GLOBAL_TEMPERING = 0.2
+"""Exponent of the likelihood field while localizing globally: the beams of one scan are far
+from independent, and at full strength one reading picks a single hypothesis of thousands."""
+CONVERGED_UPDATES = 20
+"""Readings the particles' spread must stay below converged_spread to end global
+localization (2 s at 10 Hz)."""
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
@@ -112,16 +117,19 @@ class PeopleTracker:
 
     # --- state --------------------------------------------------------------------------------
 
-    def _allocate(self, poses: np.ndarray) -> None:
-        """Robot particles at ``poses`` with equal weights and no people."""
+    def _allocate(self, poses: np.ndarray, people: bool = True) -> None:
+        """Robot particles at ``poses`` with equal weights and no people (and no person slots
+        at all without ``people``: global localization)."""
         s = self.settings
         count = len(poses)
+        self._converging = 0
         self.poses = np.asarray(poses, dtype=float)
         self.log_weights = np.full(count, -math.log(count) if count else 0.0)
-        self.people = np.zeros((count, s.max_people, s.people_particles, 2))
-        self.alive = np.zeros((count, s.max_people), dtype=bool)
-        self.logodds = np.zeros((count, s.max_people))
-        self.keys = np.full((count, s.max_people), -1, dtype=np.int64)
+        slots = s.max_people if people else 0
+        self.people = np.zeros((count, slots, s.people_particles, 2))
+        self.alive = np.zeros((count, slots), dtype=bool)
+        self.logodds = np.zeros((count, slots))
+        self.keys = np.full((count, slots), -1, dtype=np.int64)
 
     @property
     def num_particles(self) -> int:
@@ -144,7 +152,7 @@ class PeopleTracker:
             raise ValueError("no map: set_map() first")
         s = self.settings
         if pose is None:
-            self._allocate(sample_free_poses(self.grid, s.global_particles, self.rng))
+            self._allocate(sample_free_poses(self.grid, s.global_particles, self.rng), False)
             self.globally_localizing = True
         else:
             covariance = np.zeros((3, 3)) if covariance is None else np.asarray(covariance)
@@ -187,6 +195,8 @@ class PeopleTracker:
         self._diffuse_people(stamp)
         max_range = min(s.max_range, scan.range_max)
         returns = scan.returns(s.min_range, s.max_range)
+        if self.globally_localizing:
+            return self._localize_globally(scan, returns, max_range)
         segments = segment_scan(scan, returns, s.segment_jump)
         angles = segments.angles
         sensors = sensor_poses(self.poses, self.offset)
@@ -210,6 +220,39 @@ class PeopleTracker:
             removed=int(removed_count[best_before]), effective_sample_size=0.0,
             resampled=False, converged=not self.globally_localizing)
         self._finish(report)
+        return report
+
+    def _localize_globally(self, scan: Scan, returns: np.ndarray, max_range: float
+                           ) -> UpdateReport:
+        """While the pose is unknown: weigh the many robot particles by the likelihood field
+        (tempered by GLOBAL_TEMPERING, as the beams are not independent), resample, and end
+        the phase once their spread stayed below ``converged_spread`` for CONVERGED_UPDATES
+        readings. People are tracked from then on."""
+        s = self.settings
+        beams = np.flatnonzero(returns)
+        beams = beams[beams % s.beam_stride == 0]
+        ends = beam_endpoints(sensor_poses(self.poses, self.offset), scan.ranges[beams],
+                              scan.angles[beams])
+        self.log_weights = self.log_weights + GLOBAL_TEMPERING * likelihood_field_log_weights(
+            self.grid.distance_at(ends), s.sigma_hit, s.z_hit, max_range)
+        self.log_weights, _ = normalize_log_weights(self.log_weights)
+        weights = np.exp(self.log_weights)
+        report = UpdateReport(0, 0, 0, 0, 0, effective_sample_size(weights), False, False)
+        mean = weights @ self.poses[:, :2]
+        spread = math.sqrt(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2, axis=1)) / 2)
+        self._converging = self._converging + 1 if spread < s.converged_spread else 0
+        if self._converging >= CONVERGED_UPDATES:
+            index = systematic_resample(weights, self.rng)
+            stride = max(1, self.num_particles // s.num_particles)
+            start = int(self.rng.integers(stride))
+            self._allocate(self.poses[index[start::stride][:s.num_particles]])
+            self.globally_localizing = False
+            report.resampled = report.converged = True
+        elif report.effective_sample_size < s.resample_threshold * self.num_particles:
+            index = systematic_resample(weights, self.rng)
+            self.poses = self.poses[index]
+            self.log_weights = np.full(len(index), -math.log(len(index)))
+            report.resampled = True
         return report
 
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
@@ -295,11 +338,10 @@ class PeopleTracker:
         per robot particle.
 
         A person particle lies in seen free space when it is in the perceptual range and the
-        beam toward it passed more than ``person_radius`` beyond it. Such particles are
-        weighed by MISSED_PARTICLE_WEIGHT and the person's particles resampled, so that an
-        occluded person's particles move into the space the robot cannot see (behind a wall,
-        behind another person); a person most of whose particles lie in seen free space is in
-        view and was not detected: tau- (an occluded one gets nothing).
+        beam toward it passed more than ``person_radius`` beyond it. A person with at least
+        MISSED_FRACTION of its particles there was in view and not detected: tau-. A person
+        behind a wall or another person has its particles where the beams ended short of
+        them: no evidence, its existence is unchanged.
         """
         s = self.settings
         m, n = np.nonzero(self.alive & ~observed)
@@ -308,21 +350,14 @@ class PeopleTracker:
             dx = particles[..., 0] - sensors[m, None, 0]
             dy = particles[..., 1] - sensors[m, None, 1]
             distance = np.hypot(dx, dy)
-            bearing = np.arctan2(dy, dx) - sensors[m, None, 2]
+            bearing = wrap_angle(np.arctan2(dy, dx) - sensors[m, None, 2])
             measured = np.where(np.isfinite(scan.ranges) & (scan.ranges >= s.min_range),
                                 scan.ranges, np.inf)[scan.beam_index(bearing)]
             seen_free = in_perceptual_range(distance, bearing, s.min_range, max_range) & (
                 measured > distance + s.person_radius)
             fraction = seen_free.mean(axis=1)
-            partly = (fraction > 0.0) & (fraction < 1.0) & RESAMPLE_MISSED
-            if partly.any():
-                weights = np.where(seen_free[partly], MISSED_PARTICLE_WEIGHT, 1.0)
-                weights /= weights.sum(axis=1, keepdims=True)
-                index = batched_systematic_resample(weights, self.rng)
-                self.people[m[partly], n[partly]] = np.take_along_axis(
-                    particles[partly], index[..., None], axis=1)
             missed = np.zeros_like(observed)
-            missed[m, n] = fraction >= 0.5
+            missed[m, n] = fraction >= MISSED_FRACTION
         else:
             missed = np.zeros_like(observed)
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
@@ -338,18 +373,6 @@ class PeopleTracker:
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
         report.effective_sample_size = effective_sample_size(weights)
-        if self.globally_localizing:
-            mean = weights @ self.poses[:, :2]
-            spread = math.sqrt(max(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2,
-                                                          axis=1)) / 2.0, 0.0))
-            if spread < s.converged_spread:
-                index = systematic_resample(weights, self.rng)
-                stride = max(1, self.num_particles // s.num_particles)
-                start = int(self.rng.integers(stride))
-                self._gather(index[start::stride][:s.num_particles])
-                self.globally_localizing = False
-                report.resampled = report.converged = True
-                return
         if report.effective_sample_size < s.resample_threshold * self.num_particles:
             self._gather(systematic_resample(weights, self.rng))
             report.resampled = True

@@ -19,9 +19,9 @@ class TrackerSettings:
 
     num_particles: int = parameter(200, "M, robot pose particles once localized.", low=1)
     global_particles: int = parameter(
-        5000, "Robot pose particles while the pose is unknown (global localization over the "
-              "free space); reduced to num_particles once their spread is below "
-              "converged_spread.", low=1)
+        20000, "Robot pose particles while the pose is unknown (global localization over the "
+               "free space, people not tracked); reduced to num_particles once their spread "
+               "stays below converged_spread.", low=1)
     converged_spread: float = parameter(
         0.5, "Position standard deviation (m) of the particles below which global "
              "localization has converged.", low=0.0, low_exclusive=True)
@@ -67,7 +67,7 @@ class TrackerSettings:
     sensor_yaw: float = parameter(0.0, "Laser yaw in the base frame (rad).", low=-math.pi,
                                   high=math.pi)
     person_diffusion: float = parameter(
-        0.6, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
+        0.4, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
              "(m/sqrt(s)).", low=0.0, low_exclusive=True)
     detection_sigma: float = parameter(0.1, "Standard deviation of a person detection per "
                                             "axis (m).", low=0.0, low_exclusive=True)
@@ -90,14 +90,10 @@ class TrackerSettings:
     logodds_observed: float = parameter(1.0, "tau+: existence log-odds added when a person is "
                                              "detected (a new person starts at it).",
                                         low=0.0, low_exclusive=True)
-    logodds_missed: float = parameter(-0.7, "tau-: added when a person in view and not occluded "
+    logodds_missed: float = parameter(-1.5, "tau-: added when a person in view and not occluded "
                                             "is not detected.", high=0.0)
     logodds_remove: float = parameter(-1.0, "A person whose log-odds fall below this is "
                                             "removed.")
-    occlusion_margin: float = parameter(
-        0.4, "A beam toward a person that ends this much (m) short of it is occluded (no "
-             "evidence); one that passes this far beyond it is evidence of absence.", low=0.0,
-        low_exclusive=True)
 
     def validate(self) -> "TrackerSettings":
         """Self when every field is in range (``ValueError`` naming the field otherwise)."""
