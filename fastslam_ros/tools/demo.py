@@ -55,7 +55,8 @@ def main(argv: list[str] | None = None) -> int:
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("--out-dir", type=Path, default=Path("fastslam_demo"),
                         help="folder for every output [fastslam_demo]")
-    parser.add_argument("--scenario", choices=SCENARIOS, default="loop", help="[loop]")
+    parser.add_argument("--scenario", choices=SCENARIOS + ("people",), default="loop",
+                        help="[loop]; people: the people tracker on a known map")
     parser.add_argument("--particles", type=int, default=100, help="number of particles [100]")
     parser.add_argument("--seed", type=int, default=0, help="simulation and filter seed [0]")
     parser.add_argument("--algorithm", choices=("fastslam1", "fastslam2"), default="fastslam2",
@@ -68,6 +69,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="show the replay progress bar even when stderr is not a terminal")
     args = parser.parse_args(argv)
     try:
+        if args.scenario == "people":
+            from fastslam_ros.tools.people_eval import run_people_demo
+            run_people_demo(args.out_dir, args.seed or 1, args.duration or 60.0,
+                            args.progress or sys.stderr.isatty())
+            return 0
         run_demo(args.out_dir, args.scenario, args.particles, args.seed, args.algorithm,
                  args.association, args.duration, args.progress or sys.stderr.isatty())
     except (ValueError, OSError) as error:

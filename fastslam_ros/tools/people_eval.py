@@ -351,6 +351,39 @@ def plot_people(plot_data: dict[str, Any], path: str | Path, title: str = "") ->
     plt.close(figure)
 
 
+def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
+                    progress: bool = False) -> dict[str, Any]:
+    """``fastslam-demo --scenario people``: simulate, replay through the node, score, plot into
+    ``out_dir`` (sim_people/, sim_people.yaml, replay/, metrics.json, summary.md,
+    result.png)."""
+    from fastslam_ros.tools.people_replay import replay_people_bag
+    from fastslam_ros.tools.people_sim import (PeopleSimConfig, recommended_params,
+                                               simulate_people, write_people_bag)
+    from fastslam_ros.tools.replay import summary_lines
+    from fastslam_ros.tools.sim import write_params_yaml
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    config = PeopleSimConfig(seed=seed, duration=duration).validate()
+    bag_path = out_dir / "sim_people"
+    write_people_bag(bag_path, simulate_people(config), config, overwrite=True)
+    params_path = write_params_yaml(out_dir / "sim_people.yaml", recommended_params(config),
+                                    f"people_tracker parameters of fastslam-demo (seed {seed}).",
+                                    node="/**")
+    result = replay_people_bag(bag_path, params_file=params_path, out_path=out_dir / "replay",
+                               progress=progress)
+    print("\n".join(summary_lines(result)), file=sys.stderr)
+    metrics, plot_data = evaluate_people_bag(out_dir / "replay")
+    table = markdown_table(metrics)
+    (out_dir / "summary.md").write_text(table + "\n")
+    (out_dir / "metrics.json").write_text(json.dumps(json_ready(metrics), indent=2) + "\n")
+    plot_people(plot_data, out_dir / "result.png",
+                title=f"people tracking, seed {seed}, {duration:g} s")
+    print(table)
+    print(f"\nfiles in {out_dir}: summary.md, metrics.json, result.png, replay/, sim_people/, "
+          "sim_people.yaml")
+    return metrics
+
+
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval OUT`` for a people-tracking run."""
     parser = argparse.ArgumentParser(prog="fastslam-eval",
