@@ -181,3 +181,21 @@ def test_read_scan_maps_invalid_ranges_to_no_return():
     np.testing.assert_array_equal(returns, [True, False, False, False, False, True])
     with pytest.raises(people_io.MalformedScanError):
         people_io.read_scan(LaserScan(angle_increment=0.0, ranges=[1.0]))
+
+
+def test_yaml_and_docs_follow_the_parameter_specs():
+    """config/people_tracker.yaml and docs/people.md list every parameter at its default."""
+    from pathlib import Path
+
+    import yaml
+
+    from fastslam_ros.people_node import parameter_specs
+    repo = Path(__file__).resolve().parents[1]
+    values = yaml.safe_load((repo / "config" / "people_tracker.yaml").read_text())
+    values = values["/**"]["ros__parameters"]
+    docs = (repo / "docs" / "people.md").read_text()
+    specs = parameter_specs()
+    assert set(values) == set(specs)
+    for name, (default, _) in specs.items():
+        assert values[name] == default, name
+        assert f"| `{name}` | {default!r} |" in docs, name

@@ -330,13 +330,14 @@ def plot_people(plot_data: dict[str, Any], path: str | Path, title: str = "") ->
             else np.ones(len(frame.ids), bool)
         for ident, position in zip(frame.ids[keep], frame.positions[keep]):
             tracks.setdefault(int(ident), []).append(position)
-    colours = plt.get_cmap("tab20")
+    palette = [plt.get_cmap("tab20")(i) for i in range(20) if i not in (14, 15)]  # no greys
     for ident, points in tracks.items():
         points = np.array(points)
         if ident < 0:
             axes.plot(points[:, 0], points[:, 1], ".", color="0.6", markersize=1)
         else:
-            axes.plot(points[:, 0], points[:, 1], ".", color=colours(ident % 20), markersize=2)
+            axes.plot(points[:, 0], points[:, 1], ".", color=palette[ident % len(palette)],
+                      markersize=2)
     truth, estimate = plot_data["truth"], plot_data["estimate"]
     axes.plot(truth.poses[:, 0], truth.poses[:, 1], "k-", linewidth=1, label="robot, truth")
     axes.plot(estimate.poses[:, 0], estimate.poses[:, 1], "r--", linewidth=1,
