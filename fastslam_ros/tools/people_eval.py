@@ -14,7 +14,8 @@ people hidden behind people out, with the tracks near them). Estimates count whe
 existence is at least ``--min-existence``. CLEAR MOT (Bernardin and Stiefelhagen 2008) with a
 match radius of 0.5 m: a match of the last frame is kept while within the radius, the rest
 are paired by optimal assignment; an identity switch is a truth person matched to another
-track than before. MOTA = 1 - (misses + false positives + switches) / truth count; MOTP is
+track than before; switches per person per minute divide by the minutes people were in
+view (truth count x frame period). MOTA = 1 - (misses + false positives + switches) / truth count; MOTP is
 the mean distance of the matches. OSPA per frame with c = 1 m and order p = 2, averaged.
 """
 from __future__ import annotations
@@ -217,12 +218,13 @@ def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: Occupa
         shown_estimates.append(shown_est)
     metrics["people_unhidden"] = clear_mot(shown_truths, shown_estimates)
     mot = clear_mot(truths, estimates)
-    minutes = (truths[-1].stamp - truths[0].stamp) / 60.0 if len(truths) > 1 else 0.0
-    people_seen = len({int(i) for f in truths for i in f.ids})
+    period = float(np.median(np.diff([f.stamp for f in truths]))) if len(truths) > 1 else 0.0
+    person_minutes = mot["truth_count"] * period / 60.0
     mot["frames"] = len(truths)
-    mot["people_seen"] = people_seen
-    mot["id_switches_per_person_minute"] = (mot["id_switches"] / (people_seen * minutes)
-                                            if people_seen and minutes else math.nan)
+    mot["people_seen"] = len({int(i) for f in truths for i in f.ids})
+    mot["person_minutes"] = person_minutes
+    mot["id_switches_per_person_minute"] = (mot["id_switches"] / person_minutes
+                                            if person_minutes else math.nan)
     metrics["people"] = mot
     metrics["ospa"] = {"mean": float(np.mean(ospas)) if ospas else math.nan,
                        "cutoff": OSPA_CUTOFF, "order": OSPA_ORDER}
