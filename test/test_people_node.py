@@ -22,7 +22,8 @@ from fastslam_ros.tools.bag_schema import cloud_to_arrays
 from fastslam_ros.tools.people_sim import cast_scan
 from test_people_core import ANGLES, room
 
-BASE = {"scan_frame": "laser", "seed": 1, "num_particles": 20, "people_particles": 20, "max_people": 4,
+BASE = {"scan_frame": "laser", "seed": 1, "num_particles": 20, "people_particles": 20,
+        "max_people": 4,
         "global_particles": 500, "use_sim_time": True}
 POSE = np.array([2.0, 5.0, 0.0])
 PERSON = np.array([6.0, 5.5])
