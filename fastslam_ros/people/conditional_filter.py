@@ -47,9 +47,15 @@ from fastslam_ros.people.settings import TrackerSettings
 
 MISSED_FRACTION = 0.5
 """A person with at least this fraction of its particles in seen free space is in view."""
-GLOBAL_TEMPERING = 0.2
+GLOBAL_TEMPERING = 0.1
 """Exponent of the likelihood field while localizing globally: the beams of one scan are far
 from independent, and at full strength one reading picks a single hypothesis of thousands."""
+MIN_CONVERGED_FIT = 0.6
+"""Global localization converges only on a pose where at least this fraction of the beams ends
+within 2 sigma_hit of a mapped obstacle; a single hypothesis that fits worse is replaced, half
+of the particles drawn again over the free space."""
+GLOBAL_CANDIDATES = 10
+"""The first reading of a global localization weighs this many times global_particles poses."""
 CONVERGED_UPDATES = 20
 """Readings the particles' spread must stay below converged_spread to end global
 localization (2 s at 10 Hz)."""
@@ -123,6 +129,7 @@ class PeopleTracker:
         s = self.settings
         count = len(poses)
         self._converging = 0
+        self._first_global_reading = not people
         self.poses = np.asarray(poses, dtype=float)
         self.log_weights = np.full(count, -math.log(count) if count else 0.0)
         slots = s.max_people if people else 0
@@ -227,19 +234,33 @@ class PeopleTracker:
         """While the pose is unknown: weigh the many robot particles by the likelihood field
         (tempered by GLOBAL_TEMPERING, as the beams are not independent), resample, and end
         the phase once their spread stayed below ``converged_spread`` for CONVERGED_UPDATES
-        readings. People are tracked from then on."""
+        readings at a pose the map explains (MIN_CONVERGED_FIT). The first reading weighs a
+        denser set of poses (``_draw_from_first_reading``). People are tracked from then on."""
         s = self.settings
         beams = np.flatnonzero(returns)
         beams = beams[beams % s.beam_stride == 0]
-        ends = beam_endpoints(sensor_poses(self.poses, self.offset), scan.ranges[beams],
-                              scan.angles[beams])
+        ranges, angles = scan.ranges[beams], scan.angles[beams]
+        if self._first_global_reading:
+            self._first_global_reading = False
+            self._draw_from_first_reading(ranges, angles, max_range)
+        ends = beam_endpoints(sensor_poses(self.poses, self.offset), ranges, angles)
+        distances = self.grid.distance_at(ends)
         self.log_weights = self.log_weights + GLOBAL_TEMPERING * likelihood_field_log_weights(
-            self.grid.distance_at(ends), s.sigma_hit, s.z_hit, max_range)
+            distances, s.sigma_hit, s.z_hit, max_range)
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
         report = UpdateReport(0, 0, 0, 0, 0, effective_sample_size(weights), False, False)
         mean = weights @ self.poses[:, :2]
         spread = math.sqrt(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2, axis=1)) / 2)
+        fit = float(np.mean(distances[int(np.argmax(weights))] < 2.0 * s.sigma_hit)) \
+            if distances.shape[1] else 0.0
+        if spread < s.converged_spread and fit < MIN_CONVERGED_FIT:
+            # one hypothesis left, and the map does not explain its scan: look again elsewhere
+            fresh = self.rng.random(self.num_particles) < 0.5
+            self.poses[fresh] = sample_free_poses(self.grid, int(fresh.sum()), self.rng)
+            self.log_weights = np.full(self.num_particles, -math.log(self.num_particles))
+            self._converging = 0
+            return report
         self._converging = self._converging + 1 if spread < s.converged_spread else 0
         if self._converging >= CONVERGED_UPDATES:
             index = systematic_resample(weights, self.rng)
@@ -254,6 +275,26 @@ class PeopleTracker:
             self.log_weights = np.full(len(index), -math.log(len(index)))
             report.resampled = True
         return report
+
+    def _draw_from_first_reading(self, ranges: np.ndarray, angles: np.ndarray,
+                                 max_range: float) -> None:
+        """Replace the uniform start by GLOBAL_CANDIDATES times as many uniform poses weighed
+        by the first reading and resampled to ``global_particles``: the pose space is covered
+        that much more densely once, at the cost of one weighing."""
+        s = self.settings
+        count = self.num_particles
+        candidates = sample_free_poses(self.grid, GLOBAL_CANDIDATES * count, self.rng)
+        log_weights = np.concatenate([
+            GLOBAL_TEMPERING * likelihood_field_log_weights(
+                self.grid.distance_at(beam_endpoints(sensor_poses(part, self.offset), ranges,
+                                                     angles)),
+                s.sigma_hit, s.z_hit, max_range)
+            for part in np.array_split(candidates, GLOBAL_CANDIDATES)])
+        weights = np.exp(normalize_log_weights(log_weights)[0])
+        index = systematic_resample(weights, self.rng)
+        start = int(self.rng.integers(GLOBAL_CANDIDATES))
+        self.poses = candidates[index[start::GLOBAL_CANDIDATES][:count]]
+        self.log_weights = np.full(count, -math.log(count))
 
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
         """Mean (M, N, 2) and covariance (M, N, 2, 2) of every person's particles."""
