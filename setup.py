@@ -35,6 +35,7 @@ setup(
     entry_points={
         "console_scripts": [
             "fastslam_node = fastslam_ros.node:main",
+            "people_tracker_node = fastslam_ros.people_node:main",
             "fastslam-sim = fastslam_ros.tools.sim:main",
             "fastslam-replay = fastslam_ros.tools.replay:main",
             "fastslam-play = fastslam_ros.tools.play:main",

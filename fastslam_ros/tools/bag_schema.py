@@ -306,13 +306,21 @@ def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False
 
 
 def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
-                     overwrite: bool = False, inputs: Iterable[str | Path] = ()) -> Path:
-    """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``)."""
+                     overwrite: bool = False,
+                     extra: Iterable[tuple[str, str, int, bytes]] = (),
+                     inputs: Iterable[str | Path] = ()) -> Path:
+    """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``);
+    ``extra`` adds serialized messages (topic, msgtype, stamp ns, CDR bytes) of other topics;
+    ``inputs`` are never replaced (``tools.output``)."""
+    extra = list(extra)
     records = list(_schema_records(bag))
+    records += [_Record(stamp_ns, 4, topic, data) for topic, _, stamp_ns, data in extra]
     records.sort(key=lambda record: (record.stamp_ns, record.order))
     writer = open_writer(path, storage, overwrite, inputs)
     with writer:
         connections = {}
+        for topic, msgtype in dict((topic, msgtype) for topic, msgtype, _, _ in extra).items():
+            connections[topic] = writer.add_connection(topic, msgtype, typestore=TYPESTORE)
         for topic, msgtype in ((ODOM_TOPIC, ODOMETRY_TYPE), (LANDMARKS_TOPIC, CLOUD_TYPE),
                                (GROUND_TRUTH_POSE_TOPIC, ODOMETRY_TYPE),
                                (GROUND_TRUTH_LANDMARKS_TOPIC, CLOUD_TYPE),

@@ -612,6 +612,9 @@ def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval``: print the Markdown summary; optionally write JSON, a plot, TUM files."""
     args = build_parser().parse_args(argv)
     prog = "fastslam-eval"
+    from fastslam_ros.tools import people_eval
+    if args.out.is_dir() and people_eval.is_people_run(bag_topics(args.out)):
+        return people_eval.main(argv)
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     written = [args.json, args.plot] + ([args.tum / name for name in TUM_NAMES.values()]
                                         + [args.tum / TUM_GROUND_TRUTH] if args.tum else [])

@@ -95,11 +95,11 @@ def ros_msgtype(msg: Any) -> str:
 # ---------------------------------------------------------------- parameters
 
 
-def load_params_file(path: str | Path) -> dict[str, Any]:
+def load_params_file(path: str | Path, node_name: str = "/fastslam") -> dict[str, Any]:
     """The node's parameters from a ROS 2 parameter file, read as the node reads it (rclpy's
-    parser, the sections that match ``/fastslam``); ValueError names the file."""
+    parser, the sections that match ``node_name``); ValueError names the file."""
     try:
-        return read_params_file(path)
+        return read_params_file(path, node_name)
     except ParameterError as error:
         raise ValueError(str(error)) from None
 
@@ -456,6 +456,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="replace an existing output bag (never another folder or the input)")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
+    parser.add_argument("--node", choices=("fastslam", "people_tracker"), default="fastslam",
+                        help="the node to replay the bag through")
     return parser
 
 
@@ -478,15 +480,21 @@ def main(argv: list[str] | None = None) -> int:
             cli.output_folder(out, "--out")
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
-            load_params_file(args.params)  # a bad file is a usage error, before any work
+            load_params_file(args.params, f"/{args.node}")  # a bad file is a usage error, before any work
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except ValueError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
     try:
-        result = replay_bag(args.bag, params, args.params, out,
-                            progress=args.progress or sys.stderr.isatty(),
-                            overwrite=args.overwrite, remap=remap)
+        if args.node == "people_tracker":
+            from fastslam_ros.tools.people_replay import replay_people_bag
+            result = replay_people_bag(args.bag, params, args.params, out,
+                                       progress=args.progress or sys.stderr.isatty(),
+                                       overwrite=args.overwrite)
+        else:
+            result = replay_bag(args.bag, params, args.params, out,
+                                progress=args.progress or sys.stderr.isatty(),
+                                overwrite=args.overwrite, remap=remap)
     except FileExistsError as error:
         return cli.fail(prog, error, cli.EXIT_FAILURE)
     except (SchemaError, ValueError, OSError) as error:

@@ -348,6 +348,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-sim``: simulate a scenario and write a schema-v1 bag plus its parameter file."""
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    if "people" in (arguments[i + 1] for i, a in enumerate(arguments[:-1]) if a == "--scenario") \
+            or "--scenario=people" in arguments:
+        from fastslam_ros.tools import people_sim
+        return people_sim.main(arguments)
     args = build_parser().parse_args(argv)
     values = {item.name: getattr(args, item.name) for item in dataclasses.fields(SimConfig)}
     try:

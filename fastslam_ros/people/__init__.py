@@ -1,0 +1,8 @@
+"""ROS-free people tracking on a known map (numpy, scipy): the conditional particle filter."""
+from .conditional_filter import PeopleEstimate, PeopleTracker, UpdateReport
+from .detection import Scan
+from .grid import OccupancyMap
+from .settings import TrackerSettings
+
+__all__ = ["OccupancyMap", "PeopleEstimate", "PeopleTracker", "Scan", "TrackerSettings",
+           "UpdateReport"]

@@ -1,0 +1,458 @@
+"""People tracking on a known map: Montemerlo, Thrun and Whittaker's conditional particle
+filter (ICRA 2002), vectorized over robot particles, people and people particles.
+
+Each robot pose particle m carries its own people: for person slot n, M_p position particles
+``people[m, n]`` (M, N_max, M_p, 2), alive flags, existence log-odds and a stable key. The
+people are estimated conditioned on the robot's pose, as FastSLAM's landmarks are:
+
+1. predict: the robot particles by the sampled odometry model (core.motion); every person by
+   Brownian motion, theta_t ~ N(theta_{t-1}, sigma^2 I) with sigma = person_diffusion sqrt(dt);
+2. weigh the robot particles by the likelihood field of the map (localization);
+3. detect people per robot particle (beams ending in free space away from obstacles);
+4. associate, per robot particle, each detection to the person most likely to have made it,
+   under the Gaussian summary of the person's particles N(z; mean, cov + R); below p0 the
+   detection starts a new person (its key is shared by every robot particle that starts one for
+   that detection, so ids stay stable when another particle becomes the best); the robot
+   particle's weight is multiplied by max(likelihood, p0);
+5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
+6. existence (core.existence): + tau+ when detected; + tau- when in view, not occluded (the
+   beams toward it passed beyond it: a person behind a wall or another person is no evidence)
+   and not detected; removed below the bound;
+7. resample the robot particles when N_eff is low: one index array gathers the poses and the
+   whole people arrays, so each robot particle's people follow it (the conditional structure).
+
+Without an initial pose the robot particles start uniform over the free space
+(``global_particles`` of them) and are reduced to ``num_particles`` once their spread is below
+``converged_spread``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fastslam_ros.core.existence import (existence_probability, in_perceptual_range, removed,
+                                         update_logodds)
+from fastslam_ros.core.geometry import relative_pose, wrap_angle
+from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
+from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
+                                          systematic_resample)
+from fastslam_ros.people.detection import Scan, detect_people, segment_scan
+from fastslam_ros.people.grid import OccupancyMap
+from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
+                                              sample_free_poses, sample_gaussian_poses,
+                                              sensor_poses)
+from fastslam_ros.people.settings import TrackerSettings
+
+MISSED_FRACTION = 0.5
+"""A person with at least this fraction of its particles in seen free space is in view."""
+GLOBAL_TEMPERING = 0.1
+"""Exponent of the likelihood field while localizing globally: the beams of one scan are far
+from independent, and at full strength one reading picks a single hypothesis of thousands."""
+MIN_CONVERGED_FIT = 0.6
+"""Global localization converges only on a pose where at least this fraction of the beams ends
+within 2 sigma_hit of a mapped obstacle; a single hypothesis that fits worse is replaced, half
+of the particles drawn again over the free space."""
+GLOBAL_CANDIDATES = 10
+"""The first reading of a global localization weighs this many times global_particles poses."""
+CONVERGED_UPDATES = 20
+"""Readings the particles' spread must stay below converged_spread to end global
+localization (2 s at 10 Hz)."""
+MAX_DIFFUSION_STEP = 2.0
+"""Seconds of Brownian motion at most between two readings (a gap in the data does not blow
+the people up to the size of the map)."""
+
+
+@dataclass
+class PeopleEstimate:
+    """People of one robot particle: stable ``keys`` (N,), ``means`` (N, 2), ``covariances``
+    (N, 2, 2) of their position particles, existence probabilities (N,)."""
+
+    keys: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+    existence: np.ndarray
+
+
+@dataclass
+class UpdateReport:
+    """What one reading did (from every robot particle's view, counted over the best one)."""
+
+    detections: int
+    """Detections of the best particle."""
+    associated: int
+    created: int
+    unexplained: int
+    """Detections the best particle could not explain (no free person slot)."""
+    removed: int
+    effective_sample_size: float
+    resampled: bool
+    converged: bool
+
+
+def batched_systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Systematic resampling of every row of ``weights`` (K, P) (rows normalised) at once:
+    indices (K, P) into each row; one uniform offset per row."""
+    rows, count = weights.shape
+    cumulative = np.cumsum(weights, axis=1)
+    cumulative[:, -1] = 1.0
+    offsets = np.arange(rows)[:, None]
+    positions = (rng.random((rows, 1)) + np.arange(count)) / count + offsets
+    flat = np.searchsorted((cumulative + offsets).ravel(), positions.ravel(), side="right")
+    return np.clip(flat.reshape(rows, count) - offsets * count, 0, count - 1)
+
+
+class PeopleTracker:
+    """The conditional particle filter on an ``OccupancyMap``; feed ``predict`` with odometry
+    pose pairs and ``update`` with scans, in stamp order."""
+
+    def __init__(self, settings: TrackerSettings, grid: OccupancyMap | None = None,
+                 rng: np.random.Generator | None = None) -> None:
+        self.settings = settings.validate()
+        self.rng = rng if rng is not None else np.random.default_rng(
+            None if settings.seed < 0 else settings.seed)
+        self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
+        self.grid: OccupancyMap | None = None
+        self.globally_localizing = True
+        self.next_key = 0
+        self.last_stamp: float | None = None
+        self._allocate(np.zeros((0, 3)))
+        if grid is not None:
+            self.set_map(grid)
+
+    # --- state --------------------------------------------------------------------------------
+
+    def _allocate(self, poses: np.ndarray, people: bool = True) -> None:
+        """Robot particles at ``poses`` with equal weights and no people (and no person slots
+        at all without ``people``: global localization)."""
+        s = self.settings
+        count = len(poses)
+        self._converging = 0
+        self._first_global_reading = not people
+        self.poses = np.asarray(poses, dtype=float)
+        self.log_weights = np.full(count, -math.log(count) if count else 0.0)
+        slots = s.max_people if people else 0
+        self.people = np.zeros((count, slots, s.people_particles, 2))
+        self.alive = np.zeros((count, slots), dtype=bool)
+        self.logodds = np.zeros((count, slots))
+        self.keys = np.full((count, slots), -1, dtype=np.int64)
+
+    @property
+    def num_particles(self) -> int:
+        return len(self.poses)
+
+    @property
+    def ready(self) -> bool:
+        """Whether a map is set (the filter can run)."""
+        return self.grid is not None and self.num_particles > 0
+
+    def set_map(self, grid: OccupancyMap) -> None:
+        """Use a (new) map; the robot is localized again globally unless reset with a pose."""
+        self.grid = grid
+        self.reset()
+
+    def reset(self, pose: np.ndarray | None = None, covariance: np.ndarray | None = None) -> None:
+        """Forget the people; robot particles from N(pose, covariance) (``num_particles``), or,
+        without a pose, uniform over the free space (``global_particles``)."""
+        if self.grid is None:
+            raise ValueError("no map: set_map() first")
+        s = self.settings
+        if pose is None:
+            self._allocate(sample_free_poses(self.grid, s.global_particles, self.rng), False)
+            self.globally_localizing = True
+        else:
+            covariance = np.zeros((3, 3)) if covariance is None else np.asarray(covariance)
+            self._allocate(sample_gaussian_poses(np.asarray(pose, dtype=float), covariance,
+                                                 s.num_particles, self.rng))
+            self.globally_localizing = False
+        self.last_stamp = None
+
+    # --- prediction ---------------------------------------------------------------------------
+
+    def predict(self, odom_from: np.ndarray, odom_to: np.ndarray) -> None:
+        """Move the robot particles by the odometry step between two odometry poses."""
+        if self.num_particles == 0:
+            return
+        s = self.settings
+        control = OdometryControl.from_delta(relative_pose(odom_from, odom_to))
+        variances = control_variances(control, (s.alpha1, s.alpha2, s.alpha3, s.alpha4),
+                                      s.min_translation_sigma, s.min_rotation_sigma)
+        self.poses = sample_motion(self.poses, control, variances,
+                                   self.rng.standard_normal((self.num_particles, 3)))
+
+    def _diffuse_people(self, stamp: float) -> None:
+        """Brownian motion of every live person particle over the time since the last reading."""
+        dt = 0.0 if self.last_stamp is None else min(max(stamp - self.last_stamp, 0.0),
+                                                     MAX_DIFFUSION_STEP)
+        self.last_stamp = stamp
+        if dt <= 0.0 or not self.alive.any():
+            return
+        m, n = np.nonzero(self.alive)
+        sigma = self.settings.person_diffusion * math.sqrt(dt)
+        self.people[m, n] += self.rng.normal(0.0, sigma, self.people[m, n].shape)
+
+    # --- update -------------------------------------------------------------------------------
+
+    def update(self, stamp: float, scan: Scan) -> UpdateReport:
+        """One laser reading at ``stamp`` (s): weigh, detect, associate, track, resample."""
+        if not self.ready:
+            raise ValueError("no map: set_map() first")
+        s = self.settings
+        self._diffuse_people(stamp)
+        max_range = min(s.max_range, scan.range_max)
+        returns = scan.returns(s.min_range, s.max_range)
+        if self.globally_localizing:
+            return self._localize_globally(scan, returns, max_range)
+        segments = segment_scan(scan, returns, s.segment_jump)
+        angles = segments.angles
+        sensors = sensor_poses(self.poses, self.offset)
+        ends = beam_endpoints(sensors, segments.ranges, angles)
+        distances = self.grid.distance_at(ends)
+        weighed = np.zeros(len(segments.beams), dtype=bool)
+        weighed[np.flatnonzero(segments.beams % s.beam_stride == 0)] = True
+        self.log_weights = self.log_weights + likelihood_field_log_weights(
+            distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
+        far = (distances >= s.min_obstacle_distance) & self.grid.is_free(ends)
+        detections = detect_people(segments, far, s.min_detection_beams, s.max_person_width,
+                                   s.person_radius)
+        observed, created, unexplained = self._associate(sensors, detections)
+        removed_count = self._missed_evidence(sensors, scan, observed, max_range)
+        best_before = int(np.argmax(self.log_weights))
+        report = UpdateReport(
+            detections=int(detections.valid[best_before].sum()),
+            associated=int(detections.valid[best_before].sum() - created[best_before]
+                           - unexplained[best_before]),
+            created=int(created[best_before]), unexplained=int(unexplained[best_before]),
+            removed=int(removed_count[best_before]), effective_sample_size=0.0,
+            resampled=False, converged=not self.globally_localizing)
+        self._finish(report)
+        return report
+
+    def _localize_globally(self, scan: Scan, returns: np.ndarray, max_range: float
+                           ) -> UpdateReport:
+        """While the pose is unknown: weigh the many robot particles by the likelihood field
+        (tempered by GLOBAL_TEMPERING, as the beams are not independent), resample, and end
+        the phase once their spread stayed below ``converged_spread`` for CONVERGED_UPDATES
+        readings at a pose the map explains (MIN_CONVERGED_FIT). The first reading weighs a
+        denser set of poses (``_draw_from_first_reading``). People are tracked from then on."""
+        s = self.settings
+        beams = np.flatnonzero(returns)
+        beams = beams[beams % s.beam_stride == 0]
+        ranges, angles = scan.ranges[beams], scan.angles[beams]
+        if self._first_global_reading:
+            self._first_global_reading = False
+            self._draw_from_first_reading(ranges, angles, max_range)
+        ends = beam_endpoints(sensor_poses(self.poses, self.offset), ranges, angles)
+        distances = self.grid.distance_at(ends)
+        self.log_weights = self.log_weights + GLOBAL_TEMPERING * likelihood_field_log_weights(
+            distances, s.sigma_hit, s.z_hit, max_range)
+        self.log_weights, _ = normalize_log_weights(self.log_weights)
+        weights = np.exp(self.log_weights)
+        report = UpdateReport(0, 0, 0, 0, 0, effective_sample_size(weights), False, False)
+        mean = weights @ self.poses[:, :2]
+        spread = math.sqrt(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2, axis=1)) / 2)
+        fit = float(np.mean(distances[int(np.argmax(weights))] < 2.0 * s.sigma_hit)) \
+            if distances.shape[1] else 0.0
+        if spread < s.converged_spread and fit < MIN_CONVERGED_FIT:
+            # one hypothesis left, and the map does not explain its scan: look again elsewhere
+            fresh = self.rng.random(self.num_particles) < 0.5
+            self.poses[fresh] = sample_free_poses(self.grid, int(fresh.sum()), self.rng)
+            self.log_weights = np.full(self.num_particles, -math.log(self.num_particles))
+            self._converging = 0
+            return report
+        self._converging = self._converging + 1 if spread < s.converged_spread else 0
+        if self._converging >= CONVERGED_UPDATES:
+            index = systematic_resample(weights, self.rng)
+            stride = max(1, self.num_particles // s.num_particles)
+            start = int(self.rng.integers(stride))
+            self._allocate(self.poses[index[start::stride][:s.num_particles]])
+            self.globally_localizing = False
+            report.resampled = report.converged = True
+        elif report.effective_sample_size < s.resample_threshold * self.num_particles:
+            index = systematic_resample(weights, self.rng)
+            self.poses = self.poses[index]
+            self.log_weights = np.full(len(index), -math.log(len(index)))
+            report.resampled = True
+        return report
+
+    def _draw_from_first_reading(self, ranges: np.ndarray, angles: np.ndarray,
+                                 max_range: float) -> None:
+        """Replace the uniform start by GLOBAL_CANDIDATES times as many uniform poses weighed
+        by the first reading and resampled to ``global_particles``: the pose space is covered
+        that much more densely once, at the cost of one weighing."""
+        s = self.settings
+        count = self.num_particles
+        candidates = sample_free_poses(self.grid, GLOBAL_CANDIDATES * count, self.rng)
+        log_weights = np.concatenate([
+            GLOBAL_TEMPERING * likelihood_field_log_weights(
+                self.grid.distance_at(beam_endpoints(sensor_poses(part, self.offset), ranges,
+                                                     angles)),
+                s.sigma_hit, s.z_hit, max_range)
+            for part in np.array_split(candidates, GLOBAL_CANDIDATES)])
+        weights = np.exp(normalize_log_weights(log_weights)[0])
+        index = systematic_resample(weights, self.rng)
+        start = int(self.rng.integers(GLOBAL_CANDIDATES))
+        self.poses = candidates[index[start::GLOBAL_CANDIDATES][:count]]
+        self.log_weights = np.full(count, -math.log(count))
+
+    def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Mean (M, N, 2) and covariance (M, N, 2, 2) of every person's particles."""
+        mean = self.people.mean(axis=2)
+        centred = self.people - mean[:, :, None, :]
+        cov = np.einsum("mnpi,mnpj->mnij", centred, centred) / self.people.shape[2]
+        return mean, cov
+
+    def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
+                                                                   np.ndarray]:
+        """Associate detections per robot particle, create people, update the associated ones
+        and weigh the robot particles; returns (observed (M, N), created (M,), unexplained
+        (M,))."""
+        s = self.settings
+        count = self.num_particles
+        observed = np.zeros_like(self.alive)
+        created = np.zeros(count, dtype=np.int64)
+        unexplained = np.zeros(count, dtype=np.int64)
+        if detections.valid.shape[1] == 0:
+            return observed, created, unexplained
+        heading = sensors[:, 2:3] + detections.bearings
+        points = np.stack([sensors[:, 0:1] + detections.ranges * np.cos(heading),
+                           sensors[:, 1:2] + detections.ranges * np.sin(heading)], axis=-1)
+        mean, cov = self._person_summaries()
+        innovation_cov = cov + s.detection_sigma ** 2 * np.eye(2)
+        a, b, d = innovation_cov[..., 0, 0], innovation_cov[..., 0, 1], innovation_cov[..., 1, 1]
+        det = a * d - b * b
+        rows = np.arange(count)
+        updates = []  # (particles, slots, detection points) of associated people
+        key_of_detection = {}
+        p0 = s.new_person_likelihood
+        for j in range(detections.valid.shape[1]):
+            valid = detections.valid[:, j]
+            if not valid.any():
+                continue
+            dx = points[:, j, None, 0] - mean[..., 0]
+            dy = points[:, j, None, 1] - mean[..., 1]
+            mahalanobis = (d * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / det
+            likelihood = np.exp(-0.5 * mahalanobis) / (2.0 * math.pi * np.sqrt(det))
+            likelihood = np.where(self.alive & ~observed, likelihood, 0.0)
+            best = np.argmax(likelihood, axis=1)
+            best_likelihood = likelihood[rows, best]
+            associate = valid & (best_likelihood >= p0)
+            self.log_weights = self.log_weights + np.where(
+                valid, np.log(np.maximum(best_likelihood, p0)), 0.0)
+            m = np.flatnonzero(associate)
+            observed[m, best[m]] = True
+            updates.append((m, best[m], points[m, j]))
+            new = valid & ~associate
+            free = ~self.alive
+            has_slot = free.any(axis=1)
+            unexplained += new & ~has_slot
+            m = np.flatnonzero(new & has_slot)
+            if len(m) == 0:
+                continue
+            slot = np.argmax(free[m], axis=1)
+            key = key_of_detection.setdefault(j, self.next_key + len(key_of_detection))
+            self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
+                0.0, s.detection_sigma, (len(m), s.people_particles, 2))
+            self.alive[m, slot] = True
+            self.logodds[m, slot] = 0.0
+            self.keys[m, slot] = key
+            observed[m, slot] = True
+            created[m] += 1
+        self.next_key += len(key_of_detection)
+        m = np.concatenate([u[0] for u in updates]) if updates else np.zeros(0, np.intp)
+        if len(m):
+            n = np.concatenate([u[1] for u in updates])
+            z = np.concatenate([u[2] for u in updates])
+            particles = self.people[m, n]                      # (K, M_p, 2)
+            squared = np.sum((particles - z[:, None, :]) ** 2, axis=2)
+            log_w = -0.5 * squared / s.detection_sigma ** 2
+            w = np.exp(log_w - log_w.max(axis=1, keepdims=True))
+            w /= w.sum(axis=1, keepdims=True)
+            index = batched_systematic_resample(w, self.rng)
+            self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
+        return observed, created, unexplained
+
+    def _missed_evidence(self, sensors: np.ndarray, scan: Scan, observed: np.ndarray,
+                         max_range: float) -> np.ndarray:
+        """Negative information: update the people not detected; returns the people removed
+        per robot particle.
+
+        A person particle lies in seen free space when it is in the perceptual range and the
+        beam toward it passed more than ``person_radius`` beyond it. A person with at least
+        MISSED_FRACTION of its particles there was in view and not detected: tau-. A person
+        behind a wall or another person has its particles where the beams ended short of
+        them: no evidence, its existence is unchanged.
+        """
+        s = self.settings
+        m, n = np.nonzero(self.alive & ~observed)
+        if len(m):
+            particles = self.people[m, n]                              # (K, M_p, 2)
+            dx = particles[..., 0] - sensors[m, None, 0]
+            dy = particles[..., 1] - sensors[m, None, 1]
+            distance = np.hypot(dx, dy)
+            bearing = wrap_angle(np.arctan2(dy, dx) - sensors[m, None, 2])
+            measured = np.where(np.isfinite(scan.ranges) & (scan.ranges >= s.min_range),
+                                scan.ranges, np.inf)[scan.beam_index(bearing)]
+            seen_free = in_perceptual_range(distance, bearing, s.min_range, max_range) & (
+                measured > distance + s.person_radius)
+            fraction = seen_free.mean(axis=1)
+            missed = np.zeros_like(observed)
+            missed[m, n] = fraction >= MISSED_FRACTION
+        else:
+            missed = np.zeros_like(observed)
+        self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
+                                      s.logodds_missed)
+        gone = self.alive & removed(self.logodds, s.logodds_remove)
+        self.alive &= ~gone
+        self.keys[gone] = -1
+        return gone.sum(axis=1)
+
+    def _finish(self, report: UpdateReport) -> None:
+        """Normalise, resample when N_eff is low, end global localization when converged."""
+        s = self.settings
+        self.log_weights, _ = normalize_log_weights(self.log_weights)
+        weights = np.exp(self.log_weights)
+        report.effective_sample_size = effective_sample_size(weights)
+        if report.effective_sample_size < s.resample_threshold * self.num_particles:
+            self._gather(systematic_resample(weights, self.rng))
+            report.resampled = True
+
+    def _gather(self, index: np.ndarray) -> None:
+        """Keep the robot particles ``index`` with their people, at equal weights."""
+        self.poses = self.poses[index]
+        self.people = self.people[index]
+        self.alive = self.alive[index]
+        self.logodds = self.logodds[index]
+        self.keys = self.keys[index]
+        self.log_weights = np.full(len(index), -math.log(len(index)))
+
+    # --- estimates ----------------------------------------------------------------------------
+
+    @property
+    def best_index(self) -> int:
+        return int(np.argmax(self.log_weights))
+
+    def best_pose(self) -> np.ndarray:
+        return self.poses[self.best_index].copy()
+
+    def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean pose (circular mean heading) and covariance of the robot particles."""
+        weights = np.exp(self.log_weights)
+        heading = math.atan2(weights @ np.sin(self.poses[:, 2]), weights @ np.cos(self.poses[:, 2]))
+        mean = np.array([weights @ self.poses[:, 0], weights @ self.poses[:, 1], heading])
+        centred = self.poses - mean
+        centred[:, 2] = wrap_angle(centred[:, 2])
+        return mean, (centred * weights[:, None]).T @ centred
+
+    def people_of(self, particle: int | None = None) -> PeopleEstimate:
+        """The people of one robot particle (the best by default)."""
+        m = self.best_index if particle is None else particle
+        slots = np.flatnonzero(self.alive[m])
+        particles = self.people[m, slots]
+        means = particles.mean(axis=1) if len(slots) else np.zeros((0, 2))
+        centred = particles - means[:, None, :]
+        covariances = np.einsum("npi,npj->nij", centred, centred) / max(particles.shape[1], 1)
+        order = np.argsort(self.keys[m, slots], kind="stable")
+        return PeopleEstimate(self.keys[m, slots][order], means[order], covariances[order],
+                              existence_probability(self.logodds[m, slots][order]))

@@ -1,0 +1,106 @@
+"""Settings of the people tracker: one ``parameter(...)`` per field (default, range, meaning).
+
+The node declares one ROS parameter per field, the YAML file and the docs table come from the
+same metadata (``fastslam_ros.core.params.specs``), and ``validate()`` fails naming the field.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from fastslam_ros.core.params import check_fields, parameter
+
+INF = math.inf
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    """Every tunable of the conditional particle filter (SI units, radians)."""
+
+    num_particles: int = parameter(200, "M, robot pose particles once localized.", low=1)
+    global_particles: int = parameter(
+        20000, "Robot pose particles while the pose is unknown (global localization over the "
+               "free space, people not tracked); reduced to num_particles once their spread "
+               "stays below converged_spread.", low=1)
+    converged_spread: float = parameter(
+        0.5, "Position standard deviation (m) of the particles below which global "
+             "localization has converged.", low=0.0, low_exclusive=True)
+    people_particles: int = parameter(50, "M_p, position particles per person and robot "
+                                          "particle.", low=1)
+    max_people: int = parameter(12, "Person slots per robot particle; a detection finding no "
+                                    "free slot is left unexplained.", low=1)
+    seed: int = parameter(-1, "Seed of the random generator (-1: from the OS).", low=-1)
+    alpha1: float = parameter(0.05, "Motion noise: rotation from rotation (rad^2/rad^2).",
+                              low=0.0)
+    alpha2: float = parameter(0.01, "Motion noise: rotation from translation (rad^2/m^2).",
+                              low=0.0)
+    alpha3: float = parameter(0.05, "Motion noise: translation from translation (m^2/m^2).",
+                              low=0.0)
+    alpha4: float = parameter(0.01, "Motion noise: translation from rotation (m^2/rad^2).",
+                              low=0.0)
+    min_translation_sigma: float = parameter(
+        0.005, "Noise floor of every motion step's translation (m).", low=0.0,
+        low_exclusive=True)
+    min_rotation_sigma: float = parameter(
+        0.005, "Noise floor of every motion step's rotations (rad).", low=0.0,
+        low_exclusive=True)
+    sigma_hit: float = parameter(0.1, "Likelihood field: standard deviation (m) of a beam "
+                                      "end's distance to the nearest obstacle.",
+                                 low=0.0, low_exclusive=True)
+    z_hit: float = parameter(0.9, "Likelihood field: weight of the map-explained component "
+                                  "(the rest is uniform over the range).", low=0.0, high=1.0,
+                             low_exclusive=True)
+    beam_stride: int = parameter(6, "Every n-th beam weighs the robot particles (beams are "
+                                    "correlated; AMCL uses about 60).", low=1)
+    max_range: float = parameter(12.0, "Beams at or beyond this range (or the scan's "
+                                       "range_max) are no return (m).", low=0.0,
+                                 low_exclusive=True)
+    min_range: float = parameter(0.1, "Beams below this range are ignored (m).", low=0.0)
+    likelihood_max_distance: float = parameter(
+        1.0, "Distance (m) at which the likelihood field is clipped.", low=0.0,
+        low_exclusive=True)
+    resample_threshold: float = parameter(
+        0.5, "Resample the robot particles when N_eff / M falls below this.", low=0.0,
+        high=1.0)
+    sensor_x: float = parameter(0.0, "Laser position in the base frame, x (m).")
+    sensor_y: float = parameter(0.0, "Laser position in the base frame, y (m).")
+    sensor_yaw: float = parameter(0.0, "Laser yaw in the base frame (rad).", low=-math.pi,
+                                  high=math.pi)
+    person_diffusion: float = parameter(
+        0.4, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
+             "(m/sqrt(s)).", low=0.0, low_exclusive=True)
+    detection_sigma: float = parameter(0.1, "Standard deviation of a person detection per "
+                                            "axis (m).", low=0.0, low_exclusive=True)
+    person_radius: float = parameter(0.2, "Radius of a person's outline in the scan (m): a "
+                                          "detection is the nearest beam end pushed this far.",
+                                     low=0.0)
+    min_obstacle_distance: float = parameter(
+        0.3, "A beam ending at least this far (m) from every mapped obstacle may hit a person.",
+        low=0.0, low_exclusive=True)
+    segment_jump: float = parameter(
+        0.3, "Neighbouring beams whose ranges differ by more than this (m) belong to different "
+             "objects.", low=0.0, low_exclusive=True)
+    min_detection_beams: int = parameter(2, "Beams a person must return to be detected.",
+                                         low=1)
+    max_person_width: float = parameter(1.0, "Wider free-space segments are not one person (m).",
+                                        low=0.0, low_exclusive=True)
+    new_person_likelihood: float = parameter(
+        0.02, "p0 (1/m^2): a detection less likely than this under every person starts a new "
+              "one, and weighs its robot particle by p0.", low=0.0, low_exclusive=True)
+    logodds_observed: float = parameter(1.0, "tau+: existence log-odds added when a person is "
+                                             "detected (a new person starts at it).",
+                                        low=0.0, low_exclusive=True)
+    logodds_missed: float = parameter(-1.5, "tau-: added when a person in view and not occluded "
+                                            "is not detected.", high=0.0)
+    logodds_remove: float = parameter(-1.0, "A person whose log-odds fall below this is "
+                                            "removed.")
+
+    def validate(self) -> "TrackerSettings":
+        """Self when every field is in range (``ValueError`` naming the field otherwise)."""
+        check_fields(self)
+        if self.logodds_remove >= self.logodds_observed:
+            raise ValueError("logodds_remove: must be < logodds_observed "
+                             f"(got {self.logodds_remove!r})")
+        if self.min_range >= self.max_range:
+            raise ValueError(f"min_range: must be < max_range (got {self.min_range!r})")
+        return self

@@ -1,0 +1,166 @@
+"""Conversions for the people tracker: LaserScan, OccupancyGrid, nav2 map files, outputs.
+
+Pure functions, no node code. Readers use message attributes only, so they accept rclpy
+messages and ``rosbags`` look-alikes. Output clouds share the ``~/map_cloud`` layout of the SLAM
+node (x y z float32, id int32, cov_xx cov_xy cov_yy existence float32).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+from geometry_msgs.msg import Point
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray
+
+from fastslam_ros import ros_io
+from fastslam_ros.people.conditional_filter import PeopleEstimate
+from fastslam_ros.people.detection import Scan
+from fastslam_ros.people.grid import OccupancyMap
+
+PERSON_NAMESPACE = "person"
+PERSON_HEIGHT = 1.7
+PERSON_DIAMETER = 0.4
+
+
+class MalformedScanError(ValueError):
+    """A LaserScan whose geometry cannot be used (no beams, zero or non-finite increment)."""
+
+
+class MalformedMapError(ValueError):
+    """An OccupancyGrid or map file that cannot be read as a grid."""
+
+
+def read_scan(msg) -> Scan:
+    """``sensor_msgs/LaserScan`` -> ``Scan``; NaN and +-inf ranges are no return (REP 117)."""
+    ranges = np.asarray(msg.ranges, dtype=float)
+    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
+    if ranges.size == 0:
+        raise MalformedScanError("no beams")
+    if not (math.isfinite(increment) and math.isfinite(angle_min)) or increment == 0.0:
+        raise MalformedScanError(f"angle_min {angle_min} / angle_increment {increment} unusable")
+    if abs(increment) * (ranges.size - 1) > 2.0 * math.pi + 1e-3:
+        raise MalformedScanError(f"{ranges.size} beams of {increment} rad span more than a turn")
+    range_max = float(msg.range_max) if math.isfinite(msg.range_max) and msg.range_max > 0 \
+        else math.inf
+    ranges = np.where(np.isfinite(ranges) & (ranges >= max(float(msg.range_min), 0.0)), ranges,
+                      np.inf)
+    return Scan(ranges, angle_min, increment, range_max)
+
+
+def _check_origin(x: float, y: float, yaw: float) -> None:
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+        raise MalformedMapError(f"origin ({x}, {y}, {yaw}) is not finite")
+    if abs(yaw) > 1e-6:
+        raise MalformedMapError(f"origin yaw {yaw} rad: rotated maps are not supported")
+
+
+def read_occupancy_grid(msg, max_distance: float) -> OccupancyMap:
+    """``nav_msgs/OccupancyGrid`` -> ``OccupancyMap`` (likelihood field clipped at
+    ``max_distance`` m)."""
+    info = msg.info
+    width, height, resolution = int(info.width), int(info.height), float(info.resolution)
+    data = np.asarray(msg.data, dtype=np.int16)
+    if width <= 0 or height <= 0 or data.size != width * height:
+        raise MalformedMapError(f"{data.size} cells for {width} x {height}")
+    if not (math.isfinite(resolution) and resolution > 0.0):
+        raise MalformedMapError(f"resolution {resolution}")
+    origin = info.origin
+    _check_origin(origin.position.x, origin.position.y,
+                  ros_io.quaternion_to_yaw(origin.orientation))
+    return OccupancyMap.from_occupancy(data.reshape(height, width), resolution,
+                                       (origin.position.x, origin.position.y), max_distance)
+
+
+def load_map_file(path: str | Path, max_distance: float) -> OccupancyMap:
+    """A nav2 map (YAML with image, resolution, origin, negate, occupied_thresh, free_thresh;
+    trinary or scale mode) as an ``OccupancyMap``."""
+    path = Path(path).expanduser()
+    try:
+        description = yaml.safe_load(path.read_text())
+        image_path = Path(description["image"])
+        resolution = float(description["resolution"])
+        x, y, yaw = (float(v) for v in description["origin"])
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
+        raise MalformedMapError(f"{path}: not a nav2 map description ({error})") from None
+    if not image_path.is_absolute():
+        image_path = path.parent / image_path
+    _check_origin(x, y, yaw)
+    from PIL import Image
+    try:
+        with Image.open(image_path) as image:
+            pixels = np.asarray(image.convert("L"), dtype=float)
+    except OSError as error:
+        raise MalformedMapError(f"{image_path}: {error}") from None
+    occupancy = (pixels / 255.0) if description.get("negate", 0) else (255.0 - pixels) / 255.0
+    occupied = occupancy > float(description.get("occupied_thresh", 0.65))
+    free = occupancy < float(description.get("free_thresh", 0.25))
+    # image row 0 is the top of the map; grid row 0 is its bottom
+    return OccupancyMap(occupied[::-1], free[::-1], resolution, (x, y), max_distance)
+
+
+def initial_pose(msg) -> tuple[np.ndarray, np.ndarray]:
+    """(pose (3,), covariance (3, 3) over x, y, yaw) of a PoseWithCovarianceStamped."""
+    position = msg.pose.pose.position
+    if not (math.isfinite(position.x) and math.isfinite(position.y)):
+        raise ros_io.NonFiniteError(f"position ({position.x}, {position.y}) is not finite")
+    yaw = ros_io.quaternion_to_yaw(msg.pose.pose.orientation)
+    full = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)
+    planar = [0, 1, 5]
+    covariance = full[np.ix_(planar, planar)]
+    if not np.all(np.isfinite(covariance)):
+        raise ros_io.NonFiniteError("covariance is not finite")
+    covariance = 0.5 * (covariance + covariance.T)
+    eigenvalues = np.linalg.eigvalsh(covariance)
+    if eigenvalues.min() < 0.0:
+        raise ros_io.NonFiniteError("covariance is not positive semi-definite")
+    return np.array([position.x, position.y, yaw]), covariance
+
+
+def people_cloud(header: Header, people: PeopleEstimate) -> PointCloud2:
+    """``~/people``: one point per person (stable id, covariance, existence)."""
+    array = np.zeros(len(people.keys), ros_io.MAP_CLOUD_DTYPE)
+    array["x"], array["y"] = people.means[:, 0], people.means[:, 1]
+    array["id"] = people.keys
+    array["cov_xx"] = people.covariances[:, 0, 0]
+    array["cov_xy"] = people.covariances[:, 0, 1]
+    array["cov_yy"] = people.covariances[:, 1, 1]
+    array["existence"] = people.existence
+    return ros_io.cloud_from_array(header, array)
+
+
+def people_markers(header: Header, people: PeopleEstimate, removed_keys=()) -> MarkerArray:
+    """A cylinder, a 2-sigma ellipse and an id label per person; DELETE for people gone."""
+    markers = []
+    if len(people.keys):
+        major, minor, angles = ros_io.ellipse_axes(people.covariances)
+    for index, key in enumerate(people.keys.tolist()):
+        x, y = float(people.means[index, 0]), float(people.means[index, 1])
+        alpha = 0.2 + 0.7 * float(people.existence[index])
+        body = Marker(header=header, ns=PERSON_NAMESPACE, id=key, type=Marker.CYLINDER,
+                      action=Marker.ADD, color=ColorRGBA(r=1.0, g=0.5, b=0.1, a=alpha))
+        body.pose.position = Point(x=x, y=y, z=0.5 * PERSON_HEIGHT)
+        body.pose.orientation.w = 1.0
+        body.scale.x = body.scale.y = PERSON_DIAMETER
+        body.scale.z = PERSON_HEIGHT
+        ellipse = Marker(header=header, ns=ros_io.ELLIPSE_NAMESPACE, id=key,
+                         type=Marker.CYLINDER, action=Marker.ADD,
+                         pose=ros_io.pose_msg((x, y, float(angles[index]))),
+                         color=ColorRGBA(r=1.0, g=0.8, b=0.2, a=0.4))
+        ellipse.scale.x, ellipse.scale.y = float(major[index]), float(minor[index])
+        ellipse.scale.z = ros_io.ELLIPSE_HEIGHT
+        label = Marker(header=header, ns=ros_io.LABEL_NAMESPACE, id=key,
+                       type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, text=str(key),
+                       color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
+        label.pose.position = Point(x=x, y=y, z=PERSON_HEIGHT + ros_io.LABEL_LIFT)
+        label.pose.orientation.w = 1.0
+        label.scale.z = ros_io.LABEL_HEIGHT
+        markers += [body, ellipse, label]
+    for key in removed_keys:
+        markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
+                    for namespace in (PERSON_NAMESPACE, ros_io.ELLIPSE_NAMESPACE,
+                                      ros_io.LABEL_NAMESPACE)]
+    return MarkerArray(markers=markers)

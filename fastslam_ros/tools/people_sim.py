@@ -1,0 +1,485 @@
+"""People simulator: rooms and corridors on a grid, a robot with a 2-D laser, people walking.
+
+A 20 m x 20 m floor (five rooms off a corridor open at both ends, furniture) as a 0.05 m
+evidence grid. The robot drives a route through the corridor and into the rooms at 0.5 m/s;
+its wheel odometry integrates noisy, slightly biased velocities at 50 Hz. A 360-beam laser at
+10 Hz (range noise 0.02 m, no return beyond ``max_range``) is ray cast against the walls and
+against the people, cylinders of radius 0.2 m that occlude each other. Five people walk a graph
+of corridor, door and room points at their own speeds, stop for a while, and leave by the
+corridor's ends; whoever left is replaced, after a pause, by a new person (a new id) entering
+there.
+
+The bag holds schema v1's ``/odom`` and ``/ground_truth/pose`` plus ``/map``
+(``nav_msgs/OccupancyGrid``, one message), ``/scan`` (``sensor_msgs/LaserScan``, frame
+``laser`` at the base origin), ``/ground_truth/people`` (``sensor_msgs/PointCloud2`` in
+``map``: x y z float32, id int32, every person in the world, at every scan) and, unless
+``--no-initial-pose``, one ``/initialpose`` (the true start pose, as RViz would send it).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.people.grid import OccupancyMap
+from fastslam_ros.tools.bag_schema import (TYPESTORE, LandmarkScans, PoseSeries, SchemaBag,
+                                           stamp_to_ns, write_schema_bag, yaw_to_quaternion)
+from fastslam_ros.tools.output import check_output
+from fastslam_ros.tools.sim import write_params_yaml
+
+MAP_TOPIC = "/map"
+SCAN_TOPIC = "/scan"
+PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
+INITIAL_POSE_TOPIC = "/initialpose"
+PEOPLE_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4")])
+SIZE = 20.0
+RESOLUTION = 0.05
+WALL = 0.15
+WALLS = (
+    # outer walls, open where the corridor (y 8 .. 12) meets the left and right edges
+    (0.0, SIZE, 0.0, WALL), (0.0, SIZE, SIZE - WALL, SIZE),
+    (0.0, WALL, 0.0, 8.6), (0.0, WALL, 11.4, SIZE),
+    (SIZE - WALL, SIZE, 0.0, 8.6), (SIZE - WALL, SIZE, 11.4, SIZE),
+    # corridor walls with doors (bottom: x 3 .. 4.2, 9.4 .. 10.6, 16 .. 17.2; top: 4 .. 5.2,
+    # 14.4 .. 15.6)
+    (0.0, 3.0, 7.9, 8.1), (4.2, 9.4, 7.9, 8.1), (10.6, 16.0, 7.9, 8.1), (17.2, SIZE, 7.9, 8.1),
+    (0.0, 4.0, 11.9, 12.1), (5.2, 14.4, 11.9, 12.1), (15.6, SIZE, 11.9, 12.1),
+    # rooms: three below the corridor, two above
+    (6.9, 7.1, 0.0, 8.0), (12.9, 13.1, 0.0, 8.0), (9.9, 10.1, 12.0, SIZE),
+    # furniture
+    (1.5, 3.0, 2.0, 3.0), (10.5, 12.0, 2.5, 4.0), (18.6, 19.85, 5.5, 6.3), (2.0, 3.5, 16.0, 17.0),
+    (16.0, 18.0, 17.0, 17.3), (12.1, 12.5, 11.3, 11.7), (7.6, 8.0, 14.0, 14.4),
+)
+"""Walls and furniture as (x_min, x_max, y_min, y_max) rectangles (m)."""
+ROUTE = ((2.0, 10.0), (9.0, 10.0), (10.0, 8.8), (10.0, 6.0), (8.5, 5.5), (10.0, 8.8),
+         (15.0, 10.0), (15.0, 13.0), (14.0, 15.5), (15.0, 12.8), (16.6, 10.0), (18.0, 10.0),
+         (16.6, 9.0), (16.6, 5.0), (16.6, 9.0), (8.0, 10.3), (4.6, 11.0), (4.6, 14.5),
+         (6.0, 16.0), (4.6, 12.5), (2.0, 10.0))
+"""The robot's route (m), driven in a loop; it starts at the first point facing the second."""
+NODES = {
+    "west_exit": (0.3, 10.0), "c1": (3.6, 10.0), "c2": (4.6, 10.0), "c3": (10.0, 10.0),
+    "c4": (15.0, 10.0), "c5": (16.6, 10.0), "east_exit": (19.7, 10.0),
+    "door_a": (3.6, 8.0), "room_a": (3.6, 5.0), "room_a2": (5.0, 2.0),
+    "door_b": (10.0, 8.0), "room_b": (10.0, 6.0), "room_b2": (8.0, 2.0),
+    "door_c": (16.6, 8.0), "room_c": (16.6, 5.0), "room_c2": (18.0, 2.0),
+    "door_d": (4.6, 12.0), "room_d": (4.6, 15.0), "room_d2": (7.0, 18.0),
+    "door_e": (15.0, 12.0), "room_e": (15.0, 15.0), "room_e2": (12.0, 18.0),
+}
+EDGES = (("west_exit", "c1"), ("c1", "c2"), ("c2", "c3"), ("c3", "c4"), ("c4", "c5"),
+         ("c5", "east_exit"), ("c1", "door_a"), ("door_a", "room_a"), ("room_a", "room_a2"),
+         ("c3", "door_b"), ("door_b", "room_b"), ("room_b", "room_b2"), ("c5", "door_c"),
+         ("door_c", "room_c"), ("room_c", "room_c2"), ("c2", "door_d"), ("door_d", "room_d"),
+         ("room_d", "room_d2"), ("c4", "door_e"), ("door_e", "room_e"), ("room_e", "room_e2"))
+"""The people's walking graph."""
+EXITS = ("west_exit", "east_exit")
+ROOMS = tuple(name for name in NODES if name.startswith("room"))
+PERSON_RADIUS = 0.2
+
+
+@dataclass(frozen=True)
+class PeopleSimConfig:
+    """Every setting of a people simulation (SI units, radians)."""
+
+    seed: int = 1
+    duration: float = 120.0
+    people: int = 5
+    beams: int = 360
+    scan_rate: float = 10.0
+    odometry_rate: float = 50.0
+    max_range: float = 12.0
+    range_noise: float = 0.02
+    speed: float = 0.5
+    max_turn_rate: float = 0.8
+    speed_noise: float = 0.05
+    """Standard deviation of the odometry's speed per step (m/s)."""
+    turn_noise: float = 0.05
+    """Standard deviation of the odometry's turn rate per step (rad/s)."""
+    speed_bias: float = 0.02
+    """Relative error of the odometry's speed scale."""
+    turn_bias: float = 0.01
+    """Turn rate error of the odometry (rad/s per rad/s)."""
+    initial_pose: bool = True
+    """Write ``/initialpose`` (the true start pose); without it the tracker localizes globally."""
+
+    def validate(self) -> "PeopleSimConfig":
+        for name in ("duration", "scan_rate", "odometry_rate", "max_range", "speed",
+                     "max_turn_rate"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"{name}: must be > 0 (got {getattr(self, name)})")
+        for name in ("range_noise", "speed_noise", "turn_noise"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"{name}: must be >= 0 (got {getattr(self, name)})")
+        if self.people < 0 or self.beams < 8:
+            raise ValueError("people: must be >= 0 and beams >= 8")
+        ratio = self.odometry_rate / self.scan_rate
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError("scan_rate: must divide odometry_rate")
+        return self
+
+
+def build_map() -> OccupancyMap:
+    """The floor as an evidence grid (walls occupied, the rest free)."""
+    cells = int(round(SIZE / RESOLUTION))
+    centres = (np.arange(cells) + 0.5) * RESOLUTION
+    x, y = np.meshgrid(centres, centres)
+    occupied = np.zeros((cells, cells), dtype=bool)
+    for x0, x1, y0, y1 in WALLS:
+        occupied |= (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    return OccupancyMap(occupied, ~occupied, RESOLUTION)
+
+
+# ---------------------------------------------------------------- people
+
+
+@dataclass
+class Person:
+    """A walking person: position, the points still to walk, speed, pause left (s)."""
+
+    ident: int
+    position: np.ndarray
+    node: str
+    path: deque = field(default_factory=deque)
+    speed: float = 1.0
+    offset: float = 0.0
+    pause: float = 0.0
+    leaving: bool = False
+
+
+def _graph() -> dict[str, list[str]]:
+    neighbours: dict[str, list[str]] = {name: [] for name in NODES}
+    for a, b in EDGES:
+        neighbours[a].append(b)
+        neighbours[b].append(a)
+    return neighbours
+
+
+def _route(graph: dict[str, list[str]], start: str, goal: str) -> list[str]:
+    """Nodes from ``start`` (excluded) to ``goal`` by breadth-first search."""
+    previous = {start: None}
+    queue = deque([start])
+    while queue:
+        node = queue.popleft()
+        for following in graph[node]:
+            if following not in previous:
+                previous[following] = node
+                queue.append(following)
+    path = []
+    node = goal
+    while node != start:
+        path.append(node)
+        node = previous[node]
+    return path[::-1]
+
+
+class Crowd:
+    """The people of a simulation, moved in steps; ``people`` are the ones in the world."""
+
+    def __init__(self, count: int, rng: np.random.Generator) -> None:
+        self.rng = rng
+        self.graph = _graph()
+        self.people: list[Person] = []
+        self.next_id = 0
+        self.arrivals: list[float] = []
+        for _ in range(count):
+            self._spawn(str(rng.choice(ROOMS)))
+
+    def _spawn(self, node: str) -> None:
+        rng = self.rng
+        person = Person(self.next_id, np.array(NODES[node], dtype=float), node,
+                        speed=float(rng.uniform(0.5, 1.1)), offset=float(rng.uniform(-0.3, 0.3)),
+                        pause=float(rng.uniform(0.0, 3.0)))
+        self.next_id += 1
+        self.people.append(person)
+        self._new_goal(person)
+
+    def _new_goal(self, person: Person) -> None:
+        rng = self.rng
+        leave = rng.random() < 0.25
+        choices = [name for name in (EXITS if leave else ROOMS) if name != person.node]
+        goal = str(rng.choice(choices))
+        person.leaving = goal in EXITS
+        person.path = deque(_route(self.graph, person.node, goal))
+
+    def step(self, t: float, dt: float, robot: np.ndarray) -> None:
+        """Walk everyone for ``dt`` s; people keep 0.7 m off the robot (they wait)."""
+        rng = self.rng
+        for person in list(self.people):
+            if person.pause > 0.0:
+                person.pause -= dt
+                continue
+            if not person.path:
+                if person.leaving:
+                    self.people.remove(person)
+                    self.arrivals.append(t + float(rng.uniform(2.0, 8.0)))
+                    continue
+                person.pause = float(rng.uniform(0.0, 6.0)) if rng.random() < 0.6 else 0.0
+                self._new_goal(person)
+                continue
+            target_node = person.path[0]
+            start = np.array(NODES[person.node])
+            end = np.array(NODES[target_node])
+            direction = (end - start) / max(np.linalg.norm(end - start), 1e-9)
+            normal = np.array([-direction[1], direction[0]])
+            offset = 0.0 if target_node in EXITS else person.offset
+            target = end + offset * normal
+            to_target = target - person.position
+            distance = float(np.linalg.norm(to_target))
+            step = person.speed * dt
+            proposed = (target if distance <= step
+                        else person.position + to_target / distance * step)
+            if np.linalg.norm(proposed - robot[:2]) < 0.7 <= np.linalg.norm(
+                    person.position - robot[:2]) + 1e-9:
+                continue
+            person.position = proposed
+            if distance <= step:
+                person.node = person.path.popleft()
+        for arrival in [a for a in self.arrivals if a <= t]:
+            self.arrivals.remove(arrival)
+            self._spawn(str(rng.choice(EXITS)))
+
+
+# ---------------------------------------------------------------- robot and laser
+
+
+def cast_scan(grid: OccupancyMap, sensor: np.ndarray, angles: np.ndarray, people: np.ndarray,
+              max_range: float) -> np.ndarray:
+    """True ranges (B,) from ``sensor`` (x, y, theta) against the walls and people (K, 2)
+    (cylinders of PERSON_RADIUS); inf where nothing is hit within ``max_range``."""
+    world = sensor[2] + angles
+    ranges = grid.cast(np.broadcast_to(sensor[:2], (len(angles), 2)), world, max_range)
+    if len(people):
+        direction = np.stack([np.cos(world), np.sin(world)], axis=1)
+        centre = people - sensor[:2]
+        along = direction @ centre.T                                   # (B, K)
+        across_sq = np.sum(centre ** 2, axis=1)[None, :] - along ** 2
+        inside = (across_sq < PERSON_RADIUS ** 2) & (along > 0.0)
+        hit = along - np.sqrt(np.clip(PERSON_RADIUS ** 2 - across_sq, 0.0, None))
+        hit = np.where(inside & (hit > 0.0), hit, np.inf).min(axis=1)
+        ranges = np.minimum(ranges, hit)
+    return np.where(ranges <= max_range, ranges, np.inf)
+
+
+@dataclass
+class PeopleRun:
+    """A simulated run as arrays, before it becomes a bag."""
+
+    grid: OccupancyMap
+    odometry: PoseSeries
+    truth: PoseSeries
+    scan_stamps: np.ndarray
+    scans: list[np.ndarray]
+    angles: np.ndarray
+    people_stamps: np.ndarray
+    people: list[tuple[np.ndarray, np.ndarray]]
+    """Per scan: ids (K,) and positions (K, 2) of the people in the world."""
+
+
+def simulate_people(config: PeopleSimConfig) -> PeopleRun:
+    """Drive the route for ``duration`` s among the people; return the run."""
+    config = config.validate()
+    grid = build_map()
+    rng_world = np.random.default_rng([config.seed, 0])
+    rng_odometry = np.random.default_rng([config.seed, 1])
+    rng_laser = np.random.default_rng([config.seed, 2])
+    crowd = Crowd(config.people, rng_world)
+    dt = 1.0 / config.odometry_rate
+    per_scan = int(round(config.odometry_rate / config.scan_rate))
+    route = np.array(ROUTE)
+    pose = np.array([route[0, 0], route[0, 1],
+                     math.atan2(route[1, 1] - route[0, 1], route[1, 0] - route[0, 0])])
+    odometry = np.zeros(3)
+    target = 1
+    angles = -math.pi + (np.arange(config.beams) + 0.5) * (2.0 * math.pi / config.beams)
+    stamps, true_poses, odometry_poses = [], [], []
+    scan_stamps, scans, people = [], [], []
+    steps = int(round(config.duration * config.odometry_rate))
+    for step in range(steps + 1):
+        t = step * dt
+        stamps.append(t)
+        true_poses.append(pose.copy())
+        odometry_poses.append(odometry.copy())
+        if step % per_scan == 0:
+            positions = (np.array([p.position for p in crowd.people])
+                         if crowd.people else np.zeros((0, 2)))
+            ranges = cast_scan(grid, pose, angles, positions, config.max_range)
+            noisy = ranges + rng_laser.normal(0.0, config.range_noise, len(ranges))
+            scans.append(np.where(np.isfinite(ranges), np.maximum(noisy, 0.0), np.inf))
+            scan_stamps.append(t)
+            people.append((np.array([p.ident for p in crowd.people], dtype=np.int32), positions))
+        if step == steps:
+            break
+        # unicycle towards the next route point
+        goal = route[target]
+        if np.hypot(*(goal - pose[:2])) < 0.3:
+            target = (target + 1) % len(route)
+            goal = route[target]
+        error = wrap_angle(math.atan2(goal[1] - pose[1], goal[0] - pose[0]) - pose[2])
+        turn = float(np.clip(2.0 * error, -config.max_turn_rate, config.max_turn_rate))
+        speed = config.speed * max(0.0, math.cos(error)) ** 2
+        heading = pose[2] + 0.5 * turn * dt
+        pose = np.array([pose[0] + speed * dt * math.cos(heading),
+                         pose[1] + speed * dt * math.sin(heading), wrap_angle(pose[2] + turn * dt)])
+        measured_speed = speed * (1.0 + config.speed_bias) + rng_odometry.normal(
+            0.0, config.speed_noise)
+        measured_turn = turn * (1.0 + config.turn_bias) + rng_odometry.normal(
+            0.0, config.turn_noise)
+        heading = odometry[2] + 0.5 * measured_turn * dt
+        odometry = np.array([odometry[0] + measured_speed * dt * math.cos(heading),
+                             odometry[1] + measured_speed * dt * math.sin(heading),
+                             wrap_angle(odometry[2] + measured_turn * dt)])
+        crowd.step(t + dt, dt, pose)
+    stamps = np.array(stamps)
+    return PeopleRun(grid, PoseSeries(stamps, np.array(odometry_poses), "odom", "base_link"),
+                     PoseSeries(stamps, np.array(true_poses), "map", "base_link"),
+                     np.array(scan_stamps), scans, angles, np.array(scan_stamps), people)
+
+
+# ---------------------------------------------------------------- messages
+
+
+def _header(stamp: float, frame_id: str):
+    seconds, nanoseconds = divmod(stamp_to_ns(stamp), 1_000_000_000)
+    types = TYPESTORE.types
+    return types["std_msgs/msg/Header"](
+        stamp=types["builtin_interfaces/msg/Time"](sec=seconds, nanosec=nanoseconds),
+        frame_id=frame_id)
+
+
+def _pose(types, x: float, y: float, yaw: float):
+    qx, qy, qz, qw = yaw_to_quaternion(yaw)
+    return types["geometry_msgs/msg/Pose"](
+        position=types["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0),
+        orientation=types["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw))
+
+
+def occupancy_grid_message(grid: OccupancyMap, stamp: float, frame_id: str = "map"):
+    """A rosbags ``nav_msgs/OccupancyGrid`` of the grid (100 occupied, 0 free, -1 unknown)."""
+    types = TYPESTORE.types
+    values = np.where(grid.occupied, 100, np.where(grid.free, 0, -1)).astype(np.int8)
+    height, width = grid.shape
+    info = types["nav_msgs/msg/MapMetaData"](
+        map_load_time=_header(stamp, frame_id).stamp, resolution=float(grid.resolution),
+        width=width, height=height, origin=_pose(types, grid.origin[0], grid.origin[1], 0.0))
+    return types["nav_msgs/msg/OccupancyGrid"](header=_header(stamp, frame_id), info=info,
+                                               data=values.ravel())
+
+
+def laser_scan_message(stamp: float, ranges: np.ndarray, angles: np.ndarray, max_range: float,
+                       frame_id: str = "laser", rate: float = 10.0):
+    """A rosbags ``sensor_msgs/LaserScan`` (no return: inf, as REP 117 asks)."""
+    increment = float(angles[1] - angles[0])
+    return TYPESTORE.types["sensor_msgs/msg/LaserScan"](
+        header=_header(stamp, frame_id), angle_min=float(angles[0]),
+        angle_max=float(angles[-1]), angle_increment=increment, time_increment=0.0,
+        scan_time=1.0 / rate, range_min=0.05, range_max=float(max_range),
+        ranges=np.asarray(ranges, dtype=np.float32), intensities=np.zeros(0, np.float32))
+
+
+def people_cloud_message(stamp: float, ids: np.ndarray, positions: np.ndarray,
+                         frame_id: str = "map"):
+    """A rosbags ``sensor_msgs/PointCloud2`` (x y z float32, id int32) of people."""
+    types = TYPESTORE.types
+    records = np.zeros(len(ids), PEOPLE_CLOUD_DTYPE)
+    if len(ids):
+        records["x"], records["y"], records["id"] = positions[:, 0], positions[:, 1], ids
+    fields = [types["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=datatype,
+                                                   count=1)
+              for name, offset, datatype in (("x", 0, 7), ("y", 4, 7), ("z", 8, 7), ("id", 12, 5))]
+    return types["sensor_msgs/msg/PointCloud2"](
+        header=_header(stamp, frame_id), height=1, width=len(ids), fields=fields,
+        is_bigendian=False, point_step=PEOPLE_CLOUD_DTYPE.itemsize,
+        row_step=PEOPLE_CLOUD_DTYPE.itemsize * len(ids), data=records.view(np.uint8),
+        is_dense=True)
+
+
+def initial_pose_message(stamp: float, pose: np.ndarray, sigma_xy: float = 0.1,
+                         sigma_yaw: float = 0.05):
+    """A rosbags ``geometry_msgs/PoseWithCovarianceStamped`` in ``map``, as RViz sends."""
+    types = TYPESTORE.types
+    covariance = np.zeros(36)
+    covariance[0] = covariance[7] = sigma_xy ** 2
+    covariance[35] = sigma_yaw ** 2
+    return types["geometry_msgs/msg/PoseWithCovarianceStamped"](
+        header=_header(stamp, "map"),
+        pose=types["geometry_msgs/msg/PoseWithCovariance"](
+            pose=_pose(types, pose[0], pose[1], pose[2]), covariance=covariance))
+
+
+def _record(topic: str, msgtype: str, stamp: float, msg) -> tuple[str, str, int, bytes]:
+    return topic, msgtype, stamp_to_ns(stamp), bytes(TYPESTORE.serialize_cdr(msg, msgtype))
+
+
+def write_people_bag(path: str | Path, run: PeopleRun, config: PeopleSimConfig,
+                     storage: str = "mcap", overwrite: bool = False) -> Path:
+    """The run as a schema-v1 bag plus /map, /scan, /ground_truth/people, /initialpose."""
+    start = float(run.odometry.stamps[0])
+    extra = [_record(MAP_TOPIC, "nav_msgs/msg/OccupancyGrid", start,
+                     occupancy_grid_message(run.grid, start))]
+    if config.initial_pose:
+        extra.append(_record(INITIAL_POSE_TOPIC, "geometry_msgs/msg/PoseWithCovarianceStamped",
+                             start, initial_pose_message(start, run.truth.poses[0])))
+    for stamp, ranges in zip(run.scan_stamps, run.scans):
+        extra.append(_record(SCAN_TOPIC, "sensor_msgs/msg/LaserScan", float(stamp),
+                             laser_scan_message(float(stamp), ranges, run.angles,
+                                                config.max_range, rate=config.scan_rate)))
+    for stamp, (ids, positions) in zip(run.people_stamps, run.people):
+        extra.append(_record(PEOPLE_TRUTH_TOPIC, "sensor_msgs/msg/PointCloud2", float(stamp),
+                             people_cloud_message(float(stamp), ids, positions)))
+    empty = LandmarkScans(np.zeros(0), [], [], "laser")
+    return write_schema_bag(path, SchemaBag(run.odometry, empty, run.truth), storage,
+                            overwrite, extra)
+
+
+def recommended_params(config: PeopleSimConfig) -> dict[str, float | int | str]:
+    """Tracker parameters matched to the simulated laser and odometry."""
+    return {"max_range": float(config.max_range), "seed": int(config.seed)}
+
+
+# ---------------------------------------------------------------- command line
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``fastslam-sim --scenario people``: simulate and write the bag and its parameter file."""
+    parser = argparse.ArgumentParser(prog="fastslam-sim --scenario people",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", choices=("people",), default="people")
+    parser.add_argument("--out", type=Path, default=Path("sim_people"), help="output bag folder")
+    parser.add_argument("--params-out", type=Path, default=None,
+                        help="tracker parameters for this bag (default: <out>.yaml)")
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    defaults = PeopleSimConfig()
+    parser.add_argument("--seed", type=int, default=defaults.seed, help="[1]")
+    parser.add_argument("--duration", type=float, default=defaults.duration, help="s [120]")
+    parser.add_argument("--people", type=int, default=defaults.people, help="[5]")
+    parser.add_argument("--no-initial-pose", action="store_true",
+                        help="write no /initialpose: the tracker must localize globally")
+    args = parser.parse_args(argv)
+    try:
+        config = PeopleSimConfig(seed=args.seed, duration=args.duration, people=args.people,
+                                 initial_pose=not args.no_initial_pose).validate()
+        run = simulate_people(config)
+        params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
+        check_output(args.out, args.overwrite, "bag")  # every output before writing any
+        check_output(params_out, args.overwrite, "file")
+        write_people_bag(args.out, run, config, args.storage, args.overwrite)
+    except (ValueError, FileExistsError) as error:
+        print(f"fastslam-sim: {error}", file=sys.stderr)
+        return 1
+    write_params_yaml(params_out, recommended_params(config),
+                      f"people_tracker parameters for {args.out.name} (fastslam-sim --scenario "
+                      f"people --seed {config.seed}).", overwrite=args.overwrite)
+    seen = len({int(i) for ids, _ in run.people for i in ids})
+    print(f"wrote {args.out}: {config.duration:.0f} s, {len(run.scans)} scans, {seen} people; "
+          f"parameters in {params_out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,214 @@
+"""The people tracker's core against independent expectations: closed forms, brute force,
+scripted occlusions, and the conditional structure through resampling."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fastslam_ros.core.existence import (LOGODDS_MAX, in_perceptual_range, removed,
+                                         update_logodds)
+from fastslam_ros.people import OccupancyMap, PeopleTracker, Scan, TrackerSettings
+from fastslam_ros.people.conditional_filter import batched_systematic_resample
+from fastslam_ros.tools.people_sim import cast_scan
+
+BEAMS = 360
+ANGLES = -math.pi + (np.arange(BEAMS) + 0.5) * (2.0 * math.pi / BEAMS)
+SMALL = dict(num_particles=20, people_particles=30, max_people=6, seed=3)
+
+
+def room(walls=()) -> OccupancyMap:
+    """A 10 m x 10 m room at 0.05 m with a border wall and extra wall rectangles."""
+    cells = 200
+    centres = (np.arange(cells) + 0.5) * 0.05
+    x, y = np.meshgrid(centres, centres)
+    occupied = (x < 0.15) | (x > 9.85) | (y < 0.15) | (y > 9.85)
+    for x0, x1, y0, y1 in walls:
+        occupied |= (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    return OccupancyMap(occupied, ~occupied, 0.05)
+
+
+def scan_at(grid: OccupancyMap, pose, people) -> Scan:
+    people = np.asarray(people, dtype=float).reshape(-1, 2)
+    ranges = cast_scan(grid, np.asarray(pose, dtype=float), ANGLES, people, 12.0)
+    return Scan(ranges, float(ANGLES[0]), float(ANGLES[1] - ANGLES[0]), 12.0)
+
+
+def tracker_at(grid: OccupancyMap, pose, **settings) -> PeopleTracker:
+    tracker = PeopleTracker(TrackerSettings(**{**SMALL, **settings}), grid)
+    tracker.reset(np.asarray(pose, dtype=float), np.diag([1e-6, 1e-6, 1e-8]))
+    return tracker
+
+
+def run(tracker: PeopleTracker, grid, pose, people, steps: int, start: float = 0.0) -> float:
+    for k in range(steps):
+        tracker.update(start + 0.1 * k, scan_at(grid, pose, people))
+    return start + 0.1 * steps
+
+
+# --- existence rule ----------------------------------------------------------------------------
+
+def test_existence_rule_saturates_and_removes():
+    logodds = np.array([0.0, LOGODDS_MAX, 0.5, -0.2])
+    observed = np.array([True, True, False, False])
+    missed = np.array([False, False, True, False])
+    new = update_logodds(logodds, observed, missed, 1.0, -0.7)
+    np.testing.assert_allclose(new, [1.0, LOGODDS_MAX, -0.2, -0.2])
+    np.testing.assert_array_equal(removed(new, -0.1), [False, False, True, True])
+    inside = in_perceptual_range(np.array([0.05, 1.0, 5.0, 1.0]), np.array([0.0, 0.0, 0.0, 2.0]),
+                                 0.1, 4.0, field_of_view=math.pi)
+    np.testing.assert_array_equal(inside, [False, True, False, False])
+
+
+# --- models ------------------------------------------------------------------------------------
+
+def test_brownian_spread_matches_closed_form():
+    """After k steps of dt, a person particle has moved by N(0, q^2 k dt I)."""
+    grid = room()
+    q, dt, steps = 0.4, 0.1, 25
+    tracker = tracker_at(grid, (5.0, 5.0, 0.0), num_particles=1, people_particles=20000,
+                         person_diffusion=q)
+    tracker.alive[0, 0] = True
+    tracker.people[0, 0] = (2.0, 3.0)
+    tracker._diffuse_people(0.0)
+    for k in range(1, steps + 1):
+        tracker._diffuse_people(k * dt)
+    moved = tracker.people[0, 0] - (2.0, 3.0)
+    expected = q * q * steps * dt
+    covariance = np.cov(moved.T)
+    # 20000 samples: the variance's relative standard error is sqrt(2 / 20000) = 1 %
+    np.testing.assert_allclose(np.diag(covariance), [expected, expected], rtol=0.05)
+    assert abs(covariance[0, 1]) < 0.05 * expected
+    np.testing.assert_allclose(moved.mean(axis=0), [0.0, 0.0], atol=5 * math.sqrt(expected / 20000))
+
+
+def test_likelihood_field_matches_brute_force():
+    rng = np.random.default_rng(0)
+    occupied = rng.random((30, 40)) < 0.03
+    occupied[5, 7] = True
+    grid = OccupancyMap(occupied, ~occupied, 0.1, origin=(-1.0, 2.0), max_distance=1.5)
+    rows, cols = np.nonzero(occupied)
+    cell_rows, cell_cols = np.indices(occupied.shape)
+    brute = np.sqrt((cell_rows[..., None] - rows) ** 2 + (cell_cols[..., None] - cols) ** 2
+                    ).min(axis=-1) * 0.1
+    np.testing.assert_allclose(grid.distance, np.minimum(brute, 1.5), atol=1e-12)
+    centres = np.stack([-1.0 + (cell_cols + 0.5) * 0.1, 2.0 + (cell_rows + 0.5) * 0.1], axis=-1)
+    np.testing.assert_allclose(grid.distance_at(centres), grid.distance)
+    assert grid.distance_at(np.array([[-5.0, 0.0]]))[0] == 1.5  # off the grid
+
+
+def test_batched_systematic_resample_keeps_floor_or_ceil_copies():
+    rng = np.random.default_rng(1)
+    weights = rng.random((50, 20)) ** 3
+    weights /= weights.sum(axis=1, keepdims=True)
+    index = batched_systematic_resample(weights, rng)
+    counts = np.stack([np.bincount(row, minlength=20) for row in index])
+    assert np.all(counts >= np.floor(20 * weights) - 1e-9)
+    assert np.all(counts <= np.ceil(20 * weights) + 1e-9)
+
+
+# --- tracking ----------------------------------------------------------------------------------
+
+def test_person_entering_is_tracked_and_leaving_is_removed():
+    grid = room()
+    pose = (2.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [], 5)
+    assert len(tracker.people_of().keys) == 0
+    t = run(tracker, grid, pose, [(6.0, 5.5)], 10, t)
+    people = tracker.people_of()
+    assert len(people.keys) == 1
+    assert np.linalg.norm(people.means[0] - (6.0, 5.5)) < 0.15
+    key = int(people.keys[0])
+    t = run(tracker, grid, pose, [(6.1, 5.6)], 5, t)
+    assert tracker.people_of().keys.tolist() == [key]          # the id is stable
+    run(tracker, grid, pose, [], 6, t)                         # left: in view, unseen
+    assert len(tracker.people_of().keys) == 0
+    assert not tracker.alive.any()
+
+
+def test_person_behind_a_wall_is_kept():
+    wall = (5.0, 5.2, 3.0, 7.0)
+    grid = room([wall])
+    pose = (2.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose)
+    # seen while the robot looks past the wall's end, then hidden behind the wall
+    seen_from = (2.0, 9.2, 0.0)
+    tracker.reset(np.asarray(seen_from), np.diag([1e-6, 1e-6, 1e-8]))
+    t = run(tracker, grid, seen_from, [(7.0, 6.0)], 8)
+    assert len(tracker.people_of().keys) == 1
+    tracker.poses[:] = pose
+    run(tracker, grid, pose, [(7.0, 6.0)], 30, t)
+    assert len(tracker.people_of().keys) == 1
+
+
+def test_person_behind_another_person_is_kept_and_one_in_the_open_is_removed():
+    grid = room()
+    pose = (1.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(3.0, 5.0), (6.0, 6.5)], 8)
+    assert len(tracker.people_of().keys) == 2
+    # a third person steps in front of the far one; the far one stays behind it
+    far = (6.0, 6.5)
+    front = (3.0, 5.0 + 1.5 * 2.0 / 5.0)
+    t = run(tracker, grid, pose, [(3.0, 5.0), front, far], 3, t)
+    count = len(tracker.people_of().keys)
+    run(tracker, grid, pose, [front, far[:1] + (6.5,)], 30, t)   # the first person left
+    people = tracker.people_of()
+    assert len(people.keys) == count - 1
+    assert np.min(np.linalg.norm(people.means - far, axis=1)) < 0.6
+
+
+def test_people_particles_follow_their_robot_particle_through_resampling():
+    grid = room([(6.0, 6.2, 2.0, 4.0)])
+    true_pose = np.array([3.0, 5.0, 0.3])
+    tracker = tracker_at(grid, true_pose, num_particles=4)
+    tracker.poses = np.array([[7.0, 7.0, 2.0], true_pose, [8.0, 2.0, -1.0], [2.0, 2.0, 1.5]])
+    tracker.alive[:, 0] = True
+    for m in range(4):                       # a marked person per robot particle, out of range
+        tracker.keys[m, 0] = 100 + m
+        tracker.people[m, 0] = (40.0 + m, 40.0)
+    before = tracker.people.copy()
+    report = tracker.update(0.0, scan_at(grid, true_pose, []))
+    assert report.resampled
+    near = np.linalg.norm(tracker.poses[:, :2] - true_pose[:2], axis=1) < 0.1
+    assert near.all()
+    np.testing.assert_array_equal(tracker.keys[:, 0], 101)
+    np.testing.assert_allclose(tracker.people[:, 0], np.broadcast_to(before[1, 0],
+                                                                     tracker.people[:, 0].shape))
+
+
+def test_seeded_runs_are_identical():
+    grid = room()
+    pose = (2.0, 5.0, 0.0)
+    results = []
+    for _ in range(2):
+        tracker = tracker_at(grid, pose)
+        run(tracker, grid, pose, [(6.0, 5.5)], 5)
+        results.append((tracker.poses.copy(), tracker.people.copy()))
+    np.testing.assert_array_equal(results[0][0], results[1][0])
+    np.testing.assert_array_equal(results[0][1], results[1][1])
+
+
+def test_global_localization_converges_in_an_asymmetric_room():
+    grid = room([(6.0, 6.2, 2.0, 5.0), (1.0, 3.0, 7.5, 8.0)])
+    pose = np.array([3.5, 4.0, 0.5])
+    tracker = PeopleTracker(TrackerSettings(**{**SMALL, "global_particles": 8000}), grid)
+    assert tracker.globally_localizing
+    for k in range(40):
+        tracker.predict(np.zeros(3), np.zeros(3))     # standing still: the noise floor only
+        tracker.update(0.1 * k, scan_at(grid, pose, []))
+        if not tracker.globally_localizing:
+            break
+    assert not tracker.globally_localizing
+    mean, _ = tracker.mean_pose_and_covariance()
+    assert np.linalg.norm(mean[:2] - pose[:2]) < TrackerSettings().converged_spread
+    assert abs(mean[2] - pose[2]) < 0.1
+
+
+def test_settings_name_the_bad_field():
+    with pytest.raises(ValueError, match="people_particles"):
+        TrackerSettings(people_particles=0).validate()
+    with pytest.raises(ValueError, match="logodds_remove"):
+        TrackerSettings(logodds_remove=5.0).validate()
