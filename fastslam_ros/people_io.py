@@ -17,6 +17,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io
+from fastslam_ros.core import geometry
 from fastslam_ros.people.conditional_filter import PeopleEstimate
 from fastslam_ros.people.detection import Scan
 from fastslam_ros.people.grid import OccupancyMap
@@ -136,7 +137,7 @@ def people_markers(header: Header, people: PeopleEstimate, removed_keys=()) -> M
     """A cylinder, a 2-sigma ellipse and an id label per person; DELETE for people gone."""
     markers = []
     if len(people.keys):
-        major, minor, angles = ros_io.ellipse_axes(people.covariances)
+        major, minor, angles = geometry.ellipse_axes(people.covariances)
     for index, key in enumerate(people.keys.tolist()):
         x, y = float(people.means[index, 0]), float(people.means[index, 1])
         alpha = 0.2 + 0.7 * float(people.existence[index])

@@ -11,7 +11,6 @@ and dropped; the counters are on ``/diagnostics``. See docs/people.md.
 from __future__ import annotations
 
 import bisect
-import math
 import sys
 from dataclasses import dataclass
 from typing import Callable
@@ -89,6 +88,8 @@ def parameter_specs() -> dict:
 
 @dataclass
 class PendingScan:
+    """A scan waiting for odometry that covers its stamp."""
+
     stamp: float
     scan: Scan
     arrival: float
@@ -156,15 +157,9 @@ class PeopleTrackerNode(Node):
         """One ROS parameter per settings field; ParameterError names a bad or unknown one."""
         values = {}
         for name, (default, spec) in parameter_specs().items():
-            limits = None
-            if spec.low is not None or spec.high is not None:
-                unbounded = 2**31 - 1 if isinstance(default, int) else math.inf
-                limits = (spec.low if spec.low is not None else -unbounded,
-                          spec.high if spec.high is not None else unbounded)
-            description = spec.description + f" Must be {spec.rule()}."
             try:
                 values[name] = self.declare_parameter(
-                    name, default, parameter_descriptor(description, default, limits)).value
+                    name, default, parameter_descriptor(default, spec)).value
             except ParameterException as error:
                 raise ParameterError(f"parameter '{name}': {error}") from None
         unknown = sorted(set(getattr(self, "_parameter_overrides", {})) - set(values)

@@ -1,7 +1,7 @@
 """Launch people_tracker_node with a parameter file.
 
-    ros2 launch fastslam_ros people_tracker.launch.py
-    ros2 launch fastslam_ros people_tracker.launch.py params_file:=my.yaml scan_topic:=/base_scan \
+ros2 launch fastslam_ros people_tracker.launch.py
+ros2 launch fastslam_ros people_tracker.launch.py params_file:=my.yaml scan_topic:=/base_scan \
         map_topic:=/map odom_topic:=/odom use_sim_time:=true
 """
 from launch import LaunchDescription

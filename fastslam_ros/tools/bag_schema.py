@@ -64,8 +64,10 @@ KNOWN_MESSAGE_TYPES = (
     "geometry_msgs/msg/PoseArray", "geometry_msgs/msg/PoseStamped",
     "geometry_msgs/msg/PoseWithCovarianceStamped", "geometry_msgs/msg/TransformStamped",
     "visualization_msgs/msg/MarkerArray", "diagnostic_msgs/msg/DiagnosticArray",
-    "std_msgs/msg/String", "rosgraph_msgs/msg/Clock", "tf2_msgs/msg/TFMessage")
-"""Every message type the tools read, write or play (bag schema v1 and the node's outputs)."""
+    "std_msgs/msg/String", "rosgraph_msgs/msg/Clock", "tf2_msgs/msg/TFMessage",
+    "nav_msgs/msg/OccupancyGrid", "sensor_msgs/msg/LaserScan")
+"""Every message type the tools read, write or play (bag schema v1, the people bags and the
+nodes' outputs)."""
 
 
 def _message_class(msgtype: str) -> type | None:

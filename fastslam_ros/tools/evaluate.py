@@ -45,7 +45,8 @@ from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_
                                            LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC,
                                            LandmarkSet, PoseSeries,
                                            bag_topics, cloud_to_arrays, landmark_cloud_arrays,
-                                           pose_series_from_messages, read_last, read_topics, time_msg_to_stamp)
+                                           pose_series_from_messages, read_last, read_topics,
+                                           time_msg_to_stamp)
 from fastslam_ros.tools.output import check_output, prepare_output
 
 POSE_TOPIC = "/fastslam/pose"

@@ -40,6 +40,7 @@ def robot_pose(t: float) -> np.ndarray:
 
 
 def sensor_points(pose: np.ndarray) -> np.ndarray:
+    """The landmarks in view of ``pose``, in the sensor frame."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
     d = LANDMARKS - pose[:2]
     return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
@@ -148,6 +149,7 @@ def run_phase(context: Context, args, odom_rate: float,
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python3 -m fastslam_ros.tools.live_load``: the live DDS load test."""
     parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.live_load",
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("--odom-rate", type=float, default=100.0, help="Hz [100]")

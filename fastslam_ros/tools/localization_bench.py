@@ -138,6 +138,7 @@ def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python3 -m fastslam_ros.tools.localization_bench``: map, save, localize."""
     parser = argparse.ArgumentParser(
         prog="python3 -m fastslam_ros.tools.localization_bench",
         description=__doc__.splitlines()[0],

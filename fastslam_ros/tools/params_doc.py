@@ -104,6 +104,7 @@ def rendered() -> dict[Path, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python3 -m fastslam_ros.tools.params_doc``: write or check the generated files."""
     parser = argparse.ArgumentParser(
         prog="python3 -m fastslam_ros.tools.params_doc", description=__doc__.splitlines()[0],
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)

@@ -16,7 +16,8 @@ match radius of 0.5 m: a match of the last frame is kept while within the radius
 are paired by optimal assignment; an identity switch is a truth person matched to another
 track than before; switches per person per minute divide by the minutes people were in
 view (truth count x frame period). MOTA = 1 - (misses + false positives + switches) / truth
-count; MOTP is the mean distance of the matches. OSPA per frame with c = 1 m and order p = 2, averaged.
+count; MOTP is the mean distance of the matches. OSPA per frame with c = 1 m and order p = 2,
+averaged.
 """
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ from fastslam_ros.core.geometry import ellipse_axes  # noqa: E402
 def plot_evaluation(evaluation, path: str | Path, title: str | None = None) -> Path:
     """Write the figure of an ``evaluate.Evaluation``: estimated paths after their alignment,
     ground truth, landmarks with 2-sigma ellipses and truth (left); position error over time
-    (right). (Read by attribute: this module imports nothing of evaluate, which imports it.)"""
+    (right); this module imports nothing of evaluate, which imports it."""
     run = evaluation.run
     trajectories = evaluation.trajectories
     figure, (map_axes, error_axes) = plt.subplots(
@@ -73,7 +73,8 @@ def _draw_landmarks(axes, positions: np.ndarray, covariances: np.ndarray, alignm
     aligned = positions
     widths, heights, angles = ellipse_axes(covariances)
     axes.add_collection(EllipseCollection(
-        widths, heights, np.degrees(angles), units="xy", offsets=aligned, offset_transform=axes.transData,
+        widths, heights, np.degrees(angles), units="xy", offsets=aligned,
+        offset_transform=axes.transData,
         facecolors="none", edgecolors="tab:purple", linewidths=0.8))
     axes.scatter(*aligned.T, s=6, color="tab:purple", label="landmarks, estimate (2-sigma)",
                  zorder=4)

@@ -173,6 +173,7 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``fastslam-poison``: write a copy of a bag with every fault class mixed in."""
     parser = argparse.ArgumentParser(prog="fastslam-poison",
                                      description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("bag", type=Path, help="schema-v1 bag")

@@ -480,7 +480,7 @@ def main(argv: list[str] | None = None) -> int:
             cli.output_folder(out, "--out")
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
-            load_params_file(args.params, f"/{args.node}")  # a bad file is a usage error, before any work
+            load_params_file(args.params, f"/{args.node}")  # a bad file fails before any work
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except ValueError as error:  # not a parameter file

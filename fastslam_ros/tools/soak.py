@@ -151,6 +151,7 @@ def bench_soak(hours: float = 10.0) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python3 -m fastslam_ros.tools.soak``: hours of simulated data through the node."""
     parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.soak",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--hours", type=float, default=10.0, help="hours of data [10]")
