@@ -1033,31 +1033,34 @@ ROS arguments follow --ros-args, as for every ROS 2 node:
 Every parameter, its default and range: docs/parameters.md."""
 
 
-def parse_command_line(args: list[str]) -> None:
+def parse_command_line(prog: str, usage: str, args: list[str]) -> None:
     """Handle the arguments that are not ROS arguments: ``--help`` prints the usage and exits;
     anything else is a usage error (exit status 2) instead of being ignored."""
-    parser = argparse.ArgumentParser(prog="fastslam_node", description=USAGE,
+    parser = argparse.ArgumentParser(prog=prog, description=usage,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(args)[1:])
 
 
-def main(args: list[str] | None = None) -> int:
-    """Console entry point ``fastslam_node``; exit status 1 on a bad parameter or file."""
+def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node],
+             args: list[str] | None = None) -> int:
+    """Start, spin and shut down one node as a console command (both nodes' ``main``): a bad
+    parameter file, argument or parameter is one line on stderr and exit status 1."""
+    argv = sys.argv if args is None else args
     try:
-        for path in _params_files(sys.argv if args is None else args):
-            read_params_file(path)  # a one-line error instead of rcl's failure to init
-        parse_command_line(sys.argv if args is None else args)
+        for path in _params_files(argv):
+            read_params_file(path, f"/{node_name}")  # one line instead of rcl's failure
+        parse_command_line(prog, usage, argv)
         rclpy.init(args=args)
     except ParameterError as error:
-        print(f"fastslam_node: {error}", file=sys.stderr)
+        print(f"{prog}: {error}", file=sys.stderr)
         return 1
     except RuntimeError as error:  # rcl could not parse the arguments
-        print(f"fastslam_node: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
+        print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
         return 1
     try:
-        node = FastSLAMNode()
+        node = make_node()
     except ParameterError as error:
-        print(f"fastslam_node: {error}", file=sys.stderr)
+        print(f"{prog}: {error}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
     try:
@@ -1068,6 +1071,11 @@ def main(args: list[str] | None = None) -> int:
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console entry point ``fastslam_node``; exit status 1 on a bad parameter or file."""
+    return run_node("fastslam_node", NODE_NAME, USAGE, FastSLAMNode, args)
 
 
 if __name__ == "__main__":

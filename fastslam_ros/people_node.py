@@ -16,12 +16,10 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan, PointCloud2
 from std_msgs.msg import Header
@@ -32,7 +30,7 @@ from fastslam_ros.core.geometry import compose, relative_pose
 from fastslam_ros.core.params import check_fields, parameter, specs
 from fastslam_ros.core.timing import OdometryHistory, Throttle
 from fastslam_ros.node import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS, STREAM_QOS,
-                               TIME_JUMP_BACK, ParameterError, parameter_descriptor)
+                               TIME_JUMP_BACK, ParameterError, parameter_descriptor, run_node)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
 
 try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same transform anyway.
@@ -452,23 +450,17 @@ class PeopleTrackerNode(Node):
         self.get_logger().info(f"input summary: {counts or 'no input received'}")
 
 
+USAGE = """People tracker on a known map: nav_msgs/OccupancyGrid on map (or map_file),
+sensor_msgs/LaserScan on scan, odometry on odom and initialpose in; robot pose, particles,
+people and their markers out (docs/people.md).
+
+ROS arguments follow --ros-args, as for every ROS 2 node:
+  people_tracker_node --ros-args --params-file config/people_tracker.yaml -r scan:=/base_scan"""
+
+
 def main(args: list[str] | None = None) -> int:
     """Console entry point ``people_tracker_node``; exit status 1 on a bad parameter."""
-    rclpy.init(args=args)
-    try:
-        node = PeopleTrackerNode()
-    except ParameterError as error:
-        print(f"people_tracker_node: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 1
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("people_tracker_node", NODE_NAME, USAGE, PeopleTrackerNode, args)
 
 
 if __name__ == "__main__":
