@@ -15,8 +15,6 @@ from typing import Any
 
 import rclpy
 from rclpy.clock import ClockType
-from rclpy.context import Context
-from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
@@ -29,24 +27,13 @@ from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_POSE_TOPIC, ODOM_TOPIC, 
 from fastslam_ros.tools.people_sim import (INITIAL_POSE_TOPIC, MAP_TOPIC, PEOPLE_TRUTH_TOPIC,
                                            SCAN_TOPIC)
 from fastslam_ros.tools.replay import (INFO_TOPIC, OutputRecorder, ProgressBar, ReplayResult,
-                                       load_params_file, ros_message_class)
+                                       isolated_context, load_params_file, node_parameters,
+                                       ros_message_class)
 from fastslam_ros.tools.output import check_output
 
 INPUT_TOPICS = (MAP_TOPIC, INITIAL_POSE_TOPIC, ODOM_TOPIC, SCAN_TOPIC)
 REQUIRED_TOPICS = (ODOM_TOPIC, SCAN_TOPIC)
 COPIED_TOPICS = (MAP_TOPIC, SCAN_TOPIC, ODOM_TOPIC, GROUND_TRUTH_POSE_TOPIC, PEOPLE_TRUTH_TOPIC)
-
-
-def node_parameters(params: dict[str, Any]) -> list[Parameter]:
-    """Overrides on simulated time; an integer given for a float parameter is widened."""
-    floats = {name for name, (default, _) in parameter_specs().items()
-              if isinstance(default, float)}
-    overrides = [Parameter("use_sim_time", value=True)]
-    for name, value in params.items():
-        if name in floats and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        overrides.append(Parameter(name, value=value))
-    return overrides
 
 
 def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
@@ -61,8 +48,7 @@ def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None
     merged.update(params or {})
     if not bag_path.exists():
         raise FileNotFoundError(f"bag not found: {bag_path}")
-    context = Context()
-    rclpy.init(context=context)
+    context = isolated_context()  # invisible to the robot's ROS graph, as the SLAM replay
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
         reader = AnyReader([bag_path], default_typestore=TYPESTORE)
@@ -76,8 +62,9 @@ def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None
         if missing:
             raise SchemaError(f"{bag_path}: missing topic(s) {', '.join(missing)}")
         try:
-            node = PeopleTrackerNode(context=context, parameter_overrides=node_parameters(merged),
-                                     enable_rosout=False)
+            node = PeopleTrackerNode(context=context, enable_rosout=False,
+                                     parameter_overrides=node_parameters(merged,
+                                                                         parameter_specs()))
         except ParameterError as error:
             raise ValueError(str(error)) from None
         cleanup.callback(node.destroy_node)

@@ -133,15 +133,13 @@ def _absolute(topic: str) -> str:
     return topic if topic.startswith("/") else "/" + topic
 
 
-def _declared_float_names() -> set[str]:
-    """Parameters declared as doubles: an integer given for them is converted."""
-    return {name for name, (default, _) in {**CORE_PARAMETERS, **NODE_PARAMETERS}.items()
-            if isinstance(default, float)}
-
-
-def node_parameters(params: dict[str, Any]) -> list[Parameter]:
-    """rclpy ``Parameter`` overrides for the node (use_sim_time on, ints widened to doubles)."""
-    floats = _declared_float_names()
+def node_parameters(params: dict[str, Any], specs: dict[str, tuple[Any, Any]] | None = None
+                    ) -> list[Parameter]:
+    """rclpy ``Parameter`` overrides for a node (use_sim_time on; an integer given for a
+    parameter whose spec default is a float is widened). ``specs``: {name: (default, spec)},
+    by default the SLAM node's."""
+    specs = {**CORE_PARAMETERS, **NODE_PARAMETERS} if specs is None else specs
+    floats = {name for name, (default, _) in specs.items() if isinstance(default, float)}
     overrides = [Parameter("use_sim_time", value=True)]
     for name, value in params.items():
         if name in floats and isinstance(value, int) and not isinstance(value, bool):
