@@ -52,7 +52,7 @@ def sorted_map(means, covs, logodds, labels):
                          + [("fastslam2", "monte_carlo", 5.0, ROBUST)])
 def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush, extra,
                                              backend):
-    world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40, speed=0.5,
+    world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40,
                        max_range=8.0, sigma_range=0.15, sigma_bearing=0.03,
                        detection_probability=0.7, clutter_per_step=0.8, laps=0.6)
     config = small_config(algorithm, association, flush, {**(extra or {}), "backend": backend})

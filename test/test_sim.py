@@ -1,4 +1,5 @@
-"""Simulator: determinism, vehicle kinematics, observation geometry, scenarios."""
+"""World generator and simulator: sensor and odometry statistics, determinism, vehicle
+kinematics, observation geometry, scenarios, the in-memory synthetic worlds."""
 from __future__ import annotations
 
 import dataclasses
@@ -8,7 +9,123 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core import FastSLAMConfig
+from fastslam_ros.core.geometry import relative_pose
+from fastslam_ros.core.observation import inverse_observe
 from fastslam_ros.tools.sim import SimConfig, build_world, recommended_params, simulate
+from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.world import (RangeBearingSensor, circle_path, odometry_with_noise,
+                                      scatter_landmarks)
+
+
+def within_standard_errors(samples: np.ndarray, expected: float, spread: float,
+                           errors: float = 4.0) -> bool:
+    """Whether the sample mean is within ``errors`` standard errors of ``expected``."""
+    return abs(np.mean(samples) - expected) <= errors * spread / math.sqrt(len(samples))
+
+
+@pytest.mark.parametrize("spread", ["area", "range"])
+def test_sensor_detects_within_reach_with_its_noise_detection_rate_and_clutter(spread):
+    sensor = RangeBearingSensor(max_range=10.0, sigma_range=0.2, sigma_bearing=0.05,
+                                detection_probability=0.7, clutter_rate=1.5,
+                                clutter_spread=spread)
+    # 24 landmarks at 3-8 m (in reach) all round, 24 at 12-17 m (out of reach).
+    angles = np.linspace(-math.pi, math.pi, 48, endpoint=False)
+    distances = np.where(np.arange(48) % 2 == 0, 3.0, 12.0) + 5.0 * (np.arange(48) % 5) / 4
+    pose = np.array([1.0, -2.0, 2.5])
+    landmarks = pose[:2] + distances[:, None] * np.column_stack([np.cos(angles),
+                                                                 np.sin(angles)])
+    rng = np.random.default_rng(3)
+    readings = [sensor.observe(pose, landmarks, rng) for _ in range(2000)]
+    labels = np.concatenate([r.labels for r in readings])
+    ranges = np.concatenate([r.ranges for r in readings])
+    bearings = np.concatenate([r.bearings for r in readings])
+    assert np.all(ranges > 0.0) and np.all(ranges <= 10.0)
+    assert np.all(bearings > -math.pi) and np.all(bearings <= math.pi)
+    detected = labels[labels >= 0]
+    assert set(detected.tolist()) == set(np.flatnonzero(distances <= 10.0).tolist())
+    # Detection: binomial with p = 0.7 per landmark in reach and reading.
+    hits = np.bincount(detected, minlength=48)[distances <= 10.0] / len(readings)
+    assert within_standard_errors(hits, 0.7, math.sqrt(0.7 * 0.3 / len(readings)))
+    # Noise: residuals against the true range and bearing (sensor at the vehicle's origin).
+    offset = landmarks[detected] - pose[:2]
+    range_error = ranges[labels >= 0] - np.hypot(offset[:, 0], offset[:, 1])
+    bearing_error = np.angle(np.exp(1j * (bearings[labels >= 0] - np.arctan2(
+        offset[:, 1], offset[:, 0]) + pose[2])))
+    assert within_standard_errors(range_error, 0.0, 0.2)
+    assert within_standard_errors(bearing_error, 0.0, 0.05)
+    assert np.std(range_error) == pytest.approx(0.2, rel=0.03)
+    assert np.std(bearing_error) == pytest.approx(0.05, rel=0.03)
+    # Clutter: Poisson(1.5) per reading, evenly over the disc (E (r/R)^2 = 1/2) or over range
+    # (E r/R = 1/2), bearings evenly all round.
+    counts = np.array([np.count_nonzero(r.labels < 0) for r in readings])
+    assert within_standard_errors(counts, 1.5, math.sqrt(1.5))
+    clutter_range = ranges[labels < 0] / 10.0
+    spread_measure = clutter_range**2 if spread == "area" else clutter_range
+    assert within_standard_errors(spread_measure, 0.5, math.sqrt(1.0 / 12.0))
+    assert within_standard_errors(bearings[labels < 0], 0.0, math.pi / math.sqrt(3.0))
+    with pytest.raises(ValueError, match="clutter_spread"):
+        RangeBearingSensor(10.0, 0.2, 0.05, clutter_spread="volume")
+
+
+def test_odometry_model_noise_has_its_stated_spread_and_none_gives_the_truth():
+    truth = circle_path(radius=5.0, num_steps=4000, laps=20.0)
+    # The circle: constant radius, chords of 2 r sin(d/2), heading along the circle's tangent.
+    np.testing.assert_allclose(np.hypot(truth[:, 0], truth[:, 1]), 5.0)
+    step_angle = 2.0 * math.pi * 20.0 / 4000
+    delta = relative_pose(truth[:-1], truth[1:])
+    np.testing.assert_allclose(np.hypot(delta[:, 0], delta[:, 1]),
+                               10.0 * math.sin(step_angle / 2))
+    np.testing.assert_allclose(delta[:, 2], step_angle)
+    np.testing.assert_allclose(np.arctan2(delta[:, 1], delta[:, 0]), step_angle / 2)
+    rng = np.random.default_rng(2)
+    exact = odometry_with_noise(truth, (0.0, 0.0, 0.0), rng)
+    np.testing.assert_allclose(relative_pose(truth, exact), 0.0, atol=1e-9)
+    noise = (0.02, 0.1, 0.03)
+    odometry = odometry_with_noise(truth, noise, rng)
+    np.testing.assert_array_equal(odometry[0], truth[0])
+    measured = relative_pose(odometry[:-1], odometry[1:])
+    rot1 = np.arctan2(measured[:, 1], measured[:, 0])
+    errors = [rot1 - step_angle / 2,
+              np.hypot(measured[:, 0], measured[:, 1]) / (10.0 * math.sin(step_angle / 2)) - 1,
+              np.angle(np.exp(1j * (measured[:, 2] - rot1))) - step_angle / 2]
+    for error, sigma in zip(errors, noise):
+        assert within_standard_errors(error, 0.0, sigma)
+        assert np.std(error) == pytest.approx(sigma, rel=0.05)
+
+
+def test_scattered_landmarks_are_in_the_box_accepted_and_apart():
+    rng = np.random.default_rng(1)
+    points = scatter_landmarks(rng, 150, (-10.0, 0.0), (10.0, 20.0), 1.0,
+                               accept=lambda p: p[:, 0] > p[:, 1] - 10.0)
+    assert points.shape == (150, 2)
+    assert np.all((points >= (-10.0, 0.0)) & (points <= (10.0, 20.0)))
+    assert np.all(points[:, 0] > points[:, 1] - 10.0)
+    distance = np.linalg.norm(points[:, None] - points[None], axis=2)
+    np.fill_diagonal(distance, np.inf)
+    assert distance.min() >= 1.0
+    with pytest.raises(ValueError, match="cannot place 500 landmarks"):
+        scatter_landmarks(rng, 500, (0.0, 0.0), (5.0, 5.0), 1.0)
+
+
+def test_synthetic_world_observes_its_landmarks_from_the_true_path():
+    world = make_world(seed=2, num_steps=120, sigma_range=1e-9, sigma_bearing=1e-9)
+    checked = 0
+    for step in world.steps:
+        in_reach = np.hypot(*(world.landmarks - step.truth[:2]).T) <= 12.0
+        np.testing.assert_array_equal(np.sort(step.ids), np.flatnonzero(in_reach))
+        np.testing.assert_allclose(inverse_observe(step.truth, step.ranges, step.bearings),
+                                   world.landmarks[step.ids], atol=1e-6)
+        checked += len(step.ids)
+    assert checked > 500
+    # Own streams: other sensor settings leave the landmarks and the path as they were.
+    cluttered = make_world(seed=2, num_steps=120, clutter_per_step=1.0,
+                           detection_probability=0.5)
+    np.testing.assert_array_equal(cluttered.landmarks, world.landmarks)
+    for a, b in zip(cluttered.steps, world.steps):
+        np.testing.assert_array_equal(a.odometry, b.odometry)
+    assert any(np.any(s.ids < 0) for s in cluttered.steps)
+    other = make_world(seed=3, num_steps=120)
+    assert not np.array_equal(other.landmarks, world.landmarks)
 
 
 def test_same_seed_same_bag_other_seed_other_noise():

@@ -8,7 +8,8 @@ clutter). True poses and the landmark map are written as ground truth (bag schem
 
 Scenarios: ``loop`` (one closed loop through a landmark field, 3.5 minutes), ``large``
 (thousands of landmarks, a long route with crossings), ``clutter`` (the loop with false
-detections and missed detections).
+detections and missed detections). The vehicle, the sensor and the landmark placement are those
+of ``fastslam_ros.tools.world``, which the in-memory test worlds share.
 """
 from __future__ import annotations
 
@@ -22,11 +23,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
+from fastslam_ros.tools.converters import polar_to_points
 from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.tools.world import (Car, RangeBearingSensor, distance_to_route,
+                                      scatter_landmarks)
 
 SCENARIOS = ("loop", "large", "clutter")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),
@@ -119,13 +122,10 @@ class SimConfig:
 
 @dataclass
 class World:
-    """The route and the landmarks of a scenario."""
+    """The route and the landmarks of a scenario (a landmark's id is its row)."""
 
     waypoints: np.ndarray
     landmarks: LandmarkSet
-
-
-# ---------------------------------------------------------------- worlds
 
 
 def build_world(config: SimConfig) -> World:
@@ -133,80 +133,15 @@ def build_world(config: SimConfig) -> World:
     rng = np.random.default_rng(config.world_seed)
     waypoints = np.array(LARGE_WAYPOINTS if config.scenario == "large" else LOOP_WAYPOINTS)
     # Every landmark is within sensor range of some point of the route, off the road itself.
-    band = (2.0, min(25.0, 0.9 * config.max_range))
-    positions = _scatter_landmarks(rng, waypoints, config.num_landmarks, band,
-                                   config.min_separation)
+    near, far = 2.0, min(25.0, 0.9 * config.max_range)
+
+    def beside_route(points: np.ndarray) -> np.ndarray:
+        distance = distance_to_route(points, waypoints)
+        return (distance >= near) & (distance <= far)
+    positions = scatter_landmarks(rng, config.num_landmarks, waypoints.min(axis=0) - far,
+                                  waypoints.max(axis=0) + far, config.min_separation,
+                                  beside_route)
     return World(waypoints, LandmarkSet(positions, np.arange(len(positions), dtype=np.int32)))
-
-
-def _distance_to_route(points: np.ndarray, route: np.ndarray) -> np.ndarray:
-    """Distance (m) of each point to the closed polyline ``route``."""
-    starts, ends = route, np.roll(route, -1, axis=0)
-    segment = ends - starts
-    length_sq = np.maximum(np.sum(segment**2, axis=1), 1e-12)
-    offset = points[:, None, :] - starts[None, :, :]
-    along = np.clip(np.sum(offset * segment[None], axis=2) / length_sq, 0.0, 1.0)
-    closest = starts[None] + along[..., None] * segment[None]
-    return np.min(np.linalg.norm(points[:, None, :] - closest, axis=2), axis=1)
-
-
-def _scatter_landmarks(rng: np.random.Generator, route: np.ndarray, count: int,
-                       band: tuple[float, float], min_separation: float) -> np.ndarray:
-    """``count`` landmarks within ``band`` (m) of the route, at least ``min_separation`` apart."""
-    low, high = route.min(axis=0) - band[1], route.max(axis=0) + band[1]
-    accepted = np.zeros((0, 2))
-    for _ in range(200):
-        candidates = rng.uniform(low, high, size=(4 * count, 2))
-        distance = _distance_to_route(candidates, route)
-        candidates = candidates[(distance >= band[0]) & (distance <= band[1])]
-        for candidate in candidates:
-            if len(accepted) == count:
-                return accepted
-            nearest = (np.min(np.linalg.norm(accepted - candidate, axis=1)) if len(accepted)
-                       else np.inf)
-            if nearest >= min_separation:
-                accepted = np.vstack([accepted, candidate])
-        if len(accepted) == count:
-            return accepted
-    raise ValueError(f"cannot place {count} landmarks {min_separation} m apart along the route "
-                     f"(placed {len(accepted)}); lower num_landmarks or min_separation")
-
-
-# ---------------------------------------------------------------- vehicle and sensor
-
-
-def bicycle_step(pose: np.ndarray, speed: float, steer: float, wheelbase: float,
-                 dt: float) -> np.ndarray:
-    """Rear-axle bicycle model, one step of ``dt`` s (midpoint heading)."""
-    turn = speed * dt * math.tan(steer) / wheelbase
-    heading = pose[2] + 0.5 * turn
-    return np.array([pose[0] + speed * dt * math.cos(heading),
-                     pose[1] + speed * dt * math.sin(heading),
-                     wrap_angle(pose[2] + turn)])
-
-
-def observe(pose: np.ndarray, landmarks: LandmarkSet, config: SimConfig,
-            rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Noisy detections ``(points (K, 2) sensor frame, labels (K,))`` from the true ``pose``."""
-    offset = landmarks.positions - pose[:2]
-    ranges = np.hypot(offset[:, 0], offset[:, 1])
-    visible = np.flatnonzero(ranges <= config.max_range)
-    detected = visible[rng.random(len(visible)) < config.detection_probability]
-    bearings = np.arctan2(offset[detected, 1], offset[detected, 0]) - pose[2]
-    measured_range = ranges[detected] + rng.normal(0.0, config.sigma_range, len(detected))
-    measured_bearing = bearings + rng.normal(0.0, config.sigma_bearing, len(detected))
-    labels = landmarks.ids[detected]
-    clutter_count = rng.poisson(config.clutter_rate) if config.clutter_rate > 0 else 0
-    if clutter_count:
-        clutter_range = config.max_range * np.sqrt(rng.random(clutter_count))
-        clutter_bearing = rng.uniform(-math.pi, math.pi, clutter_count)
-        measured_range = np.concatenate([measured_range, clutter_range])
-        measured_bearing = np.concatenate([measured_bearing, clutter_bearing])
-        labels = np.concatenate([labels, np.full(clutter_count, -1, dtype=np.int32)])
-    keep = (measured_range > 0.0) & (measured_range <= config.max_range)
-    points = np.stack([measured_range * np.cos(measured_bearing),
-                       measured_range * np.sin(measured_bearing)], axis=1)[keep]
-    return points.astype(np.float32), labels[keep].astype(np.int32)
 
 
 def simulate(config: SimConfig) -> SchemaBag:
@@ -216,50 +151,25 @@ def simulate(config: SimConfig) -> SchemaBag:
     # Separate streams: the odometry noise does not change with the sensor settings or the world.
     control_rng = np.random.default_rng([config.seed, 0])
     sensor_rng = np.random.default_rng([config.seed, 1])
-    dt = 1.0 / config.control_rate
+    car = Car(config.speed, config.wheelbase, config.max_steer, config.max_steer_rate,
+              config.waypoint_radius, config.sigma_speed, config.sigma_steer)
+    true_poses, odometry_poses = car.drive(world.waypoints, config.laps, config.control_rate,
+                                           control_rng, config.duration)
+    sensor = RangeBearingSensor(config.max_range, config.sigma_range, config.sigma_bearing,
+                                config.detection_probability, config.clutter_rate)
     steps_per_reading = int(round(config.control_rate / config.observation_rate))
-    route = world.waypoints
-    targets = [i % len(route) for i in range(1, config.laps * len(route) + 2)]
-    start = route[0]
-    first_heading = math.atan2(route[1][1] - start[1], route[1][0] - start[0])
-    true_pose = np.array([start[0], start[1], first_heading])
-    odometry_pose = true_pose.copy()
-    steer = 0.0
-    true_poses, odometry_poses = [true_pose], [odometry_pose]
-    scan_stamps, scan_points, scan_ids = [], [], []
-    step = 0
-    if config.duration > 0:
-        max_steps = int(round(config.duration * config.control_rate))
-    else:  # a vehicle that cannot reach a waypoint (too tight a turn) circles; stop it anyway
-        route_length = np.sum(np.linalg.norm(np.diff(route, axis=0, append=route[:1]), axis=1))
-        max_steps = int(10 * route_length * (config.laps + 1) / config.speed * config.control_rate)
-    while targets and step < max_steps:
-        target = route[targets[0]]
-        if np.hypot(*(target - true_pose[:2])) < config.waypoint_radius:
-            targets.pop(0)
-            continue
-        wanted = wrap_angle(math.atan2(target[1] - true_pose[1], target[0] - true_pose[0])
-                            - true_pose[2])
-        wanted = float(np.clip(wanted, -config.max_steer, config.max_steer))
-        max_change = config.max_steer_rate * dt
-        steer += float(np.clip(wanted - steer, -max_change, max_change))
-        true_pose = bicycle_step(true_pose, config.speed, steer, config.wheelbase, dt)
-        noisy_speed = config.speed + control_rng.normal(0.0, config.sigma_speed)
-        noisy_steer = steer + control_rng.normal(0.0, config.sigma_steer)
-        odometry_pose = bicycle_step(odometry_pose, noisy_speed, noisy_steer, config.wheelbase, dt)
-        step += 1
-        true_poses.append(true_pose)
-        odometry_poses.append(odometry_pose)
-        if step % steps_per_reading == 0:
-            points, labels = observe(true_pose, world.landmarks, config, sensor_rng)
-            scan_stamps.append(config.start_time + step / config.control_rate)
-            scan_points.append(points)
-            scan_ids.append(labels)
+    reading_steps = np.arange(steps_per_reading, len(true_poses), steps_per_reading)
+    readings = [sensor.observe(true_poses[step], world.landmarks.positions, sensor_rng)
+                for step in reading_steps]
     stamps = config.start_time + np.arange(len(true_poses)) / config.control_rate
     return SchemaBag(
-        odometry=PoseSeries(stamps, np.array(odometry_poses), "odom", "base_link"),
-        scans=LandmarkScans(np.array(scan_stamps), scan_points, scan_ids, config.sensor_frame),
-        ground_truth=PoseSeries(stamps, np.array(true_poses), "map", "base_link"),
+        odometry=PoseSeries(stamps, odometry_poses, "odom", "base_link"),
+        scans=LandmarkScans(stamps[reading_steps],
+                            [polar_to_points(r.ranges, r.bearings).astype(np.float32)
+                             for r in readings],
+                            [r.labels.astype(np.int32) for r in readings],
+                            config.sensor_frame),
+        ground_truth=PoseSeries(stamps, true_poses, "map", "base_link"),
         landmarks_truth=world.landmarks)
 
 

@@ -1,0 +1,223 @@
+"""Landmark worlds: the generative model behind the simulator's bags and the in-memory worlds.
+
+One model for ``fastslam-sim`` (``tools/sim.py``, written to bags) and for the core's tests and
+``fastslam-bench`` (``tools/synthetic.py``, kept in memory): point landmarks scattered at least a
+minimum distance apart, a true path, odometry that drifts from it, and a range-bearing sensor
+(:class:`RangeBearingSensor`) that detects each landmark within its reach with a probability,
+adds Gaussian range and bearing noise, and reports Poisson clutter. Two vehicles drive the
+worlds: a car (:class:`Car`, a bicycle model steering towards waypoints) whose odometry
+integrates noisy controls, as wheel odometry does, and a robot on a circle (:func:`circle_path`)
+whose odometry carries the filter's own odometry-model noise (:func:`odometry_with_noise`), so
+that tests meet exactly the model the filter assumes. Plain numpy, no ROS.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from fastslam_ros.core.geometry import relative_pose, wrap_angle
+from fastslam_ros.core.motion import OdometryControl, apply_control
+
+# ---------------------------------------------------------------- landmarks
+
+
+def scatter_landmarks(rng: np.random.Generator, count: int, low, high, min_separation: float,
+                      accept: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+    """``count`` points (count, 2) drawn uniformly in the box ``low``..``high`` (m), kept where
+    ``accept`` (a mask of (K, 2) candidates) allows, at least ``min_separation`` apart.
+
+    Candidates come in batches and are taken greedily in the order drawn.
+    """
+    accepted = np.zeros((0, 2))
+    for _ in range(200):
+        candidates = rng.uniform(low, high, size=(4 * count, 2))
+        if accept is not None:
+            candidates = candidates[accept(candidates)]
+        for candidate in candidates:
+            if len(accepted) == count:
+                return accepted
+            nearest = (np.min(np.linalg.norm(accepted - candidate, axis=1)) if len(accepted)
+                       else np.inf)
+            if nearest >= min_separation:
+                accepted = np.vstack([accepted, candidate])
+        if len(accepted) == count:
+            return accepted
+    raise ValueError(f"cannot place {count} landmarks {min_separation} m apart "
+                     f"(placed {len(accepted)}); lower num_landmarks or min_separation")
+
+
+def distance_to_route(points: np.ndarray, route: np.ndarray) -> np.ndarray:
+    """Distance (m) of each point (K, 2) to the closed polyline ``route`` (W, 2)."""
+    starts, ends = route, np.roll(route, -1, axis=0)
+    segment = ends - starts
+    length_sq = np.maximum(np.sum(segment**2, axis=1), 1e-12)
+    offset = points[:, None, :] - starts[None, :, :]
+    along = np.clip(np.sum(offset * segment[None], axis=2) / length_sq, 0.0, 1.0)
+    closest = starts[None] + along[..., None] * segment[None]
+    return np.min(np.linalg.norm(points[:, None, :] - closest, axis=2), axis=1)
+
+
+# ---------------------------------------------------------------- sensor
+
+
+@dataclass
+class Reading:
+    """One sensor reading: ranges (m), bearings (rad, sensor frame) and labels (K,) each; the
+    label of a detection is the row of its landmark, -1 for clutter."""
+
+    ranges: np.ndarray
+    bearings: np.ndarray
+    labels: np.ndarray
+
+
+@dataclass(frozen=True)
+class RangeBearingSensor:
+    """A 360 degree range-bearing sensor at the vehicle's origin (SI units, radians).
+
+    Each landmark within ``max_range`` is detected with ``detection_probability``, its range
+    and bearing off by N(0, sigma_range) and N(0, sigma_bearing); each reading adds
+    Poisson(``clutter_rate``) false detections, spread evenly over the disc the sensor reaches
+    (``clutter_spread="area"``, as false returns from anywhere in view) or evenly over range and
+    bearing (``"range"``, the outlier density the filter assumes, which puts more of them near
+    the sensor). Nothing is reported beyond ``max_range``.
+    """
+
+    max_range: float
+    sigma_range: float
+    sigma_bearing: float
+    detection_probability: float = 1.0
+    clutter_rate: float = 0.0
+    clutter_spread: Literal["area", "range"] = "area"
+
+    def __post_init__(self):
+        if self.clutter_spread not in ("area", "range"):
+            raise ValueError(f"clutter_spread: must be 'area' or 'range' "
+                             f"(got {self.clutter_spread!r})")
+
+    def observe(self, pose: np.ndarray, landmarks: np.ndarray,
+                rng: np.random.Generator) -> Reading:
+        """A noisy reading of ``landmarks`` (N, 2) from the true ``pose`` (x, y, theta)."""
+        offset = landmarks - pose[:2]
+        ranges = np.hypot(offset[:, 0], offset[:, 1])
+        visible = np.flatnonzero(ranges <= self.max_range)
+        detected = visible[rng.random(len(visible)) < self.detection_probability]
+        bearings = np.arctan2(offset[detected, 1], offset[detected, 0]) - pose[2]
+        measured_range = ranges[detected] + rng.normal(0.0, self.sigma_range, len(detected))
+        measured_bearing = bearings + rng.normal(0.0, self.sigma_bearing, len(detected))
+        labels = detected
+        clutter_count = rng.poisson(self.clutter_rate) if self.clutter_rate > 0 else 0
+        if clutter_count:
+            spread = rng.random(clutter_count)
+            clutter_range = self.max_range * (np.sqrt(spread) if self.clutter_spread == "area"
+                                              else spread)
+            clutter_bearing = rng.uniform(-math.pi, math.pi, clutter_count)
+            measured_range = np.concatenate([measured_range, clutter_range])
+            measured_bearing = np.concatenate([measured_bearing, clutter_bearing])
+            labels = np.concatenate([labels, np.full(clutter_count, -1)])
+        keep = (measured_range > 0.0) & (measured_range <= self.max_range)
+        return Reading(measured_range[keep], wrap_angle(measured_bearing[keep]), labels[keep])
+
+
+# ---------------------------------------------------------------- vehicles and odometry
+
+
+def bicycle_step(pose: np.ndarray, speed: float, steer: float, wheelbase: float,
+                 dt: float) -> np.ndarray:
+    """Rear-axle bicycle model, one step of ``dt`` s (midpoint heading)."""
+    turn = speed * dt * math.tan(steer) / wheelbase
+    heading = pose[2] + 0.5 * turn
+    return np.array([pose[0] + speed * dt * math.cos(heading),
+                     pose[1] + speed * dt * math.sin(heading),
+                     wrap_angle(pose[2] + turn)])
+
+
+@dataclass(frozen=True)
+class Car:
+    """A car-like vehicle that drives waypoints at constant speed (SI units, radians).
+
+    It steers towards the next waypoint within the steering angle and rate limits; its
+    odometry integrates the commanded speed and steering angle with Gaussian noise on each
+    control step, so it drifts like wheel odometry.
+    """
+
+    speed: float
+    wheelbase: float
+    max_steer: float
+    max_steer_rate: float
+    waypoint_radius: float
+    """A waypoint is reached within this distance (m)."""
+    sigma_speed: float
+    """Speed noise standard deviation per control step (m/s)."""
+    sigma_steer: float
+    """Steering noise standard deviation per control step (rad)."""
+
+    def drive(self, route: np.ndarray, laps: int, control_rate: float,
+              rng: np.random.Generator, duration: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """True and odometry poses (T, 3), one per control step at ``control_rate`` Hz.
+
+        The car starts at the route's first point heading to the second, drives the closed
+        route ``laps`` times and on to its second point again, or stops after ``duration`` s
+        (when > 0).
+        """
+        dt = 1.0 / control_rate
+        targets = [i % len(route) for i in range(1, laps * len(route) + 2)]
+        start = route[0]
+        first_heading = math.atan2(route[1][1] - start[1], route[1][0] - start[0])
+        true_pose = np.array([start[0], start[1], first_heading])
+        odometry_pose = true_pose.copy()
+        steer = 0.0
+        true_poses, odometry_poses = [true_pose], [odometry_pose]
+        if duration > 0:
+            max_steps = int(round(duration * control_rate))
+        else:  # a car that cannot reach a waypoint (too tight a turn) circles; stop it anyway
+            route_length = np.sum(np.linalg.norm(np.diff(route, axis=0, append=route[:1]),
+                                                 axis=1))
+            max_steps = int(10 * route_length * (laps + 1) / self.speed * control_rate)
+        while targets and len(true_poses) <= max_steps:
+            target = route[targets[0]]
+            if np.hypot(*(target - true_pose[:2])) < self.waypoint_radius:
+                targets.pop(0)
+                continue
+            wanted = wrap_angle(math.atan2(target[1] - true_pose[1], target[0] - true_pose[0])
+                                - true_pose[2])
+            wanted = float(np.clip(wanted, -self.max_steer, self.max_steer))
+            max_change = self.max_steer_rate * dt
+            steer += float(np.clip(wanted - steer, -max_change, max_change))
+            true_pose = bicycle_step(true_pose, self.speed, steer, self.wheelbase, dt)
+            noisy_speed = self.speed + rng.normal(0.0, self.sigma_speed)
+            noisy_steer = steer + rng.normal(0.0, self.sigma_steer)
+            odometry_pose = bicycle_step(odometry_pose, noisy_speed, noisy_steer,
+                                         self.wheelbase, dt)
+            true_poses.append(true_pose)
+            odometry_poses.append(odometry_pose)
+        return np.array(true_poses), np.array(odometry_poses)
+
+
+def circle_path(radius: float, num_steps: int, laps: float) -> np.ndarray:
+    """Poses (num_steps + 1, 3) evenly spaced on a counter-clockwise circle about the origin,
+    ``laps`` times round, starting at (radius, 0) heading along +y."""
+    angles = 2.0 * np.pi * laps * np.arange(num_steps + 1) / num_steps
+    return np.column_stack([radius * np.cos(angles), radius * np.sin(angles),
+                            wrap_angle(angles + 0.5 * np.pi)])
+
+
+def odometry_with_noise(truth: np.ndarray, noise: tuple[float, float, float],
+                        rng: np.random.Generator) -> np.ndarray:
+    """Odometry poses (T, 3) that start at ``truth[0]`` and drift from the path ``truth``.
+
+    The odometry motion model: each step's (rot1, trans, rot2) is corrupted by
+    N(0, noise[0]) rad, a relative N(0, noise[1]) scale error and N(0, noise[2]) rad.
+    """
+    errors = rng.normal(0.0, noise, size=(len(truth) - 1, 3))
+    odometry = np.empty_like(truth)
+    odometry[0] = truth[0]
+    for k, delta in enumerate(relative_pose(truth[:-1], truth[1:])):
+        control = OdometryControl.from_delta(delta)
+        odometry[k + 1] = apply_control(odometry[k:k + 1], control.rot1 + errors[k, 0],
+                                        control.trans * (1.0 + errors[k, 1]),
+                                        control.rot2 + errors[k, 2])[0]
+    return odometry
