@@ -244,10 +244,10 @@ class FastSLAMNode(FilterNode):
             cloud = ros_io.read_landmark_cloud(msg)
         except ros_io.MalformedCloudError as error:
             return self._drop("malformed_cloud", f"landmark cloud dropped: {error}")
-        stamp = self._reading_stamp(msg.header.stamp, "landmarks")
+        now = self._now()
+        stamp = self._reading_stamp(msg.header.stamp, "landmarks", now)
         if stamp is None:
             return
-        now = self._now()
         self._queue(self._observation(cloud, stamp, now), now)
 
     def _observation(self, cloud: ros_io.LandmarkCloud, stamp: float,
@@ -306,9 +306,8 @@ class FastSLAMNode(FilterNode):
                                                 f"({error!r}): repaired, reading lost")
         if self.slam.num_recoveries != recoveries:
             self.stats["filter_recoveries"] += 1
-            self.get_logger().warning(
-                "the filter's state was not finite after an update: repaired from the finite "
-                "particles (or reset) [filter_recoveries]", throttle_duration_sec=5.0)
+            self._warn("filter_recoveries", "the filter's state was not finite after an update: "
+                       "repaired from the finite particles (or reset) [filter_recoveries]")
         self._note_lag(observation.stamp)
         if check_ids:
             checked, correct = association_score(observation.ids, report.is_new,

@@ -245,6 +245,7 @@ class FilterNode(Node):
         self._worst_lag = 0.0
         self._worst_callback = 0.0
         self._reported: dict[str, int] = {}
+        self._warned: dict[str, float] = {}
         self._diagnostics_throttle = Throttle(1.0 / DIAGNOSTICS_PERIOD)
         self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
                                                       STREAM_QOS)
@@ -350,8 +351,16 @@ class FilterNode(Node):
     def _drop(self, reason: str, message: str, count: int = 1) -> None:
         """Count dropped input by reason and warn (throttled)."""
         self.stats[f"dropped_{reason}"] += count
-        self.get_logger().warning(f"{message} [dropped_{reason}]",
-                                  throttle_duration_sec=WARNING_PERIOD)
+        self._warn(f"dropped_{reason}", f"{message} [dropped_{reason}]")
+
+    def _warn(self, kind: str, message: str) -> None:
+        """Log a warning, at most one of each ``kind`` per WARNING_PERIOD (wall time). rclpy's
+        own throttle inspects the caller's stack on every call, suppressed or not: on a stream
+        of bad input that costs more than the filter."""
+        now = time.monotonic()
+        if now - self._warned.get(kind, -math.inf) >= WARNING_PERIOD:
+            self._warned[kind] = now
+            self.get_logger().warning(message)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -388,15 +397,13 @@ class FilterNode(Node):
         self.stats["time_jumps"] += 1
         self._rates = {topic: InputRate() for topic in self._rates}  # the gap is no loss
         if verdict == StampGate.BACKWARDS:
-            self.get_logger().warning(
-                f"time went backwards from {newest:.3f} s to {stamp:.3f} s (looped bag?): "
-                "resetting the filter", throttle_duration_sec=WARNING_PERIOD)
+            self._warn("time_jumps", f"time went backwards from {newest:.3f} s to "
+                                     f"{stamp:.3f} s (looped bag?): resetting the filter")
             self._process_ready(self._now(), force=True)
             self.reset()
             self._stamp_gate.check(stamp)  # the new time, after the reset forgot the old one
         else:
-            self.get_logger().warning(f"time jumped forward from {newest:.3f} s to {stamp:.3f} s",
-                                      throttle_duration_sec=WARNING_PERIOD)
+            self._warn("time_jumps", f"time jumped forward from {newest:.3f} s to {stamp:.3f} s")
         return stamp
 
     def _pose_input(self, msg, what: str) -> np.ndarray | None:
@@ -453,9 +460,9 @@ class FilterNode(Node):
         if latest is None:
             self._on_first_odometry(pose)
         self._odometry.append(stamp, pose)
-        self.stats["odom_missing"] += self._rates["odom"].record(stamp, self._now())
-        self.stats["used_odom"] += 1
         now = self._now()
+        self.stats["odom_missing"] += self._rates["odom"].record(stamp, now)
+        self.stats["used_odom"] += 1
         self._process_ready(now)
         self._advance_idle()
         self._publish_throttled(now)
@@ -476,18 +483,17 @@ class FilterNode(Node):
             return False
         if verdict == OdometryGate.BRIDGED:
             self.stats["odometry_jumps"] += 1
-            self.get_logger().warning("odometry jumped and the jump is confirmed: continuing "
-                                      "from the current estimate",
-                                      throttle_duration_sec=WARNING_PERIOD)
+            self._warn("odometry_jumps", "odometry jumped and the jump is confirmed: continuing "
+                                         "from the current estimate")
         return True
 
-    def _reading_stamp(self, stamp_msg, topic: str) -> float | None:
-        """Stamp of a reading on ``topic`` (rate watched), or None (counted) when invalid, an
-        outlier or a repeat of a queued or used reading's stamp."""
+    def _reading_stamp(self, stamp_msg, topic: str, now: float) -> float | None:
+        """Stamp of a reading on ``topic`` arriving at ``now`` (rate watched), or None (counted)
+        when invalid, an outlier or a repeat of a queued or used reading's stamp."""
         stamp = self._stamp(stamp_msg, self._reading_name)
         if stamp is None:
             return None
-        self.stats[f"{topic}_missing"] += self._rates[topic].record(stamp, self._now())
+        self.stats[f"{topic}_missing"] += self._rates[topic].record(stamp, now)
         if stamp == self._last_reading_stamp or any(r.stamp == stamp for r in self._pending):
             self._drop("duplicate_stamp", f"{self._reading_name} with a repeated stamp "
                                           f"{stamp:.9f}")

@@ -196,10 +196,10 @@ class PeopleTrackerNode(FilterNode):
             scan = people_io.read_scan(msg)
         except people_io.MalformedScanError as error:
             return self._drop("malformed_scan", f"scan dropped: {error}")
-        stamp = self._reading_stamp(msg.header.stamp, "scan")
+        now = self._now()
+        stamp = self._reading_stamp(msg.header.stamp, "scan", now)
         if stamp is None:
             return
-        now = self._now()
         self._queue(PendingScan(stamp, scan, now), now)
 
     # --- filter --------------------------------------------------------------------------------

@@ -150,8 +150,15 @@ def planar_covariance(covariance: Sequence[float]) -> np.ndarray | None:
 
 def pose_msg(pose: Sequence[float]) -> Pose:
     """Planar pose (x, y, theta) -> ``geometry_msgs/Pose`` at z = 0."""
-    return Pose(position=Point(x=float(pose[0]), y=float(pose[1])),
-                orientation=yaw_to_quaternion(float(pose[2])))
+    return _planar_pose(float(pose[0]), float(pose[1]), float(pose[2]))
+
+
+def _planar_pose(x: float, y: float, yaw: float) -> Pose:
+    """``pose_msg`` of floats; the quaternion (0, 0, sin(yaw / 2), cos(yaw / 2)) of
+    ``geometry.yaw_to_quaternion``, written out: a PoseArray builds one per particle."""
+    half = 0.5 * yaw
+    return Pose(position=Point(x=x, y=y), orientation=Quaternion(z=math.sin(half),
+                                                                 w=math.cos(half)))
 
 
 # --- point clouds ------------------------------------------------------------------------------
@@ -264,7 +271,8 @@ def pose_with_covariance(header: Header, pose: Sequence[float],
 
 def pose_array(header: Header, poses: np.ndarray) -> PoseArray:
     """(M, 3) planar poses -> ``geometry_msgs/PoseArray``."""
-    return PoseArray(header=header, poses=[pose_msg(pose) for pose in poses])
+    return PoseArray(header=header, poses=[_planar_pose(x, y, yaw) for x, y, yaw
+                                           in np.asarray(poses, dtype=float).tolist()])
 
 
 def path(header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:

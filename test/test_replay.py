@@ -152,3 +152,15 @@ def test_replay_is_invisible_to_other_processes(tmp_path):
         control.kill()
         replay_process.wait()
         control.wait()
+
+
+@pytest.mark.parametrize("stamp_ns, parent, child, pose", [
+    (0, "odom", "base_link", (0.0, 0.0, 0.0)),
+    (1_700_000_000_123_456_789, "map", "odom", (-12.5, 3e5, -3.0)),
+    (5, "", "a_frame_with_a_longer_name", (1.0, 2.0, 1.5)),
+])
+def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, pose):
+    from fastslam_ros.tools.bag_schema import tf_message_bytes, transform_message
+    from fastslam_ros.tools.replay import tf_message_cdr
+    assert tf_message_cdr(stamp_ns, parent, child, pose) == \
+        tf_message_bytes([transform_message(stamp_ns, parent, child, pose)])

@@ -251,11 +251,15 @@ class OdometryGate:
 
     def __init__(self) -> None:
         self.correction = np.zeros(3)
+        self._bridged = False
         self._candidates: list[tuple[float, np.ndarray]] = []
 
     def corrected(self, pose: np.ndarray) -> np.ndarray:
-        """A raw odometry pose in the frame the filter follows."""
-        return compose(self.correction, pose)
+        """A raw odometry pose in the frame the filter follows (the pose itself, heading
+        wrapped, until the first jump: no composition on every message)."""
+        if self._bridged:
+            return compose(self.correction, pose)
+        return np.array([pose[0], pose[1], wrap_scalar(float(pose[2]))])
 
     @staticmethod
     def step_plausible(stamp0: float, pose0: np.ndarray, stamp1: float, pose1: np.ndarray,
@@ -285,10 +289,12 @@ class OdometryGate:
         # New frame: the jump itself becomes no motion (latest = shift * pose).
         shift = compose(latest_pose, relative_pose(pose, np.zeros(3)))
         self.correction = compose(shift, self.correction)
+        self._bridged = True
         pose[:] = latest_pose
         return self.BRIDGED
 
     def clear(self) -> None:
         """Back to the raw odometry frame (after a reset)."""
         self.correction = np.zeros(3)
+        self._bridged = False
         self._candidates.clear()
