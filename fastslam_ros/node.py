@@ -144,13 +144,10 @@ class Observation:
     """Node-clock time (s) at which the cloud arrived, for the max_observation_wait bound."""
 
 
-
 class FastSLAMNode(FilterNode):
     """Landmark FastSLAM on ``odom`` + ``landmarks``; publishes pose, map, path and particles."""
 
-    def __init__(self, **node_kwargs) -> None:
-        """Declare parameters (ParameterError on a bad value), create the filter and the I/O."""
-        super().__init__(NODE_NAME, **node_kwargs)
+    NODE_NAME = NODE_NAME
 
     def _set_up(self) -> None:
         """Everything of the start after the rcl node exists."""

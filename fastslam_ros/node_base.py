@@ -158,14 +158,17 @@ class _NothingToDestroy:
 class FilterNode(Node):
     """Readings and odometry in, in stamp order, through the shared input gates."""
 
-    def __init__(self, node_name: str, **node_kwargs) -> None:
-        """Create the rcl node, then ``_set_up`` (ParameterError on a bad value).
+    NODE_NAME = ""
+    """The node's name (a subclass sets it)."""
+
+    def __init__(self, **node_kwargs) -> None:
+        """Create the rcl node ``NODE_NAME``, then ``_set_up`` (ParameterError on a bad value).
 
         A failed start destroys the half-built node at once: left to the garbage collector, its
         DDS participant would be torn down at some later, arbitrary point (Fast DDS can then
         block the whole process)."""
         try:
-            super().__init__(node_name, **node_kwargs)
+            super().__init__(self.NODE_NAME, **node_kwargs)
         except ParameterException as error:  # e.g. use_sim_time given as a string
             if getattr(self, "_Node__node", None) is not None:
                 # Node.__init__ stopped before it made its type description service.

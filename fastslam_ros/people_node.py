@@ -105,9 +105,7 @@ class PendingScan:
 class PeopleTrackerNode(FilterNode):
     """The conditional particle filter on ``map`` + ``scan`` + ``odom``."""
 
-    def __init__(self, **node_kwargs) -> None:
-        """Declare parameters (ParameterError on a bad value), create the tracker and the I/O."""
-        super().__init__(NODE_NAME, **node_kwargs)
+    NODE_NAME = NODE_NAME
 
     def _set_up(self) -> None:
         self._start_inputs(COUNTERS, "scan", "scan", "stale_scans", THROTTLED_OUTPUTS, DIAGNOSED)
@@ -135,7 +133,7 @@ class PeopleTrackerNode(FilterNode):
         self.create_subscription(LaserScan, "scan", self.on_scan, INPUT_QOS)
         self.create_subscription(Odometry, "odom", self.on_odometry, INPUT_QOS)
         self.create_subscription(PoseWithCovarianceStamped, "initialpose", self.on_initial_pose,
-                                 STREAM_QOS)
+                                 LATEST_QOS)
         self.create_timer(DIAGNOSTICS_PERIOD, self._on_timer)
         s = self.tracker_settings
         self.get_logger().info(

@@ -42,6 +42,7 @@ from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, Q
                                 QosTime)
 from rosbags.rosbag2 import Writer
 from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
@@ -210,6 +211,43 @@ def tf_message_cdr(stamp_ns: int, parent: str, child: str, pose) -> bytes:
     return b"\x00\x01\x00\x00" + bytes(payload)
 
 
+class MarkerArrayCdr:
+    """Serializes ``visualization_msgs/MarkerArray`` messages whose markers are mostly those of
+    the previous one (``ros_io.MarkerBuilder`` reuses the markers of unchanged landmarks).
+
+    A MarkerArray is a uint32 count and its markers, each starting 4-aligned; a marker's bytes
+    depend only on whether it starts 8-aligned (its float64 fields' padding). Each marker is
+    serialized once per alignment it is met at and the array joined from the pieces: a map of
+    a few hundred landmarks costs a fraction of a millisecond instead of ten."""
+
+    def __init__(self) -> None:
+        self._pieces: dict[int, tuple[Any, dict[int, bytes]]] = {}
+
+    @staticmethod
+    def _piece(marker: Any, alignment: int) -> bytes:
+        if alignment == 0:
+            return serialize_message(marker)[4:]
+        return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
+
+    def serialize(self, msg: Any) -> bytes:
+        parts = [b"\x00\x01\x00\x00", struct.pack("<I", len(msg.markers))]
+        offset, pieces, kept = 4, self._pieces, {}
+        for marker in msg.markers:
+            padding = -offset % 4
+            if padding:
+                parts.append(bytes(padding))
+                offset += padding
+            entry = kept.get(id(marker)) or pieces.get(id(marker)) or (marker, {})
+            kept[id(marker)] = entry  # the marker is held, so its id is not reused meanwhile
+            piece = entry[1].get(offset % 8)
+            if piece is None:
+                piece = entry[1][offset % 8] = self._piece(marker, offset % 8)
+            parts.append(piece)
+            offset += len(piece)
+        self._pieces = kept
+        return b"".join(parts)
+
+
 # ---------------------------------------------------------------- replay
 
 
@@ -220,6 +258,7 @@ class OutputRecorder:
         self.writer = writer
         self.connections: dict[str, Any] = {}
         self.stamp_ns = 0
+        self._marker_arrays: dict[str, MarkerArrayCdr] = {}
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         if topic not in self.connections:
@@ -231,8 +270,11 @@ class OutputRecorder:
     def record(self, topic: str, msg: Any) -> None:
         """Output listener of the node: serialize the rclpy message and write it; the node's
         map -> odom transform also goes to ``/tf``."""
-        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns,
-                          serialize_message(msg))
+        if isinstance(msg, MarkerArray):
+            raw = self._marker_arrays.setdefault(topic, MarkerArrayCdr()).serialize(msg)
+        else:
+            raw = serialize_message(msg)
+        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns, raw)
         if isinstance(msg, TransformStamped):
             translation, rotation = msg.transform.translation, msg.transform.rotation
             yaw = quaternion_to_yaw(rotation.x, rotation.y, rotation.z, rotation.w)
