@@ -273,7 +273,7 @@ def pose_with_covariance(header: Header, pose: Sequence[float],
     full = np.zeros((6, 6))
     planar = [0, 1, 5]  # x, y and rotation about z in (x, y, z, rot x, rot y, rot z)
     full[np.ix_(planar, planar)] = covariance
-    msg.pose.covariance = full.ravel().tolist()
+    msg.pose.covariance = full.ravel()  # float64 (36,): taken as it is, not checked per item
     return msg
 
 
