@@ -24,9 +24,9 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
-from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, GATE_COUNTERS, INPUT_QOS, LATEST_QOS,
-                                    MAP_QOS, STREAM_QOS, FilterNode, ParameterError,
-                                    max_speed_parameter, max_yaw_rate_parameter, run_node)
+from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS,
+                                    STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,
+                                    max_yaw_rate_parameter, run_node)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
 
 NODE_NAME = "people_tracker"
@@ -42,7 +42,6 @@ COUNTERS = (
     "dropped_invalid_stamp", "dropped_outlier_stamp", "dropped_duplicate_stamp",
     "dropped_time_backwards", "dropped_stale", "dropped_no_map", "dropped_internal_error",
 )
-assert set(GATE_COUNTERS) <= set(COUNTERS)
 THROTTLED_OUTPUTS = ("particles_rate", "markers_rate")
 DIAGNOSED = (("late_scans", "scans older than the filter's time"),
              ("stale_scans", "scans used without their odometry"),
