@@ -54,7 +54,8 @@ DIAGNOSED = (("late_scans", "scans older than the filter's time"),
 class NodeSettings:
     """The ROS side of the node: frames, map source, output rates."""
 
-    map_frame: str = parameter("map", "Frame of the map, the pose, the particles and the people.")
+    map_frame: str = parameter("map", "Frame of the map, the pose, the particles and the people. "
+                                      "Not empty.")
     odom_frame: str = parameter("odom", "Odometry frame (REP 105); '' accepts any.")
     base_frame: str = parameter("base_link", "Robot frame: odometry's child_frame_id; '' "
                                              "accepts any.")

@@ -336,3 +336,18 @@ def test_people_node_bridges_a_confirmed_odometry_restart(module_context, clean_
     assert stats["used_scan"] == 20
     mean = np.average(estimate["poses"][:, :2], axis=0, weights=np.exp(estimate["log_weights"]))
     assert np.linalg.norm(mean - POSE[:2]) < 0.2  # where the robot stands, not 100 m off
+
+
+def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
+    """ROS-side parameters change at runtime (validated); the tracker's are fixed at start."""
+    node = make_node(context)
+    try:
+        assert node.set_parameters([Parameter("markers_rate", value=0.5)])[0].successful
+        assert node.settings["markers_rate"] == 0.5 and node._throttles["markers_rate"].rate == 0.5
+        refused = node.set_parameters([Parameter("max_speed", value=-1.0)])[0]
+        assert not refused.successful and node.settings["max_speed"] == 20.0
+        fixed = node.set_parameters([Parameter("num_particles", value=50)])[0]
+        assert not fixed.successful and "restart" in fixed.reason
+        assert node.tracker_settings.num_particles == 20
+    finally:
+        node.destroy_node()
