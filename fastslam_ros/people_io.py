@@ -123,14 +123,8 @@ def initial_pose(msg) -> tuple[np.ndarray, np.ndarray]:
 
 def people_cloud(header: Header, people: PeopleEstimate) -> PointCloud2:
     """``~/people``: one point per person (stable id, covariance, existence)."""
-    array = np.zeros(len(people.keys), ros_io.MAP_CLOUD_DTYPE)
-    array["x"], array["y"] = people.means[:, 0], people.means[:, 1]
-    array["id"] = people.keys
-    array["cov_xx"] = people.covariances[:, 0, 0]
-    array["cov_xy"] = people.covariances[:, 0, 1]
-    array["cov_yy"] = people.covariances[:, 1, 1]
-    array["existence"] = people.existence
-    return ros_io.cloud_from_array(header, array)
+    return ros_io.estimate_cloud(header, people.means, people.covariances, people.existence,
+                                 people.keys)
 
 
 def people_markers(header: Header, people: PeopleEstimate, removed_keys=()) -> MarkerArray:
@@ -147,21 +141,12 @@ def people_markers(header: Header, people: PeopleEstimate, removed_keys=()) -> M
         body.pose.orientation.w = 1.0
         body.scale.x = body.scale.y = PERSON_DIAMETER
         body.scale.z = PERSON_HEIGHT
-        ellipse = Marker(header=header, ns=ros_io.ELLIPSE_NAMESPACE, id=key,
-                         type=Marker.CYLINDER, action=Marker.ADD,
-                         pose=ros_io.pose_msg((x, y, float(angles[index]))),
-                         color=ColorRGBA(r=1.0, g=0.8, b=0.2, a=0.4))
-        ellipse.scale.x, ellipse.scale.y = float(major[index]), float(minor[index])
-        ellipse.scale.z = ros_io.ELLIPSE_HEIGHT
-        label = Marker(header=header, ns=ros_io.LABEL_NAMESPACE, id=key,
-                       type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, text=str(key),
-                       color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-        label.pose.position = Point(x=x, y=y, z=PERSON_HEIGHT + ros_io.LABEL_LIFT)
-        label.pose.orientation.w = 1.0
-        label.scale.z = ros_io.LABEL_HEIGHT
+        ellipse = ros_io.ellipse_marker(header, key, (x, y, float(angles[index])),
+                                        float(major[index]), float(minor[index]),
+                                        ColorRGBA(r=1.0, g=0.8, b=0.2, a=0.4))
+        label = ros_io.label_marker(header, key, (x, y, PERSON_HEIGHT + ros_io.LABEL_LIFT),
+                                    str(key))
         markers += [body, ellipse, label]
-    for key in removed_keys:
-        markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
-                    for namespace in (PERSON_NAMESPACE, ros_io.ELLIPSE_NAMESPACE,
-                                      ros_io.LABEL_NAMESPACE)]
+    markers += ros_io.delete_markers(header, removed_keys, (
+        PERSON_NAMESPACE, ros_io.ELLIPSE_NAMESPACE, ros_io.LABEL_NAMESPACE))
     return MarkerArray(markers=markers)

@@ -150,8 +150,15 @@ def planar_covariance(covariance: Sequence[float]) -> np.ndarray | None:
 
 def pose_msg(pose: Sequence[float]) -> Pose:
     """Planar pose (x, y, theta) -> ``geometry_msgs/Pose`` at z = 0."""
-    return Pose(position=Point(x=float(pose[0]), y=float(pose[1])),
-                orientation=yaw_to_quaternion(float(pose[2])))
+    return _planar_pose(float(pose[0]), float(pose[1]), float(pose[2]))
+
+
+def _planar_pose(x: float, y: float, yaw: float) -> Pose:
+    """``pose_msg`` of floats; the quaternion (0, 0, sin(yaw / 2), cos(yaw / 2)) of
+    ``geometry.yaw_to_quaternion``, written out: a PoseArray builds one per particle."""
+    half = 0.5 * yaw
+    return Pose(position=Point(x=x, y=y), orientation=Quaternion(z=math.sin(half),
+                                                                 w=math.cos(half)))
 
 
 # --- point clouds ------------------------------------------------------------------------------
@@ -238,13 +245,21 @@ def landmark_cloud(header: Header, points: np.ndarray,
 
 def map_cloud(header: Header, landmark_map: LandmarkMapLike) -> PointCloud2:
     """``~/map_cloud``: landmarks with ids, covariances and existence probabilities."""
-    array = np.zeros(len(landmark_map.means), MAP_CLOUD_DTYPE)
-    array["x"], array["y"] = landmark_map.means[:, 0], landmark_map.means[:, 1]
-    array["id"] = landmark_map.ids
-    array["cov_xx"] = landmark_map.covariances[:, 0, 0]
-    array["cov_xy"] = landmark_map.covariances[:, 0, 1]
-    array["cov_yy"] = landmark_map.covariances[:, 1, 1]
-    array["existence"] = landmark_map.existence
+    return estimate_cloud(header, landmark_map.means, landmark_map.covariances,
+                          landmark_map.existence, landmark_map.ids)
+
+
+def estimate_cloud(header: Header, means: np.ndarray, covariances: np.ndarray,
+                   existence: np.ndarray, ids: np.ndarray) -> PointCloud2:
+    """A cloud of estimated points (``MAP_CLOUD_DTYPE``): (N, 2) means, (N, 2, 2) covariances,
+    (N,) existence probabilities and ids; ``~/map_cloud`` and the tracker's ``~/people``."""
+    array = np.zeros(len(means), MAP_CLOUD_DTYPE)
+    array["x"], array["y"] = means[:, 0], means[:, 1]
+    array["id"] = ids
+    array["cov_xx"] = covariances[:, 0, 0]
+    array["cov_xy"] = covariances[:, 0, 1]
+    array["cov_yy"] = covariances[:, 1, 1]
+    array["existence"] = existence
     return cloud_from_array(header, array)
 
 
@@ -258,13 +273,14 @@ def pose_with_covariance(header: Header, pose: Sequence[float],
     full = np.zeros((6, 6))
     planar = [0, 1, 5]  # x, y and rotation about z in (x, y, z, rot x, rot y, rot z)
     full[np.ix_(planar, planar)] = covariance
-    msg.pose.covariance = full.ravel().tolist()
+    msg.pose.covariance = full.ravel()  # float64 (36,): taken as it is, not checked per item
     return msg
 
 
 def pose_array(header: Header, poses: np.ndarray) -> PoseArray:
     """(M, 3) planar poses -> ``geometry_msgs/PoseArray``."""
-    return PoseArray(header=header, poses=[pose_msg(pose) for pose in poses])
+    return PoseArray(header=header, poses=[_planar_pose(x, y, yaw) for x, y, yaw
+                                           in np.asarray(poses, dtype=float).tolist()])
 
 
 def path(header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:
@@ -350,9 +366,7 @@ class MarkerBuilder:
             cache[key] = entry
             markers += entry[1]
         self._cache = cache
-        for key in removed_keys:
-            markers += [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
-                        for namespace in (ELLIPSE_NAMESPACE, LABEL_NAMESPACE)]
+        markers += delete_markers(header, removed_keys, (ELLIPSE_NAMESPACE, LABEL_NAMESPACE))
         return MarkerArray(markers=markers)
 
 
@@ -360,18 +374,39 @@ def _marker_pair(header: Header, key: int, row: list[float], major: float, minor
                  angle: float) -> list[Marker]:
     """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
     x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
+    color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence)
+    return [ellipse_marker(header, key, (x, y, angle), major, minor, color),
+            label_marker(header, key, (x, y, LABEL_LIFT),
+                         str(landmark_id) if landmark_id >= 0 else f"k{key}")]
+
+
+def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float,
+                   minor: float, color: ColorRGBA) -> Marker:
+    """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
+    heading (namespace ``ELLIPSE_NAMESPACE``)."""
     ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
-                     action=Marker.ADD, pose=pose_msg((x, y, angle)),
-                     color=ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence))
+                     action=Marker.ADD, pose=pose_msg(pose), color=color)
     ellipse.scale.x, ellipse.scale.y = major, minor
     ellipse.scale.z = ELLIPSE_HEIGHT
+    return ellipse
+
+
+def label_marker(header: Header, key: int, position: Sequence[float], text: str) -> Marker:
+    """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
     label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
-                   action=Marker.ADD, text=str(landmark_id) if landmark_id >= 0 else f"k{key}",
-                   color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-    label.pose.position = Point(x=x, y=y, z=LABEL_LIFT)
+                   action=Marker.ADD, text=text, color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
+    label.pose.position = Point(x=float(position[0]), y=float(position[1]),
+                                z=float(position[2]))
     label.pose.orientation.w = 1.0
     label.scale.z = LABEL_HEIGHT
-    return [ellipse, label]
+    return label
+
+
+def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str]
+                   ) -> list[Marker]:
+    """DELETE markers for every key in every namespace (objects gone since the last array)."""
+    return [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
+            for key in keys for namespace in namespaces]
 
 
 # --- map file ----------------------------------------------------------------------------------

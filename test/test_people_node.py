@@ -200,3 +200,154 @@ def test_yaml_and_docs_follow_the_parameter_specs():
     for name, (default, _) in specs.items():
         assert values[name] == default, name
         assert f"| `{name}` | {default!r} |" in docs, name
+
+
+# --- bad-input gates (the SLAM node's, test_faults.py): dropped, counted, estimate unchanged ----
+
+INJECT_AT = 10
+"""Step of the stream after which the bad message arrives (1 s into the run)."""
+START = 100.0
+"""Stamp (s) of the stream's first message."""
+
+
+def stream(grid, steps: int = 20, start: float = START) -> list[tuple[float, str, object]]:
+    """``drive``'s messages as (arrival, callback, message), with the map and initial pose."""
+    events = [(start, "on_map", map_message(grid)), (start, "on_initial_pose",
+                                                     initial_pose_message(POSE))]
+    for k in range(steps):
+        stamp = start + 0.1 * k
+        ranges = cast_scan(grid, POSE, ANGLES, PERSON.reshape(1, 2), 12.0)
+        events += [(stamp, "on_odometry", odometry_message(stamp, (0.0, 0.0, 0.0))),
+                   (stamp, "on_odometry", odometry_message(stamp + 0.05, (0.0, 0.0, 0.0))),
+                   (stamp, "on_scan", scan_message(stamp + 0.02, ranges))]
+    return events
+
+
+def feed(context, events) -> tuple[dict, dict]:
+    """Run the events through a fresh node; its counters and its estimate."""
+    node = make_node(context)
+    try:
+        clock = node.get_clock()
+        for arrival, callback, msg in events:
+            clock.set_ros_time_override(Time(nanoseconds=round(arrival * 1e9)))
+            getattr(node, callback)(msg)
+        node.flush()
+        people = node.tracker.people_of()
+        estimate = {"poses": node.tracker.poses.copy(),
+                    "log_weights": node.tracker.log_weights.copy(),
+                    "people": people.means.copy(), "keys": people.keys.copy()}
+        return dict(node.stats), estimate
+    finally:
+        node.destroy_node()
+
+
+def inserted(grid, msg, callback: str) -> list:
+    events = stream(grid)
+    at = 2 + 3 * INJECT_AT
+    return events[:at] + [(events[at - 1][0], callback, msg)] + events[at:]
+
+
+def shifted_odometry(offset=(0.0, 0.0, 0.0), seconds: float = 0.0) -> Odometry:
+    """An odometry message between two of the stream's, moved by ``offset`` and ``seconds``."""
+    stamp = START + 0.1 * (INJECT_AT - 1) + 0.075 + seconds
+    return odometry_message(stamp, np.asarray(offset, float))
+
+
+def scan_at(seconds: float) -> LaserScan:
+    return scan_message(START + 0.1 * (INJECT_AT - 1) + 0.03 + seconds,
+                        cast_scan(room(), POSE, ANGLES, PERSON.reshape(1, 2), 12.0))
+
+
+def with_stamp(msg, sec: int, nanosec: int):
+    msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+    return msg
+
+
+PEOPLE_FAULTS = {  # name -> (message builder, callback, counter)
+    "odometry +100 m": (lambda: shifted_odometry((100.0, 0.0, 0.0)), "on_odometry",
+                        "dropped_implausible_odometry"),
+    "odometry half turn": (lambda: shifted_odometry((0.0, 0.0, 3.0)), "on_odometry",
+                           "dropped_implausible_odometry"),
+    "odometry x = 1e308": (lambda: shifted_odometry((1e308, 0.0, 0.0)), "on_odometry",
+                           "dropped_implausible_odometry"),
+    "odometry 1 h ahead": (lambda: shifted_odometry(seconds=3600.0), "on_odometry",
+                           "dropped_outlier_stamp"),
+    "odometry 1 min behind": (lambda: shifted_odometry(seconds=-60.0), "on_odometry",
+                            "dropped_outlier_stamp"),
+    "odometry older": (lambda: shifted_odometry(seconds=-0.06), "on_odometry",
+                       "dropped_time_backwards"),
+    "odometry nanosec 2^32-1": (lambda: with_stamp(shifted_odometry(), 0, 2**32 - 1),
+                                "on_odometry", "dropped_invalid_stamp"),
+    "scan 1 h ahead": (lambda: scan_at(3600.0), "on_scan", "dropped_outlier_stamp"),
+    "scan nanosec 1e9": (lambda: with_stamp(scan_at(0.0), 1, 1_000_000_000), "on_scan",
+                         "dropped_invalid_stamp"),
+}
+RECEIVED = {"on_odometry": "received_odom", "on_scan": "received_scan"}
+
+
+@pytest.fixture(scope="module")
+def module_context():
+    ctx = Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.shutdown(context=ctx)
+
+
+@pytest.fixture(scope="module")
+def clean_run(module_context):
+    stats, estimate = feed(module_context, stream(room()))
+    assert not any(v for k, v in stats.items() if k.startswith("dropped_"))
+    assert stats["used_scan"] == 20 and stats["used_odom"] == 40
+    return stats, estimate
+
+
+@pytest.mark.parametrize("name", PEOPLE_FAULTS)
+def test_people_node_gates_drop_count_and_change_nothing(module_context, clean_run, name):
+    build, callback, counter = PEOPLE_FAULTS[name]
+    stats, estimate = feed(module_context, inserted(room(), build(), callback))
+    changed = {k: stats[k] - clean_run[0][k] for k in stats if stats[k] != clean_run[0][k]}
+    assert changed == {counter: 1, RECEIVED[callback]: 1}
+    for key, value in clean_run[1].items():
+        np.testing.assert_array_equal(estimate[key], value, err_msg=key)
+
+
+def test_people_node_resets_once_on_a_confirmed_loop_only(module_context, clean_run):
+    """The stream played twice (a looped bag): one reset, after three messages agree on the
+    earlier time; the two outliers before that are dropped."""
+    grid = room()
+    second = [(arrival + 2.5, callback, msg) for arrival, callback, msg in stream(grid)[2:]]
+    stats, estimate = feed(module_context, stream(grid) + second)
+    assert stats["time_jumps"] == stats["resets"] == 1
+    assert stats["dropped_outlier_stamp"] == 2
+    assert np.isfinite(estimate["poses"]).all()
+
+
+def test_people_node_bridges_a_confirmed_odometry_restart(module_context, clean_run):
+    """From INJECT_AT on the odometry reads 100 m further east: four messages are dropped, the
+    fifth confirms the restart, which is bridged with no motion."""
+    events = []
+    for arrival, callback, msg in stream(room()):
+        if callback == "on_odometry" and arrival >= START + 0.1 * INJECT_AT:
+            msg = odometry_message(ros_io.stamp_to_seconds(msg.header.stamp), (100.0, 0.0, 0.0))
+        events.append((arrival, callback, msg))
+    stats, estimate = feed(module_context, events)
+    assert stats["odometry_jumps"] == 1
+    assert stats["dropped_implausible_odometry"] == 4
+    assert stats["used_scan"] == 20
+    mean = np.average(estimate["poses"][:, :2], axis=0, weights=np.exp(estimate["log_weights"]))
+    assert np.linalg.norm(mean - POSE[:2]) < 0.2  # where the robot stands, not 100 m off
+
+
+def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
+    """ROS-side parameters change at runtime (validated); the tracker's are fixed at start."""
+    node = make_node(context)
+    try:
+        assert node.set_parameters([Parameter("markers_rate", value=0.5)])[0].successful
+        assert node.settings["markers_rate"] == 0.5 and node._throttles["markers_rate"].rate == 0.5
+        refused = node.set_parameters([Parameter("max_speed", value=-1.0)])[0]
+        assert not refused.successful and node.settings["max_speed"] == 20.0
+        fixed = node.set_parameters([Parameter("num_particles", value=50)])[0]
+        assert not fixed.successful and "restart" in fixed.reason
+        assert node.tracker_settings.num_particles == 20
+    finally:
+        node.destroy_node()

@@ -8,6 +8,8 @@ other pose, so memory stays bounded over any run length while the recent path ke
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 CHAIN_CAPACITY = 1 << 15
@@ -87,3 +89,14 @@ class PathHistory:
             keep = np.concatenate([np.arange(0, half, 2), np.arange(half, len(stamps))])
             stamps, poses = stamps[keep], poses[keep]
         self._chain_stamps, self._chain_poses = stamps, poses
+
+
+def decimation(length: int, limit: int) -> np.ndarray | None:
+    """Indices of at most ``limit`` of ``length`` items, evenly spread and ending at the last;
+    None when all fit. The stride is a power of two, so the kept items stay the same from one
+    call to the next while the sequence grows (their messages are reused)."""
+    if length <= limit:
+        return None
+    stride = 1 << math.ceil(math.log2((length - 1) / max(limit - 2, 1)))
+    indices = np.arange(0, length, stride)
+    return indices if indices[-1] == length - 1 else np.append(indices, length - 1)

@@ -2,7 +2,9 @@
 
 A reading is used at the robot pose of its own stamp: ``OdometryHistory`` holds the odometry
 newer than the filter's time and hands out the (from, to) pose pairs that carry a filter to a
-stamp, interpolating the last one. ``Throttle`` bounds the rate of an output in node time.
+stamp, interpolating the last one. ``StampGate`` and ``OdometryGate`` tell an input's stray
+stamps and odometry glitches from real time jumps and odometry restarts, ``InputRate`` finds
+lost messages and silent inputs, ``Throttle`` bounds the rate of an output in node time.
 """
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from decimal import Decimal
 
 import numpy as np
 
-from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle, wrap_scalar
 
 
 def seconds_to_nanoseconds(seconds: float) -> int:
@@ -171,3 +173,128 @@ class InputRate:
             return 0.0
         silent = now - self._last_arrival
         return silent if silent > max(SILENCE_FACTOR * self.interval, MIN_SILENCE) else 0.0
+
+
+TIME_JUMP_BACK = 1.0
+"""An input stamp this much (s) older than the newest one means time went backwards (a looped
+bag, a restarted simulation): the filter resets, once confirmed. Smaller steps back are
+out-of-order messages."""
+TIME_JUMP_FORWARD = 10.0
+"""An input stamp this much (s) newer than the newest one is a jump forward (or a stray stamp)."""
+STAMP_CONFIRMATIONS = 3
+"""A time jump is accepted only when this many consecutive messages agree on the new time; the
+messages before that are dropped as outlier stamps, so one stray stamp is never used and never
+resets the filter."""
+
+
+class StampGate:
+    """The newest stamp of a node's inputs, and whether a new stamp fits it.
+
+    A stamp more than TIME_JUMP_BACK s before or TIME_JUMP_FORWARD s after the newest one is an
+    outlier until STAMP_CONFIRMATIONS consecutive messages agree on the new time: then time went
+    backwards (a looped bag) or jumped forward (a pause), and the run goes on from there.
+    """
+
+    USABLE, OUTLIER, BACKWARDS, FORWARD = "usable", "outlier", "backwards", "forward"
+
+    def __init__(self) -> None:
+        self.newest: float | None = None
+        self._candidates: list[float] = []
+
+    @staticmethod
+    def _near(reference: float, stamp: float) -> bool:
+        return reference - TIME_JUMP_BACK <= stamp <= reference + TIME_JUMP_FORWARD
+
+    def check(self, stamp: float) -> str:
+        """USABLE (the newest stamp moves on), OUTLIER (drop it), or a confirmed jump
+        (BACKWARDS, FORWARD), after which ``stamp`` is the newest."""
+        newest = self.newest
+        if newest is None or self._near(newest, stamp):
+            self._candidates.clear()
+            self.newest = stamp if newest is None else max(newest, stamp)
+            return self.USABLE
+        candidates = self._candidates
+        if candidates and not self._near(candidates[-1], stamp):
+            candidates.clear()
+        candidates.append(stamp)
+        if len(candidates) < STAMP_CONFIRMATIONS:
+            return self.OUTLIER
+        candidates.clear()
+        self.newest = stamp
+        return self.BACKWARDS if stamp < newest else self.FORWARD
+
+    def clear(self) -> None:
+        """Forget the input's time (after a reset the next stamp is taken as it comes)."""
+        self.newest = None
+        self._candidates.clear()
+
+
+ODOMETRY_CONFIRMATIONS = 5
+"""An odometry jump beyond max_speed / max_yaw_rate is accepted (the odometry restarted
+elsewhere; the filter carries on from where it was) only when this many consecutive messages
+continue it plausibly; before that each one is dropped as implausible."""
+ODOMETRY_SLACK = (0.1, 0.1)
+"""m and rad allowed on top of max_speed and max_yaw_rate times the step (stamp jitter)."""
+MAX_ODOMETRY_COORDINATE = 1e7
+"""m: an odometry position farther out is dropped (overflows the motion model's squares)."""
+
+
+class OdometryGate:
+    """The max_speed / max_yaw_rate gate between consecutive odometry poses.
+
+    A jump is implausible (dropped) unless ODOMETRY_CONFIRMATIONS consecutive messages continue
+    it plausibly: the odometry then restarted elsewhere, and ``correction`` (the pose of the raw
+    odometry frame in the frame the filter follows) shifts so that the jump is no motion.
+    """
+
+    PLAUSIBLE, IMPLAUSIBLE, BRIDGED = "plausible", "implausible", "bridged"
+
+    def __init__(self) -> None:
+        self.correction = np.zeros(3)
+        self._bridged = False
+        self._candidates: list[tuple[float, np.ndarray]] = []
+
+    def corrected(self, pose: np.ndarray) -> np.ndarray:
+        """A raw odometry pose in the frame the filter follows (the pose itself, heading
+        wrapped, until the first jump: no composition on every message)."""
+        if self._bridged:
+            return compose(self.correction, pose)
+        return np.array([pose[0], pose[1], wrap_scalar(float(pose[2]))])
+
+    @staticmethod
+    def step_plausible(stamp0: float, pose0: np.ndarray, stamp1: float, pose1: np.ndarray,
+                       max_speed: float, max_yaw_rate: float) -> bool:
+        """Whether the robot can move from pose0 to pose1 in the time between the stamps."""
+        step = stamp1 - stamp0
+        return bool(math.hypot(pose1[0] - pose0[0], pose1[1] - pose0[1])
+                    <= max_speed * step + ODOMETRY_SLACK[0]
+                    and abs(wrap_scalar(pose1[2] - pose0[2]))
+                    <= max_yaw_rate * step + ODOMETRY_SLACK[1])
+
+    def check(self, latest_stamp: float, latest_pose: np.ndarray, stamp: float,
+              pose: np.ndarray, max_speed: float, max_yaw_rate: float) -> str:
+        """PLAUSIBLE, IMPLAUSIBLE (drop it) or BRIDGED: a confirmed jump, after which
+        ``correction`` has moved and ``pose`` (corrected, changed in place) is ``latest_pose``."""
+        limits = (max_speed, max_yaw_rate)
+        if self.step_plausible(latest_stamp, latest_pose, stamp, pose, *limits):
+            self._candidates.clear()
+            return self.PLAUSIBLE
+        candidates = self._candidates
+        if candidates and not self.step_plausible(*candidates[-1], stamp, pose, *limits):
+            candidates.clear()
+        candidates.append((stamp, pose))
+        if len(candidates) < ODOMETRY_CONFIRMATIONS:
+            return self.IMPLAUSIBLE
+        candidates.clear()
+        # New frame: the jump itself becomes no motion (latest = shift * pose).
+        shift = compose(latest_pose, relative_pose(pose, np.zeros(3)))
+        self.correction = compose(shift, self.correction)
+        self._bridged = True
+        pose[:] = latest_pose
+        return self.BRIDGED
+
+    def clear(self) -> None:
+        """Back to the raw odometry frame (after a reset)."""
+        self.correction = np.zeros(3)
+        self._bridged = False
+        self._candidates.clear()

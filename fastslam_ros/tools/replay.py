@@ -1,7 +1,8 @@
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
-Every ``/odom`` and ``/landmarks`` message of the bag is deserialized straight into its rclpy
-message class and handed, in bag-time order, to the node's subscription callbacks; before each
+Every ``/landmarks`` (and ``/initialpose``) message of the bag is deserialized straight into its
+rclpy message class, every ``/odom`` one into a rosbags message (the same attributes, cheaper),
+and handed, in bag-time order, to the node's subscription callbacks; before each
 one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
 DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
 a replay runs as fast as the filter allows and gives the same outputs as a live run at the
@@ -20,6 +21,7 @@ import argparse
 import json
 import math
 import os
+import struct
 import sys
 import time
 from contextlib import ExitStack, contextmanager
@@ -40,8 +42,9 @@ from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, Q
                                 QosTime)
 from rosbags.rosbag2 import Writer
 from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros.core.geometry import quaternion_to_yaw
+from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.tools import cli
@@ -61,6 +64,10 @@ INITIAL_POSE_TOPIC = "/initialpose"
 """Fed to the node too when the bag has it (RViz "2D Pose Estimate" clicks, recorded)."""
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
+PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
+"""Input types handed to the node as rosbags messages (plain attributes, which the node's
+readers accept as they accept rclpy messages): reading one costs a quarter of an rclpy
+message, and a bag holds about ten odometry messages per reading."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
 
@@ -179,6 +186,68 @@ class ProgressBar:
         self.stream.flush()
 
 
+# ---------------------------------------------------------------- recording
+
+
+def _cdr_string(buffer: bytearray, text: str) -> None:
+    """Append a CDR string (uint32 length with the NUL, the bytes, the NUL), 4-aligned."""
+    buffer += bytes(-len(buffer) % 4)
+    encoded = text.encode() + b"\0"
+    buffer += struct.pack("<I", len(encoded)) + encoded
+
+
+def tf_message_cdr(stamp_ns: int, parent: str, child: str, pose) -> bytes:
+    """The serialized ``tf2_msgs/TFMessage`` holding one planar transform parent -> child (x, y,
+    yaw), byte for byte what rosbags' serializer writes, written directly: a replay records one
+    per odometry message, where a message object and the generic serializer cost more than
+    the filter's prediction."""
+    seconds, nanoseconds = divmod(stamp_ns, 1_000_000_000)
+    payload = bytearray(struct.pack("<Iii", 1, seconds, nanoseconds))
+    _cdr_string(payload, parent)
+    _cdr_string(payload, child)
+    payload += bytes(-len(payload) % 8)
+    payload += struct.pack("<7d", float(pose[0]), float(pose[1]), 0.0,
+                           *yaw_to_quaternion(float(pose[2])))
+    return b"\x00\x01\x00\x00" + bytes(payload)
+
+
+class MarkerArrayCdr:
+    """Serializes ``visualization_msgs/MarkerArray`` messages whose markers are mostly those of
+    the previous one (``ros_io.MarkerBuilder`` reuses the markers of unchanged landmarks).
+
+    A MarkerArray is a uint32 count and its markers, each starting 4-aligned; a marker's bytes
+    depend only on whether it starts 8-aligned (its float64 fields' padding). Each marker is
+    serialized once per alignment it is met at and the array joined from the pieces: a map of
+    a few hundred landmarks costs a fraction of a millisecond instead of ten."""
+
+    def __init__(self) -> None:
+        self._pieces: dict[int, tuple[Any, dict[int, bytes]]] = {}
+
+    @staticmethod
+    def _piece(marker: Any, alignment: int) -> bytes:
+        if alignment == 0:
+            return serialize_message(marker)[4:]
+        return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
+
+    def serialize(self, msg: Any) -> bytes:
+        parts = [b"\x00\x01\x00\x00", struct.pack("<I", len(msg.markers))]
+        offset, pieces, kept = 4, self._pieces, {}
+        for marker in msg.markers:
+            padding = -offset % 4
+            if padding:
+                parts.append(bytes(padding))
+                offset += padding
+            entry = kept.get(id(marker)) or pieces.get(id(marker)) or (marker, {})
+            kept[id(marker)] = entry  # the marker is held, so its id is not reused meanwhile
+            piece = entry[1].get(offset % 8)
+            if piece is None:
+                piece = entry[1][offset % 8] = self._piece(marker, offset % 8)
+            parts.append(piece)
+            offset += len(piece)
+        self._pieces = kept
+        return b"".join(parts)
+
+
 # ---------------------------------------------------------------- replay
 
 
@@ -189,6 +258,7 @@ class OutputRecorder:
         self.writer = writer
         self.connections: dict[str, Any] = {}
         self.stamp_ns = 0
+        self._marker_arrays: dict[str, MarkerArrayCdr] = {}
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         if topic not in self.connections:
@@ -200,15 +270,18 @@ class OutputRecorder:
     def record(self, topic: str, msg: Any) -> None:
         """Output listener of the node: serialize the rclpy message and write it; the node's
         map -> odom transform also goes to ``/tf``."""
-        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns,
-                          serialize_message(msg))
+        if isinstance(msg, MarkerArray):
+            raw = self._marker_arrays.setdefault(topic, MarkerArrayCdr()).serialize(msg)
+        else:
+            raw = serialize_message(msg)
+        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns, raw)
         if isinstance(msg, TransformStamped):
             translation, rotation = msg.transform.translation, msg.transform.rotation
             yaw = quaternion_to_yaw(rotation.x, rotation.y, rotation.z, rotation.w)
-            stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
-            self.tf(TF_TOPIC, [transform_message(stamp_ns, msg.header.frame_id,
-                                                 msg.child_frame_id,
-                                                 (translation.x, translation.y, yaw))])
+            stamp = msg.header.stamp
+            self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
+                stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id,
+                msg.child_frame_id, (translation.x, translation.y, yaw)))
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
@@ -221,16 +294,49 @@ class OutputRecorder:
     def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
         """``/tf`` odom -> base_link of an odometry message; one the node would drop (no
         orientation, a non-finite pose or stamp) is left out."""
-        pose = msg.pose.pose
+        pose, stamp = msg.pose.pose, msg.header.stamp
         q = pose.orientation
         try:
             planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
-            stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
-        except (ValueError, OverflowError):
+        except ValueError:
             return
-        if all(math.isfinite(value) for value in planar):
-            self.tf(TF_TOPIC, [transform_message(stamp_ns, msg.header.frame_id or odom_frame,
-                                                 msg.child_frame_id or base_frame, planar)])
+        if stamp.sec >= 0 and 0 <= stamp.nanosec < 1_000_000_000 \
+                and all(math.isfinite(value) for value in planar):
+            self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
+                stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id or odom_frame,
+                msg.child_frame_id or base_frame, planar))
+
+
+@dataclass(frozen=True)
+class ReplayTarget:
+    """What a replay needs to know of a node besides the node itself."""
+
+    node_name: str
+    """The node's name: the sections of a parameter file that apply."""
+    make_node: Callable[..., Any]
+    """The node class (keyword arguments of ``rclpy.node.Node``)."""
+    specs: dict[str, tuple[Any, Any]]
+    """{name: (default, spec)} of the node's parameters."""
+    callbacks: Callable[[Any], dict[str, Callable[[Any], None]]]
+    """{bag topic: the node's callback} for a node."""
+    required_topics: tuple[str, ...]
+    copied_topics: tuple[str, ...]
+    """Inputs and ground truth copied into the output bag."""
+    sensor_topic: str
+    """Input whose first message's frame is the sensor frame (for ``/tf_static``)."""
+    sensor_frame_parameter: str
+    """Parameter naming the sensor frame ('' takes it from the first ``sensor_topic`` message)."""
+    recorded_params: tuple[str, ...] = ()
+    """Parameters always written into the info message (as well as those given)."""
+
+
+SLAM_TARGET = ReplayTarget(
+    "fastslam", FastSLAMNode, {**CORE_PARAMETERS, **NODE_PARAMETERS},
+    lambda node: {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks,
+                  INITIAL_POSE_TOPIC: node.on_initial_pose},
+    INPUT_TOPICS, COPIED_TOPICS, LANDMARKS_TOPIC, "sensor_frame",
+    # The association is always recorded: the evaluation matches landmarks by it.
+    ("algorithm", "association"))
 
 
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
@@ -245,22 +351,30 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
     ``ValueError`` for bad parameters (the message names the parameter), ``FileExistsError``
     for an output that exists (without ``overwrite``, or that is not a bag, or an input).
     """
+    return replay_through(SLAM_TARGET, bag_path, params, params_file, out_path, progress,
+                          overwrite, remap)
+
+
+def replay_through(target: ReplayTarget, bag_path: str | Path,
+                   params: dict[str, Any] | None = None, params_file: str | Path | None = None,
+                   out_path: str | Path | None = None, progress: bool = False,
+                   overwrite: bool = False, remap: dict[str, str] | None = None) -> ReplayResult:
+    """``replay_bag`` for the node ``target`` describes."""
     bag_path = Path(bag_path)
     inputs = [bag_path] + ([Path(params_file)] if params_file else [])
     if out_path is not None:
         check_output(out_path, overwrite, "bag", inputs)  # before any work
-    merged = load_params_file(params_file) if params_file else {}
+    merged = load_params_file(params_file, f"/{target.node_name}") if params_file else {}
     merged.update(params or {})
-    context = isolated_context()
+    context = isolated_context()  # invisible to the robot's ROS graph
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
         topics = _topic_names(remap or {})
-        reader = cleanup.enter_context(_open_input(bag_path, topics))
-        node = _create_node(context, merged)
+        reader = cleanup.enter_context(_open_input(bag_path, topics, target.required_topics))
+        node = _create_node(target, context, merged)
         cleanup.callback(node.destroy_node)
-        # The association is always recorded: the evaluation matches landmarks by it.
         used_params = {name: node.get_parameter(name).value
-                       for name in sorted(set(merged) | {"algorithm", "association"})}
+                       for name in sorted(set(merged) | set(target.recorded_params))}
         recorder = None
         if out_path is not None:
             writer = open_writer(out_path, "mcap", overwrite, inputs)
@@ -268,17 +382,17 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
             cleanup.callback(writer.close)
             recorder = OutputRecorder(writer)
             node.output_listeners.append(recorder.record)
-            _record_static_transforms(node, reader, recorder, topics)
+            _record_static_transforms(node, reader, recorder, topics, target)
         start, start_cpu = time.perf_counter(), time.process_time()
-        done, duration = _feed(node, reader, recorder, progress, topics)
+        done, duration = _feed(node, reader, recorder, progress, topics, target)
         result = ReplayResult(dict(node.stats), time.perf_counter() - start, duration,
                               Path(out_path) if out_path is not None else None, used_params,
                               time.process_time() - start_cpu)
         if recorder is not None:
-            info = {"bag": str(bag_path), "wall_time": result.wall_time,
-                    "cpu_time": result.cpu_time, "bag_duration": duration,
-                    "real_time_factor": result.real_time_factor, "messages": done,
-                    "stats": result.stats, "params": used_params}
+            info = {"bag": str(bag_path), "node": target.node_name,
+                    "wall_time": result.wall_time, "cpu_time": result.cpu_time,
+                    "bag_duration": duration, "real_time_factor": result.real_time_factor,
+                    "messages": done, "stats": result.stats, "params": used_params}
             recorder.record(INFO_TOPIC, String(data=json.dumps(info)))
         return result
 
@@ -317,8 +431,9 @@ def _topic_names(remap: dict[str, str]) -> TopicOf:
 
 
 @contextmanager
-def _open_input(bag_path: Path, topic_of: TopicOf) -> Iterator[AnyReader]:
-    """An open reader of a bag that has the input topics (SchemaError otherwise)."""
+def _open_input(bag_path: Path, topic_of: TopicOf,
+                required: tuple[str, ...]) -> Iterator[AnyReader]:
+    """An open reader of a bag that has the required topics (SchemaError otherwise)."""
     if not bag_path.exists():
         raise FileNotFoundError(f"bag not found: {bag_path}")
     reader = AnyReader([bag_path], default_typestore=TYPESTORE)
@@ -328,7 +443,7 @@ def _open_input(bag_path: Path, topic_of: TopicOf) -> Iterator[AnyReader]:
         raise SchemaError(f"cannot read {bag_path}: {error}") from None
     try:
         topics = {topic_of(c) for c in reader.connections}
-        missing = [topic for topic in INPUT_TOPICS if topic not in topics]
+        missing = [topic for topic in required if topic not in topics]
         if missing:
             present = sorted(c.topic for c in reader.connections)
             raise SchemaError(f"{bag_path}: missing topic(s) {', '.join(missing)} "
@@ -339,11 +454,11 @@ def _open_input(bag_path: Path, topic_of: TopicOf) -> Iterator[AnyReader]:
         reader.close()
 
 
-def _create_node(context: Context, params: dict[str, Any]) -> FastSLAMNode:
+def _create_node(target: ReplayTarget, context: Context, params: dict[str, Any]) -> Any:
     """The node with these parameters on simulated time; ValueError names a bad parameter."""
     try:
-        node = FastSLAMNode(context=context, parameter_overrides=node_parameters(params),
-                            enable_rosout=False)
+        node = target.make_node(context=context, enable_rosout=False,
+                                parameter_overrides=node_parameters(params, target.specs))
     except ParameterError as error:
         raise ValueError(str(error)) from None
     # Nobody listens over DDS in a replay: outputs go only to the recorder.
@@ -351,10 +466,10 @@ def _create_node(context: Context, params: dict[str, Any]) -> FastSLAMNode:
     return node
 
 
-def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
-                              recorder: OutputRecorder, topic_of: TopicOf) -> None:
+def _record_static_transforms(node: Any, reader: AnyReader, recorder: OutputRecorder,
+                              topic_of: TopicOf, target: ReplayTarget) -> None:
     """One latched ``/tf_static`` at the bag's start: base -> the sensor frame (the node's
-    sensor pose; the frame named by ``sensor_frame`` or the first cloud) and every static
+    sensor pose; the frame named by its parameter or the first reading) and every static
     transform of the input bag."""
     transforms = []
     # An empty selection would mean "every connection" to rosbags.
@@ -362,9 +477,9 @@ def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
     for connection, _, raw in reader.messages(connections=static) if static else ():
         transforms += list(reader.deserialize(raw, connection.msgtype).transforms)
     base = node.get_parameter("base_frame").value
-    sensor = node.get_parameter("sensor_frame").value
+    sensor = node.get_parameter(target.sensor_frame_parameter).value
     if not sensor:
-        clouds = [c for c in reader.connections if topic_of(c) == LANDMARKS_TOPIC]
+        clouds = [c for c in reader.connections if topic_of(c) == target.sensor_topic]
         first = next(iter(reader.messages(connections=clouds)), None) if clouds else None
         sensor = reader.deserialize(first[2], first[0].msgtype).header.frame_id if first else ""
     known = {t.child_frame_id for t in transforms}
@@ -376,17 +491,16 @@ def _record_static_transforms(node: FastSLAMNode, reader: AnyReader,
         recorder.tf(TF_STATIC_TOPIC, transforms)
 
 
-def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None,
-          progress: bool, topic_of: TopicOf) -> tuple[int, float]:
+def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progress: bool,
+          topic_of: TopicOf, target: ReplayTarget) -> tuple[int, float]:
     """Hand every input message to the node at its bag time, then flush; returns the number of
     inputs and the bag time they span (s)."""
-    callbacks = {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks,
-                 INITIAL_POSE_TOPIC: node.on_initial_pose}
+    callbacks = target.callbacks(node)
     classes = {topic_of(c): ros_message_class(c.msgtype, topic_of(c)) for c in reader.connections
                if topic_of(c) in callbacks}
     wanted = [c for c in reader.connections if topic_of(c) in callbacks
-              or (recorder is not None and topic_of(c) in COPIED_TOPICS)]
-    bar = ProgressBar(sum(c.msgcount for c in wanted if topic_of(c) in INPUT_TOPICS)) \
+              or (recorder is not None and topic_of(c) in target.copied_topics)]
+    bar = ProgressBar(sum(c.msgcount for c in wanted if topic_of(c) in callbacks)) \
         if progress else None
     clock = node.get_clock()
     frames = (node.get_parameter("odom_frame").value, node.get_parameter("base_frame").value)
@@ -396,14 +510,17 @@ def _feed(node: FastSLAMNode, reader: AnyReader, recorder: OutputRecorder | None
         topic = topic_of(connection)
         if recorder is not None:
             recorder.stamp_ns = stamp_ns
-            if topic in COPIED_TOPICS:
+            if topic in target.copied_topics:
                 recorder.copy(topic, connection.msgtype, stamp_ns, raw)
         if topic not in callbacks:
             continue
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
         clock.set_ros_time_override(Time(nanoseconds=stamp_ns, clock_type=ClockType.ROS_TIME))
-        msg = deserialize_message(bytes(raw), classes[topic])
+        if connection.msgtype in PLAIN_TYPES:
+            msg = reader.deserialize(raw, connection.msgtype)
+        else:
+            msg = deserialize_message(bytes(raw), classes[topic])
         callbacks[topic](msg)
         if recorder is not None and topic == ODOM_TOPIC:
             recorder.odometry_tf(msg, *frames)
@@ -485,12 +602,10 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail(prog, error, cli.EXIT_USAGE)
     try:
         if args.node == "people_tracker":
-            from fastslam_ros.tools.people_replay import replay_people_bag
-            result = replay_people_bag(args.bag, params, args.params, out,
-                                       progress=args.progress or sys.stderr.isatty(),
-                                       overwrite=args.overwrite)
+            from fastslam_ros.tools.people_replay import PEOPLE_TARGET as target
         else:
-            result = replay_bag(args.bag, params, args.params, out,
+            target = SLAM_TARGET
+        result = replay_through(target, args.bag, params, args.params, out,
                                 progress=args.progress or sys.stderr.isatty(),
                                 overwrite=args.overwrite, remap=remap)
     except FileExistsError as error:
