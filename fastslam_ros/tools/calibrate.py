@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from fastslam_ros.core.config import TWO_PI, FastSLAMConfig
-from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.geometry import compose, wrap_angle
 from fastslam_ros.core.observation import SensorOffset
 from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.core.timing import interpolate_poses
@@ -70,7 +70,7 @@ class CalibrationError(ValueError):
 @dataclass
 class Residuals:
     """Paired detections of all readings: true range (m), range and bearing residuals, the
-    measured range and bearing; the reach counts (pairs expected, detected) and clutter."""
+    measured range and bearing (each (N,)); the readings and their unpaired detections."""
 
     true_range: np.ndarray
     range_error: np.ndarray
@@ -177,14 +177,6 @@ def truth_covers(gt_stamps: np.ndarray, at: np.ndarray, max_gap: float) -> np.nd
     return inside & (gt_stamps[after] - gt_stamps[after - 1] <= max_gap)
 
 
-def sensor_poses(robot_poses: np.ndarray, offset: SensorOffset) -> np.ndarray:
-    """World poses (N, 3) of the sensor mounted at ``offset`` on robots at ``robot_poses``."""
-    c, s = np.cos(robot_poses[:, 2]), np.sin(robot_poses[:, 2])
-    return np.column_stack((robot_poses[:, 0] + c * offset.x - s * offset.y,
-                            robot_poses[:, 1] + s * offset.x + c * offset.y,
-                            wrap_angle(robot_poses[:, 2] + offset.yaw)))
-
-
 @dataclass
 class Reading:
     """One sensor reading with the ground truth: the sensor's true pose (3,), the detections
@@ -210,7 +202,7 @@ def pair_detections(bag, offset: SensorOffset, match_radius: float, max_gap: flo
     stamps = np.asarray(bag.scans.stamps, dtype=float)
     usable = truth_covers(truth.stamps, stamps, max_gap) if len(stamps) else np.zeros(0, bool)
     robot = interpolate_poses(truth.stamps, truth.poses, stamps[usable])
-    sensor = sensor_poses(robot, offset)
+    sensor = compose(robot, np.array([offset.x, offset.y, offset.yaw]))
     row_of_id = {int(i): row for row, i in enumerate(landmarks.ids)}
     readings = []
     for pose, index in zip(sensor, np.flatnonzero(usable)):
@@ -219,10 +211,8 @@ def pair_detections(bag, offset: SensorOffset, match_radius: float, max_gap: flo
         rows = np.array([row_of_id.get(int(i), -1) for i in ids], dtype=int)
         unlabelled = np.flatnonzero(rows < 0)
         if len(unlabelled):
-            local = points[unlabelled]
-            c, s = math.cos(pose[2]), math.sin(pose[2])
-            world = np.column_stack((pose[0] + c * local[:, 0] - s * local[:, 1],
-                                     pose[1] + s * local[:, 0] + c * local[:, 1]))
+            local = np.column_stack((points[unlabelled], np.zeros(len(unlabelled))))
+            world = compose(np.broadcast_to(pose, local.shape), local)[:, :2]
             distance = np.linalg.norm(world[:, None, :] - landmarks.positions[None], axis=2)
             nearest = np.argmin(distance, axis=1)
             close = distance[np.arange(len(nearest)), nearest] <= match_radius
