@@ -45,6 +45,7 @@ setup(
             "fastslam-benchmark = fastslam_ros.tools.benchmark:main",
             "fastslam-bench = fastslam_ros.tools.bench:main",
             "fastslam-poison = fastslam_ros.tools.poison:main",
+            "fastslam-calibrate = fastslam_ros.tools.calibrate:main",
         ],
     },
 )

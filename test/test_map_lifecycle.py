@@ -103,6 +103,34 @@ def test_localization_from_a_wrong_pose_converges_with_its_covariance():
     assert errors[-60:].max() < 0.3
 
 
+# --- the map a user sees ------------------------------------------------------------------
+
+def test_confirmed_keeps_the_landmarks_at_least_that_likely_to_exist():
+    existence = np.array([0.2, 0.73, 0.9, 0.99])
+    landmark_map = LandmarkMap(np.arange(8.0).reshape(4, 2), np.tile(np.eye(2), (4, 1, 1)),
+                               existence, np.array([5, -1, 7, 8]), np.array([10, 11, 12, 13]))
+    shown = landmark_map.confirmed(0.9)
+    np.testing.assert_array_equal(shown.keys, [12, 13])
+    np.testing.assert_array_equal(shown.ids, [7, 8])
+    np.testing.assert_array_equal(shown.means, [[4.0, 5.0], [6.0, 7.0]])
+    assert len(landmark_map.confirmed(0.0)) == 4 and len(landmark_map.confirmed(1.0)) == 0
+
+
+def test_a_new_landmark_is_tentative_until_seen_again():
+    """Seen once, a landmark has log-odds logodds_observed (existence 0.73 < 0.9): the filter
+    keeps it, the map a user sees does not; seen three times (log-odds 3, 0.95) it shows."""
+    config = FastSLAMConfig(num_particles=10, seed=1)
+    assert config.map_min_existence == 0.9
+    slam = FastSLAM(config)
+    for seen in (1, 2, 3):
+        slam.update(np.array([5.0]), np.array([0.3]))
+        existence = 1.0 / (1.0 + np.exp(-config.logodds_observed * seen))
+        np.testing.assert_allclose(slam.best_map().existence, [existence])
+        shown = slam.best_map(config.map_min_existence)
+        assert len(shown) == (1 if existence >= config.map_min_existence else 0)
+    assert len(shown) == 1
+
+
 # --- map files -----------------------------------------------------------------------------
 
 @pytest.mark.parametrize("suffix", [".yaml", ".csv"])

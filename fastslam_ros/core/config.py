@@ -127,6 +127,11 @@ class FastSLAMConfig:
     logodds_remove: float = parameter(
         -1.5, "A landmark whose log-odds fall below this bound is removed. < logodds_observed.",
         low=-100.0, high=100.0)
+    map_min_existence: float = parameter(
+        0.9, "Existence probability from which a landmark is confirmed: below it a landmark is "
+        "tentative, used by the filter but left out of ~/landmarks, ~/map_cloud and the file "
+        "~/save_map writes (a new landmark starts at sigmoid(logodds_observed), 0.73 for "
+        "1.0; 0.9 takes about three detections). 0 shows every landmark.", low=0.0, high=1.0)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",

@@ -61,6 +61,14 @@ class LandmarkMap:
     def __len__(self) -> int:
         return len(self.means)
 
+    def confirmed(self, min_existence: float) -> "LandmarkMap":
+        """The landmarks at least ``min_existence`` likely to exist: the map without the
+        tentative ones (a new landmark starts at sigmoid(logodds_observed)), as a user sees it
+        (``map_min_existence``)."""
+        keep = self.existence >= min_existence
+        return LandmarkMap(self.means[keep], self.covariances[keep], self.existence[keep],
+                           self.ids[keep], self.keys[keep])
+
 
 @dataclass
 class UpdateReport:
@@ -670,13 +678,12 @@ class FastSLAM:
     def best_map(self, min_existence: float = 0.0) -> LandmarkMap:
         """The best particle's landmarks with covariances and existence probabilities.
 
-        ``min_existence`` keeps only landmarks at least that likely to exist, e.g. to leave out
-        tentative ones seen once (a new landmark starts at sigmoid(logodds_observed)).
+        ``min_existence`` keeps only landmarks at least that likely to exist
+        (``LandmarkMap.confirmed``); the map a user sees takes ``config.map_min_existence``.
         """
         mean, cov, logodds, label, key = self.particle_map(self._best)
         existence = 1.0 / (1.0 + np.exp(-logodds))
-        keep = existence >= min_existence
-        return LandmarkMap(mean[keep], unpack(cov[keep]), existence[keep], label[keep], key[keep])
+        return LandmarkMap(mean, unpack(cov), existence, label, key).confirmed(min_existence)
 
     def particle_map(self, particle: int):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle's

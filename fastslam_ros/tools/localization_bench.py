@@ -3,15 +3,16 @@
     python3 -m fastslam_ros.tools.localization_bench --seeds 1 2 3 4 5
 
 Per seed: ``fastslam-sim`` drives the loop scenario (world ``seed``, noise ``seed``) and the
-node maps it (replayed in-process); its final map (the best particle's, as ``~/save_map``
-writes it) is saved. A second run of the same world (noise seed ``seed + 100``) is
-replayed with ``map_file`` and ``mode: localization`` twice, each with an ``/initialpose`` at
-its first message: the known start pose (standard deviations ``--start-sigma`` m and
-``--start-yaw-sigma`` rad: the saved map itself is off by up to a few metres near the start
-after the loop closure), and a pose off by ``--offset`` m and ``--yaw-offset`` rad, with one
-such error per standard deviation. Printed: aligned ATE of the mapping and of the
-localization run, their ratio, and the time the off-start run takes to converge (its position
-within ``--converged`` m of the known-start run's for good); mean and worst over the seeds.
+node maps it (replayed in-process); its final map (the best particle's confirmed landmarks,
+as ``~/save_map`` writes them) is saved. A second run of the same world (noise seed
+``seed + 100``) is replayed with ``map_file`` and ``mode: localization`` twice, each with an
+``/initialpose`` at its first message: the known start pose (standard deviations
+``--start-sigma`` m and ``--start-yaw-sigma`` rad: the saved map itself is off by up to a few
+metres near the start after the loop closure), and a pose off by ``--offset`` m and
+``--yaw-offset`` rad, with one such error per standard deviation. Printed: aligned ATE of
+the mapping and of the localization run, their ratio, and the time the off-start run takes
+to converge (its position within ``--converged`` m of the known-start run's for good); mean
+and worst over the seeds.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
-from fastslam_ros.core import LandmarkMap
+from fastslam_ros.core import FastSLAMConfig, LandmarkMap
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools.bag_schema import TYPESTORE, write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, load_run
@@ -88,14 +89,16 @@ def with_initial_pose(bag: Path, out: Path, pose: np.ndarray, covariance: np.nda
     return out
 
 
-def save_final_map(out_bag: Path, map_file: Path) -> int:
-    """Write the final ``~/map_cloud`` of a replay output as a map file; its landmark count."""
+def save_final_map(out_bag: Path, map_file: Path, min_existence: float) -> int:
+    """Write the final ``~/map_cloud`` of a replay output as a map file, as ``~/save_map``
+    writes it (without the landmarks less likely to exist than ``min_existence``); the number
+    of landmarks written."""
     landmarks = load_run(out_bag).landmarks
     count = len(landmarks.positions)
     best_map = LandmarkMap(landmarks.positions, landmarks.covariances, landmarks.existence,
-                           landmarks.ids, np.arange(count))
+                           landmarks.ids, np.arange(count)).confirmed(min_existence)
     ros_io.write_map_file(map_file, best_map, "map", 0.0)
-    return count
+    return len(best_map)
 
 
 def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
@@ -107,7 +110,9 @@ def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
     replay_bag(mapping_bag, params, out_path=workdir / "mapping_out")
     mapping = evaluate_run(load_run(workdir / "mapping_out")).metrics
     map_file = workdir / "map.yaml"
-    save_final_map(workdir / "mapping_out", map_file)
+    save_final_map(workdir / "mapping_out", map_file, FastSLAMConfig(
+        **{name: value for name, value in params.items()
+           if name in FastSLAMConfig.__dataclass_fields__}).map_min_existence)
 
     second = SimConfig(seed=seed + 100, world_seed=seed, duration=duration)
     second_bag = write_schema_bag(workdir / "second", simulate(second))

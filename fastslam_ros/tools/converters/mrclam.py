@@ -19,6 +19,8 @@ import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.tools.calibrate import (fit_alphas, fit_random_walk, random_walk_rows,
+                                          relative_motion)
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table,
                                            robust_std)
@@ -259,85 +261,3 @@ def _window_changes(runs: list, delay: float, step: float):
             changes[target].append(wrap_angle(np.diff(sampled[:, 2])))
             changes[target + 2].append(np.hypot(*np.diff(sampled[:, :2], axis=0).T))
     return tuple(np.concatenate(values) for values in changes)
-
-
-def random_walk_rows(odom_stamps: np.ndarray, odom_poses: np.ndarray, gt_stamps: np.ndarray,
-                     gt_poses: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """Per increment of ``grid``: odometry path length (m), odometry absolute rotation (rad),
-    heading error (rad) and along-track error (m) of the odometry against the ground truth."""
-    length = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(odom_poses[:, :2], axis=0).T))))
-    turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap_angle(np.diff(odom_poses[:, 2]))))))
-    odometry = interpolate_poses(odom_stamps, odom_poses, grid)
-    truth = interpolate_poses(gt_stamps, gt_poses, grid)
-    heading_error = wrap_angle(wrap_angle(np.diff(truth[:, 2]))
-                               - wrap_angle(np.diff(odometry[:, 2])))
-
-    def along(poses: np.ndarray) -> np.ndarray:
-        delta = np.diff(poses[:, :2], axis=0)
-        return np.cos(poses[:-1, 2]) * delta[:, 0] + np.sin(poses[:-1, 2]) * delta[:, 1]
-    return np.column_stack((np.diff(np.interp(grid, odom_stamps, length)),
-                            np.diff(np.interp(grid, odom_stamps, turned)),
-                            heading_error, along(truth) - along(odometry)))
-
-
-def fit_random_walk(rows: np.ndarray) -> dict[str, float]:
-    """Random-walk (variance linear in the motion) noise from :func:`random_walk_rows`.
-
-    The squared heading errors are fitted as rotation_variance_per_meter * length +
-    rotation_variance_per_radian * turned, the squared along-track errors as
-    translation_variance_per_meter * length + translation_variance_per_radian * turned
-    (non-negative least squares, largest 2 % left out as in :func:`fit_alphas`). Unlike the
-    alphas, these do not depend on the increment the fit (or the filter) uses.
-    """
-    from scipy.optimize import nnls
-
-    design = rows[:, :2]
-
-    def fit(squared_errors: np.ndarray) -> np.ndarray:
-        keep = squared_errors <= np.quantile(squared_errors, 0.98)
-        return nnls(design[keep], squared_errors[keep])[0]
-
-    rotation_per_meter, rotation_per_radian = fit(rows[:, 2] ** 2)
-    translation_per_meter, translation_per_radian = fit(rows[:, 3] ** 2)
-    return {"rotation_variance_per_meter": float(rotation_per_meter),
-            "rotation_variance_per_radian": float(rotation_per_radian),
-            "translation_variance_per_meter": float(translation_per_meter),
-            "translation_variance_per_radian": float(translation_per_radian)}
-
-
-def relative_motion(poses: np.ndarray) -> np.ndarray:
-    """(rot1, trans, rot2) rows (N-1, 3) between consecutive poses."""
-    delta = np.diff(poses, axis=0)
-    translation = np.hypot(delta[:, 0], delta[:, 1])
-    rotation1 = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - poses[:-1, 2])
-    rotation2 = wrap_angle(delta[:, 2] - rotation1)
-    return np.column_stack((rotation1, translation, rotation2))
-
-
-def fit_alphas(odometry: np.ndarray, truth: np.ndarray, min_translation: float = 0.03
-               ) -> dict[str, float]:
-    """alpha1..alpha4 of the odometry model from (rot1, trans, rot2) steps of odometry and truth.
-
-    The model's variances are var(rot) = alpha1 rot^2 + alpha2 trans^2 and var(trans) = alpha3
-    trans^2 + alpha4 (rot1^2 + rot2^2). The squared errors of the heading change (rot1 + rot2),
-    of the direction of travel (rot1, only over steps longer than ``min_translation``, where it
-    is defined) and of the translation are fitted by non-negative least squares, leaving out the
-    largest 2 % (Vicon dropouts, collisions).
-    """
-    from scipy.optimize import nnls
-
-    def fit(design: np.ndarray, squared_errors: np.ndarray) -> np.ndarray:
-        keep = squared_errors <= np.quantile(squared_errors, 0.98)
-        return nnls(design[keep], squared_errors[keep])[0]
-
-    rot1, trans, rot2 = truth.T
-    turn_error = wrap_angle(odometry[:, 0] + odometry[:, 2] - rot1 - rot2)
-    moving = trans > min_translation
-    direction_error = wrap_angle(odometry[moving, 0] - rot1[moving])
-    rotation_design = np.vstack((np.column_stack((rot1**2 + rot2**2, 2.0 * trans**2)),
-                                 np.column_stack((rot1[moving]**2, trans[moving]**2))))
-    alpha1, alpha2 = fit(rotation_design, np.concatenate((turn_error**2, direction_error**2)))
-    alpha3, alpha4 = fit(np.column_stack((trans**2, rot1**2 + rot2**2)),
-                         (odometry[:, 1] - trans)**2)
-    return {"alpha1": float(alpha1), "alpha2": float(alpha2), "alpha3": float(alpha3),
-            "alpha4": float(alpha4)}
