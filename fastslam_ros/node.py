@@ -30,6 +30,7 @@ from fastslam_ros.core.association import association_score
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
 from fastslam_ros.core.path_history import decimation
+from fastslam_ros.core.sensor_reach import ReachCheck
 from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS,
                                     STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,
                                     max_yaw_rate_parameter, run_node)
@@ -171,6 +172,8 @@ class FastSLAMNode(FilterNode):
         self._published_keys: set[int] = set()
         self._path_builder = ros_io.PathBuilder()
         self._marker_builder = ros_io.MarkerBuilder()
+        self._reach_check = ReachCheck(self.config.max_range, self.config.field_of_view)
+        """Warns once when the first observations do not fit max_range / field_of_view."""
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._path_pub = self.create_publisher(Path, "~/path", LATEST_QOS)
@@ -264,6 +267,7 @@ class FastSLAMNode(FilterNode):
                                                     "(at the sensor origin, or byte-swapped data)")
         self._count_points("out_of_range", in_range, f"range beyond max_range "
                                                      f"({self.config.max_range} m)")
+        self._check_reach(ranges[finite], np.arctan2(cloud.y[finite], cloud.x[finite]))
         ids = cloud.ids
         if self.config.association == "known":
             labelled = (np.zeros_like(keep) if ids is None else ids >= 0) | ~keep
@@ -275,6 +279,14 @@ class FastSLAMNode(FilterNode):
         return Observation(stamp=stamp, ranges=ranges[keep],
                            bearings=np.arctan2(cloud.y[keep], cloud.x[keep]),
                            ids=None if ids is None else ids[keep], arrival=arrival)
+
+    def _check_reach(self, ranges: np.ndarray, bearings: np.ndarray) -> None:
+        """Warn once, and keep /diagnostics at WARN, when the sensor seems misdescribed."""
+        for problem in self._reach_check.add(ranges, bearings) or []:
+            self.get_logger().warning(f"sensor reach: {problem}")
+
+    def _standing_problems(self) -> list[str]:
+        return [f"sensor reach: {problem}" for problem in self._reach_check.problems or []]
 
     def _count_points(self, reason: str, valid: np.ndarray, what: str) -> None:
         dropped = int(np.count_nonzero(~valid))
@@ -382,8 +394,9 @@ class FastSLAMNode(FilterNode):
                       ros_io.pose_array(self._header(), self.slam.particle_poses()))
 
     def _publish_map(self) -> None:
-        """~/landmarks markers (DELETE for landmarks gone since the last time) and ~/map_cloud."""
-        landmark_map = self.slam.best_map()
+        """~/landmarks markers (DELETE for landmarks gone or unconfirmed since the last time) and
+        ~/map_cloud: the confirmed landmarks only (existence >= map_min_existence)."""
+        landmark_map = self.slam.best_map(self.config.map_min_existence)
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
@@ -409,7 +422,7 @@ class FastSLAMNode(FilterNode):
                      response: Trigger.Response) -> Trigger.Response:
         map_file = self.settings["save_map_file"]
         try:
-            landmark_map = self.slam.best_map()
+            landmark_map = self.slam.best_map(self.config.map_min_existence)
             written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
                                             self._last_update_stamp)
             response.success = True
