@@ -179,6 +179,80 @@ def test_people_particles_follow_their_robot_particle_through_resampling():
                                                                      tracker.people[:, 0].shape))
 
 
+def test_a_new_person_is_published_once_confirmed():
+    """Tentative after one detection (log-odds tau+ < logodds_confirm), published after two."""
+    grid = room()
+    pose = (2.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 5.5)], 1)
+    assert tracker.alive.any(axis=1).all()                 # tracked by every robot particle
+    assert len(tracker.people_of().keys) == 0               # but not published
+    run(tracker, grid, pose, [(6.0, 5.5)], 1, t)
+    assert len(tracker.people_of().keys) == 1
+
+
+def test_a_person_found_again_by_one_particle_takes_the_others_key():
+    """A robot particle that lost a person and creates it anew for a detection takes the key
+    the other particles associated that detection to."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose, num_particles=3)
+    tracker.alive[:2, 0] = True
+    tracker.keys[:2, 0] = 7
+    tracker.logodds[:2, 0] = 2.0
+    tracker.people[:2, 0] = (6.0, 5.5)
+    tracker.next_key = 8
+    tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+    keys = [set(tracker.keys[m][tracker.alive[m]].tolist()) for m in range(3)]
+    assert keys == [{7}, {7}, {7}]
+
+
+def test_ids_agree_across_robot_particles_for_people_crossing():
+    """Two people walking past each other: every robot particle has the same two keys, each
+    on the same person (the best particle changing does not change the ids)."""
+    grid = room()
+    pose = (1.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose, num_particles=30)
+    t = 0.0
+    for k in range(40):
+        a, b = (3.0 + 0.1 * k, 4.4), (7.0 - 0.1 * k, 5.6)
+        tracker.update(t, scan_at(grid, pose, [a, b]))
+        t += 0.1
+    for m in range(tracker.num_particles):
+        people = tracker.people_of(m)
+        assert len(people.keys) == 2
+        lower = int(np.argmin(people.means[:, 1]))
+        assert np.linalg.norm(people.means[lower] - a) < 0.3
+        assert np.linalg.norm(people.means[1 - lower] - b) < 0.3
+        if m == 0:
+            keys = (people.keys[lower], people.keys[1 - lower])
+        assert (people.keys[lower], people.keys[1 - lower]) == keys
+
+
+def test_a_person_hidden_for_a_while_keeps_its_id_and_one_lost_is_removed():
+    """Behind a wall the person's Brownian cloud spreads as q sqrt(t): back in view after 2 s
+    (spread about 0.6 m < lost_spread) it keeps its id; hidden well beyond
+    (lost_spread / q)^2 = 6.25 s it is removed."""
+    wall = (5.0, 5.2, 3.0, 7.0)
+    grid = room([wall])
+    pose = np.array([2.0, 9.2, 0.0])
+    tracker = tracker_at(grid, pose, person_diffusion=0.4, lost_spread=1.0)
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 8)
+    key = tracker.people_of().keys.tolist()
+    assert len(key) == 1
+    behind = np.array([2.0, 5.0, 0.0])                     # the wall hides the person
+    tracker.poses[:] = behind
+    t = run(tracker, grid, behind, [(7.0, 6.0)], 20, t)
+    tracker.poses[:] = pose
+    t = run(tracker, grid, pose, [(7.2, 6.1)], 3, t)
+    assert tracker.people_of().keys.tolist() == key
+    tracker.poses[:] = behind
+    t = run(tracker, grid, behind, [(7.0, 6.0)], 50, t)   # 5 s: still tracked, unseen
+    assert tracker.alive.any()
+    run(tracker, grid, behind, [(7.0, 6.0)], 70, t)       # 12 s: lost
+    assert not tracker.alive.any()
+
+
 def test_seeded_runs_are_identical():
     grid = room()
     pose = (2.0, 5.0, 0.0)
@@ -212,3 +286,7 @@ def test_settings_name_the_bad_field():
         TrackerSettings(people_particles=0).validate()
     with pytest.raises(ValueError, match="logodds_remove"):
         TrackerSettings(logodds_remove=5.0).validate()
+    with pytest.raises(ValueError, match="logodds_confirm"):
+        TrackerSettings(logodds_confirm=-2.0).validate()
+    with pytest.raises(ValueError, match="lost_spread"):
+        TrackerSettings(lost_spread=0.0).validate()

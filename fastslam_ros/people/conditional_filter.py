@@ -12,12 +12,17 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
 4. associate, per robot particle, each detection to the person most likely to have made it,
    under the Gaussian summary of the person's particles N(z; mean, cov + R); below p0 the
    detection starts a new person (its key is shared by every robot particle that starts one for
-   that detection, so ids stay stable when another particle becomes the best); the robot
-   particle's weight is multiplied by max(likelihood, p0);
+   that detection, and it takes the key most of the particles' weight associated that
+   detection to, so a person one particle lost and found again keeps its id and ids stay
+   stable when another particle becomes the best); the robot particle's weight is multiplied
+   by max(likelihood, p0);
 5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
 6. existence (core.existence): + tau+ when detected; + tau- when in view, not occluded (the
    beams toward it passed beyond it: a person behind a wall or another person is no evidence)
-   and not detected; removed below the bound;
+   and not detected; removed below the bound, or when its particles' spread exceeds
+   ``lost_spread`` (out of view for long, the person is lost: its Brownian cloud would cover
+   half the map and catch anyone's detection); a new person is tentative, not published,
+   until its log-odds reach ``logodds_confirm``;
 7. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
@@ -137,6 +142,7 @@ class PeopleTracker:
         self.alive = np.zeros((count, slots), dtype=bool)
         self.logodds = np.zeros((count, slots))
         self.keys = np.full((count, slots), -1, dtype=np.int64)
+        self.confirmed = np.zeros((count, slots), dtype=bool)
 
     @property
     def num_particles(self) -> int:
@@ -326,6 +332,7 @@ class PeopleTracker:
         updates = []  # (particles, slots, detection points) of associated people
         key_of_detection = {}
         p0 = s.new_person_likelihood
+        weights = np.exp(self.log_weights - self.log_weights.max())
         for j in range(detections.valid.shape[1]):
             valid = detections.valid[:, j]
             if not valid.any():
@@ -352,11 +359,17 @@ class PeopleTracker:
                 continue
             slot = np.argmax(free[m], axis=1)
             key = key_of_detection.setdefault(j, self.next_key + len(key_of_detection))
+            if associate.any():  # the key the other particles' weight gave this detection
+                voted, inverse = np.unique(self.keys[rows, best][associate], return_inverse=True)
+                consensus = voted[np.argmax(np.bincount(inverse, weights[associate]))]
+                has_it = np.any(self.alive[m] & (self.keys[m] == consensus), axis=1)
+                key = np.where(has_it, key, consensus)
             self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
                 0.0, s.detection_sigma, (len(m), s.people_particles, 2))
             self.alive[m, slot] = True
             self.logodds[m, slot] = 0.0
             self.keys[m, slot] = key
+            self.confirmed[m, slot] = False
             observed[m, slot] = True
             created[m] += 1
         self.next_key += len(key_of_detection)
@@ -382,7 +395,9 @@ class PeopleTracker:
         beam toward it passed more than ``person_radius`` beyond it. A person with at least
         MISSED_FRACTION of its particles there was in view and not detected: tau-. A person
         behind a wall or another person has its particles where the beams ended short of
-        them: no evidence, its existence is unchanged.
+        them: no evidence, its existence is unchanged. A person whose particles' position
+        standard deviation exceeds ``lost_spread`` is lost and removed; one whose log-odds
+        reached ``logodds_confirm`` is confirmed (published).
         """
         s = self.settings
         m, n = np.nonzero(self.alive & ~observed)
@@ -403,7 +418,10 @@ class PeopleTracker:
             missed = np.zeros_like(observed)
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
-        gone = self.alive & removed(self.logodds, s.logodds_remove)
+        spread = self.people.var(axis=2).sum(axis=2)
+        gone = self.alive & (removed(self.logodds, s.logodds_remove)
+                             | (spread > 2.0 * s.lost_spread ** 2))
+        self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
         self.alive &= ~gone
         self.keys[gone] = -1
         return gone.sum(axis=1)
@@ -425,6 +443,7 @@ class PeopleTracker:
         self.alive = self.alive[index]
         self.logodds = self.logodds[index]
         self.keys = self.keys[index]
+        self.confirmed = self.confirmed[index]
         self.log_weights = np.full(len(index), -math.log(len(index)))
 
     # --- estimates ----------------------------------------------------------------------------
@@ -446,9 +465,10 @@ class PeopleTracker:
         return mean, (centred * weights[:, None]).T @ centred
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
-        """The people of one robot particle (the best by default)."""
+        """The confirmed people of one robot particle (the best by default); tentative ones
+        (log-odds not yet at ``logodds_confirm``) are left out."""
         m = self.best_index if particle is None else particle
-        slots = np.flatnonzero(self.alive[m])
+        slots = np.flatnonzero(self.alive[m] & self.confirmed[m])
         particles = self.people[m, slots]
         means = particles.mean(axis=1) if len(slots) else np.zeros((0, 2))
         centred = particles - means[:, None, :]

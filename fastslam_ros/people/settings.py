@@ -94,6 +94,13 @@ class TrackerSettings:
                                             "is not detected.", high=0.0)
     logodds_remove: float = parameter(-1.0, "A person whose log-odds fall below this is "
                                             "removed.")
+    logodds_confirm: float = parameter(
+        1.5, "A new person is tentative (not published) until its log-odds reach this: 1.5 "
+             "is two detections at the default tau+.")
+    lost_spread: float = parameter(
+        1.0, "A person whose particles' position standard deviation (m, per axis) exceeds "
+             "this is lost and removed (unseen for long, its Brownian cloud would catch "
+             "other people's detections).", low=0.0, low_exclusive=True)
 
     def validate(self) -> "TrackerSettings":
         """Self when every field is in range (``ValueError`` naming the field otherwise)."""
@@ -101,6 +108,9 @@ class TrackerSettings:
         if self.logodds_remove >= self.logodds_observed:
             raise ValueError("logodds_remove: must be < logodds_observed "
                              f"(got {self.logodds_remove!r})")
+        if not self.logodds_remove < self.logodds_confirm:
+            raise ValueError("logodds_confirm: must be > logodds_remove "
+                             f"(got {self.logodds_confirm!r})")
         if self.min_range >= self.max_range:
             raise ValueError(f"min_range: must be < max_range (got {self.min_range!r})")
         return self
