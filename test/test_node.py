@@ -697,3 +697,22 @@ def test_output_types_and_topics_over_dds(context):
         qos = node.get_publishers_info_by_topic(topic)[0].qos_profile
         assert qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
         assert qos.reliability == ReliabilityPolicy.RELIABLE
+
+
+def test_a_max_range_far_beyond_what_the_sensor_sees_is_reported_once(context):
+    """The scripted landmarks are at most ~8 m away: max_range 30 m would let negative evidence
+    remove landmarks the sensor cannot see; the node says so once and /diagnostics stays WARN."""
+    node = make_node(context, max_range=30.0)
+    outputs = Recorder(node)
+    replay(node, scripted_run(16.0))
+    node.flush()
+    assert node.stats["observations_used"] >= 500
+    status = outputs.last("/diagnostics").status[0]
+    assert "sensor reach" in status.message and "max_range is 30 m" in status.message
+
+    fitting = make_node(context, max_range=9.0)
+    fitting_outputs = Recorder(fitting)
+    replay(fitting, scripted_run(16.0))
+    fitting.flush()
+    assert fitting.stats["dropped_out_of_range"] == 0
+    assert "sensor reach" not in fitting_outputs.last("/diagnostics").status[0].message
