@@ -158,7 +158,7 @@ class FastSLAM:
         """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
         in every particle."""
         count = self.num_particles
-        self.landmarks = LandmarkStore(count, self.config.cell_size)
+        self.landmarks = LandmarkStore(count, self.config.cell_size, kernels=self.kernels)
         self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
         """The landmarks near the robot that readings work on (kept across readings)."""
         if self._seed is None or len(self._seed[0]) == 0:
@@ -325,8 +325,7 @@ class FastSLAM:
             indices = resample(weights, self.rng)
             self.poses = self.poses[indices]
             self.landmarks.resample(indices)
-            if self.working.current is not None:
-                self.working.current = self.kernels.take(self.working.current, indices)
+            self.working.resample(indices)
             self.history.resample(indices)
             self.log_weights = np.full(count, -np.log(count))
             if config.best_particle == "central":

@@ -32,6 +32,8 @@ import numpy as np
 import numba
 from numba import njit, prange
 
+from .landmark_store import LandmarkStore, WorkingSet
+
 LOG_TWO_PI = math.log(2.0 * math.pi)
 TWO_PI = 2.0 * math.pi
 POSE_JITTER = 1e-12
@@ -951,8 +953,61 @@ def take(ws, indices: np.ndarray):
     pass (``columns``, which may be a read-only broadcast, by numpy)."""
     row, slot, block, state, ident, valid, dirty, is_new = _take_kernel(
         indices, ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
-    return type(ws)(row, slot, block, ws.columns[indices], state, ident, valid, dirty, is_new,
-                    ws.first_new_slot)
+    return WorkingSet(row, slot, block, ws.columns[indices], state, ident, valid, dirty, is_new,
+                      ws.first_new_slot)
+
+
+@njit(**_JIT)
+def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slots):
+    num_particles, num_columns = columns.shape
+    capacity = occupied.shape[1]
+    counts = np.zeros(num_particles, np.int64)
+    for m in range(num_particles):
+        for c in range(num_columns):
+            if columns[m, c] >= 0 and table[m, columns[m, c]] >= 0:
+                for s in range(capacity):
+                    counts[m] += occupied[table[m, columns[m, c]], s]
+    width = counts.max() if num_particles else 0
+    total = width + num_new_slots
+    # Empty slots get a unit covariance so that scoring them stays finite.
+    state = np.zeros((num_particles, total, pool_state.shape[2]))
+    state[:, :, 2] = 1.0
+    state[:, :, 4] = 1.0
+    ident = np.full((num_particles, total, 2), -1, np.int64)
+    row = np.full((num_particles, total), -1, np.int64)
+    slot = np.zeros((num_particles, total), np.int64)
+    block = np.full((num_particles, total), -1, np.int64)
+    valid = np.zeros((num_particles, total), np.bool_)
+    for m in range(num_particles):
+        rank = 0
+        for c in range(num_columns):
+            if columns[m, c] < 0 or table[m, columns[m, c]] < 0:
+                continue
+            source = table[m, columns[m, c]]
+            for s in range(capacity):
+                if not occupied[source, s]:
+                    continue
+                for i in range(pool_state.shape[2]):
+                    state[m, rank, i] = pool_state[source, s, i]
+                ident[m, rank, 0] = pool_ident[source, s, 0]
+                ident[m, rank, 1] = pool_ident[source, s, 1]
+                row[m, rank], slot[m, rank], block[m, rank] = source, s, c
+                valid[m, rank] = True
+                rank += 1
+    return row, slot, block, state, ident, valid, width
+
+
+def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
+    """``LandmarkStore.gather`` (its resampling applied): the same working set, in one
+    compiled pass over the cells."""
+    store.apply_resampling()
+    row, slot, block, state, ident, valid, width = _gather_kernel(
+        store.table, np.ascontiguousarray(columns, np.int64), store.occupied, store.state,
+        store.ident, num_new_slots)
+    shape = valid.shape
+    return WorkingSet(row=row, slot=slot, block=block, columns=columns, state=state,
+                      ident=ident, valid=valid, dirty=np.zeros(shape, bool),
+                      is_new=np.zeros(shape, bool), first_new_slot=int(width))
 
 
 # ---------------------------------------------------------------------------- warm-up
@@ -969,7 +1024,6 @@ def warm_up() -> float:
     if _warm:
         return 0.0
     from .config import FastSLAMConfig  # noqa: PLC0415 (no import cycle at module load)
-    from .landmark_store import WorkingSet
     from .motion import OdometryControl
     from .observation import SensorOffset
     start = time.perf_counter()
@@ -1007,6 +1061,7 @@ def warm_up() -> float:
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
+    gather(LandmarkStore(m, 5.0), np.zeros((m, 1), np.int64), 2)
     _warm = True
     return time.perf_counter() - start
 

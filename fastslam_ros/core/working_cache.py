@@ -95,7 +95,9 @@ class WorkingSetCache:
     def resample(self, indices: np.ndarray) -> None:
         """Particle m takes the working-set entries of particle ``indices[m]``."""
         if self.current is not None:
-            self.current = self.current.take(indices)
+            kernels = self.store.kernels
+            self.current = (self.current.take(indices) if kernels is None
+                            else kernels.take(self.current, indices))
 
     def flush(self) -> None:
         """Write the working set back into the store and drop it."""
