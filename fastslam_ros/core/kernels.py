@@ -1002,7 +1002,7 @@ def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> Wor
     compiled pass over the cells."""
     store.apply_resampling()
     row, slot, block, state, ident, valid, width = _gather_kernel(
-        store.table, np.ascontiguousarray(columns, np.int64), store.occupied, store.state,
+        store.table, np.require(columns, np.int64, ("C", "W")), store.occupied, store.state,
         store.ident, num_new_slots)
     shape = valid.shape
     return WorkingSet(row=row, slot=slot, block=block, columns=columns, state=state,
