@@ -245,15 +245,16 @@ class FastSLAM:
                   else np.asarray(ids, dtype=np.int64).reshape(-1))
         if not len(ranges) == len(bearings) == len(labels):
             raise ValueError("ranges, bearings and ids must have the same length")
-        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         known = self.config.association == "known"
+        if self.kernels is not None:
+            return self._update_compiled(*self.kernels.usable_observations(
+                ranges, bearings, labels, known, MIN_OBSERVATION_RANGE), stamp)
+        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         if known:
             usable &= labels >= 0
         if not usable.all():
             ranges, bearings, labels = ranges[usable], bearings[usable], labels[usable]
         bearings = wrap_angle(bearings)
-        if self.kernels is not None:
-            return self._update_compiled(ranges, bearings, labels, stamp)
 
         fastslam2 = self.config.algorithm == "fastslam2"
         self._advance_motion()
@@ -300,7 +301,7 @@ class FastSLAM:
                  else _NO_DRAWS)
         propose = cov is not None and config.algorithm == "fastslam2"
         normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
-        (choices, creating, poses, self.log_weights, n_eff, underflow, best, columns, keys,
+        (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
          finite) = self.kernels.update_reading(
             ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
             self.log_weights, self._settings, reach, self.landmarks.next_key, propose)
@@ -311,10 +312,8 @@ class FastSLAM:
         self.history.record(stamp, poses)
         self.num_updates += 1
         self.num_underflows += int(underflow)
-        best_choice, is_new = choices[:, best], creating[:, best]
-        found = ws.label[best, np.maximum(best_choice, 0)]
-        report = UpdateReport(len(best_choice), np.where(is_new | (best_choice < 0), -1, found),
-                              is_new, False, float(n_eff), bool(underflow))
+        report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),
+                              bool(underflow))
         self._best = int(best)
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self.working.created(int(columns))

@@ -714,6 +714,19 @@ def _finish(poses, log_weights, central, finite):
 
 
 @njit(**_JIT)
+def _report(choice, creating, ident, best):
+    """``UpdateReport.associated_ids`` and ``is_new`` of particle ``best``."""
+    count = choice.shape[0]
+    ids = np.full(count, -1, np.int64)
+    is_new = np.empty(count, np.bool_)
+    for k in range(count):
+        is_new[k] = creating[k, best]
+        if choice[k, best] >= 0 and not is_new[k]:
+            ids[k] = ident[best, choice[k, best], 0]
+    return ids, is_new
+
+
+@njit(**_JIT)
 def _noise_ranges(ranges, fp):
     """Range variance of every observation (``FastSLAM._noise``)."""
     noise_r = np.empty(ranges.shape[0])
@@ -750,8 +763,9 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
                    finite)
     n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
                                                  finite)
-    return (choice, creating, poses_out, weights_out, n_eff, underflow, best, taken, new_keys,
-            all_finite)
+    report_ids, report_new = _report(choice, creating, ident, best)
+    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
+            new_keys, all_finite)
 
 
 @njit(**_PARALLEL)
@@ -783,8 +797,50 @@ def _reading_parallel(state, ident, valid, dirty, is_new, existing, mean, cov, p
                        poses_out, ranges, bearings, labels, noise_r, fp, finite)
     n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
                                                  finite)
-    return (choice, creating, poses_out, weights_out, n_eff, underflow, best, taken, new_keys,
-            all_finite)
+    report_ids, report_new = _report(choice, creating, ident, best)
+    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
+            new_keys, all_finite)
+
+
+@njit(**_JIT)
+def _usable_kernel(ranges, bearings, labels, known, min_range):
+    count = 0
+    for k in range(ranges.shape[0]):
+        count += (math.isfinite(ranges[k]) and math.isfinite(bearings[k])
+                  and ranges[k] >= min_range and (labels[k] >= 0 or not known))
+    kept_ranges, kept_bearings = np.empty(count), np.empty(count)
+    kept_labels = np.empty(count, np.int64)
+    i = 0
+    for k in range(ranges.shape[0]):
+        if (math.isfinite(ranges[k]) and math.isfinite(bearings[k]) and ranges[k] >= min_range
+                and (labels[k] >= 0 or not known)):
+            kept_ranges[i], kept_bearings[i] = ranges[k], _wrap(bearings[k])
+            kept_labels[i] = labels[k]
+            i += 1
+    return kept_ranges, kept_bearings, kept_labels
+
+
+def usable_observations(ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
+                        known: bool, min_range: float):
+    """The gating of ``FastSLAM.update``: the observations with a finite range of at least
+    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0."""
+    return _usable_kernel(np.ascontiguousarray(ranges), np.ascontiguousarray(bearings),
+                          np.ascontiguousarray(labels), known, min_range)
+
+
+@njit(**_JIT)
+def _box_kernel(poses):
+    low_x, low_y = poses[0, 0], poses[0, 1]
+    high_x, high_y = low_x, low_y
+    for m in range(1, poses.shape[0]):
+        low_x, high_x = min(low_x, poses[m, 0]), max(high_x, poses[m, 0])
+        low_y, high_y = min(low_y, poses[m, 1]), max(high_y, poses[m, 1])
+    return low_x, low_y, high_x, high_y
+
+
+def pose_box(poses: np.ndarray) -> tuple[float, float, float, float]:
+    """(lowest x, lowest y, highest x, highest y) of the poses (M, 3), M >= 1."""
+    return _box_kernel(poses)
 
 
 class ReadingSettings(NamedTuple):
@@ -829,9 +885,9 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
     ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
-    store's next landmark key. Returns (choices (K, M) with the new landmarks' columns,
-    creating (K, M), poses (M, 3), normalised log weights (M,), N_eff, underflow, reported
-    particle, working-set columns taken, keys taken, all finite).
+    store's next landmark key. Returns (the reported particle's ``UpdateReport``
+    associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
+    underflow, the reported particle, working-set columns taken, keys taken, all finite).
     """
     fp, ip = settings
     has_cov = cov is not None
@@ -1058,6 +1114,8 @@ def warm_up() -> float:
                         *settings)
                 _reading_parallel(*args, 2)
     sample_pose(poses, cov, np.zeros((m, 3)))
+    usable_observations(ranges, bearings, labels, True, 1e-3)
+    pose_box(poses)
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
