@@ -98,9 +98,11 @@ def _logaddexp(x, y):
 # ---------------------------------------------------------------------------- association
 @njit(**_JIT)
 def _score_pair(m, j, k_lo, k_hi, state, mean, cov, has_cov, fp, ranges, bearings, noise_r,
-                log_lik, mahalanobis, column):
+                log_lik, mahalanobis, column, terms):
     """log N and Mahalanobis distance of observations [k_lo, k_hi) against landmark j of
-    particle m (``association.score``), into column ``column`` of the (K, C) buffers."""
+    particle m (``association.score``), into column ``column`` of the (K, C) buffers; the
+    pair's (dx, dy, q, r, predicted bearing) into ``terms[column]`` (the proposal reuses
+    them)."""
     ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
     px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
     lx, ly = _lever(pth, ox, oy)
@@ -136,6 +138,8 @@ def _score_pair(m, j, k_lo, k_hi, state, mean, cov, has_cov, fp, ranges, bearing
             extra_xy = p_tt * w0 * w1 - e0 * w1 - e1 * w0
             extra_yy = (p_tt * w1 - 2.0 * e1) * w1
     predicted_bearing = math.atan2(dy, dx)
+    terms[column, 0], terms[column, 1], terms[column, 2] = dx, dy, q
+    terms[column, 3], terms[column, 4] = r, predicted_bearing
     cxy = cxy0 + extra_xy
     cyy = cyy0 + extra_yy
     last_noise = np.nan
@@ -264,10 +268,11 @@ def _two_gates(log_lik, mahalanobis, width, log_p0, gate, new_gate, choice, fact
 @njit(**_JIT)
 def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings, labels,
                         noise_r, draws, fp, ip, choice, factor, inverse_q, local, log_lik,
-                        mahalanobis, pick, value, order, cumulative):
+                        mahalanobis, pick, value, order, cumulative, terms, picked):
     """``FastSLAM._associate`` for particle m before the outlier test: its choices (working-set
     columns or ``NEW`` / ``IGNORE``) and log factors into column m of ``choice`` and
-    ``factor``, log(1 / q) of its associations into ``inverse_q`` (K,)."""
+    ``factor``, log(1 / q) of its associations into ``inverse_q`` (K,); ``picked[k]``: the row
+    of ``terms`` of the chosen candidate (but with known ids)."""
     count = ranges.shape[0]
     has_cov = ip[I_HAS_COV] != 0
     log_p0 = fp[F_LOG_P0]
@@ -285,7 +290,7 @@ def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bea
                 factor[k, m] = log_p0
             elif ip[I_SCORE_KNOWN] != 0:
                 _score_pair(m, candidate, k, k + 1, state, mean, cov, has_cov, fp, ranges,
-                            bearings, noise_r, log_lik, mahalanobis, 0)
+                            bearings, noise_r, log_lik, mahalanobis, 0, terms)
                 factor[k, m] = log_lik[k, 0]
             else:
                 factor[k, m] = 0.0
@@ -303,7 +308,7 @@ def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bea
                 found += 1
     for c in range(found):
         _score_pair(m, local[c], 0, count, state, mean, cov, has_cov, fp, ranges, bearings,
-                    noise_r, log_lik, mahalanobis, c)
+                    noise_r, log_lik, mahalanobis, c, terms)
     mode = ip[I_MODE]
     if mode == 1:
         _exclusive_ml(log_lik, found, log_p0, choice, factor, m, pick, value)
@@ -314,6 +319,7 @@ def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bea
         _two_gates(log_lik, mahalanobis, found, log_p0, fp[F_GATE], fp[F_NEW_GATE], choice,
                    factor, m)
     for k in range(count):
+        picked[k] = choice[k, m]
         if choice[k, m] >= 0:
             choice[k, m] = local[choice[k, m]]
 
@@ -339,10 +345,11 @@ def _reject_outliers(m, choice, factor, robust, fp):
 # ---------------------------------------------------------------------------- proposal
 @njit(**_JIT)
 def _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice, fp, normals,
-                      poses_out, info, b, a, cof, full, sigma):
+                      poses_out, info, b, a, cof, full, sigma, terms, picked, scored):
     """``proposal.observation_proposal`` (linearised once) from particle m's associated
     observations, then ``sample_pose`` from it into ``poses_out[m]`` (heading wrapped);
-    returns the joint log likelihood of those observations."""
+    returns the joint log likelihood of those observations. ``scored``: the pairs' terms,
+    taken at the same mean, are in ``terms[picked[k]]`` (the same numbers, not recomputed)."""
     ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
     px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
     lx, ly = _lever(pth, ox, oy)
@@ -358,10 +365,16 @@ def _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice, fp
         if j < 0:
             continue
         pairs += 1
-        dx = state[m, j, 0] - (px + lx)
-        dy = state[m, j, 1] - (py + ly)
-        q = dx * dx + dy * dy
-        r = math.sqrt(q)
+        if scored:
+            c = picked[k]
+            dx, dy, q, r, bearing = (terms[c, 0], terms[c, 1], terms[c, 2], terms[c, 3],
+                                     terms[c, 4])
+        else:
+            dx = state[m, j, 0] - (px + lx)
+            dy = state[m, j, 1] - (py + ly)
+            q = dx * dx + dy * dy
+            r = math.sqrt(q)
+            bearing = math.atan2(dy, dx)
         sxx, sxy, syy = state[m, j, 2], state[m, j, 3], state[m, j, 4]
         g00, g01 = dx / r, dy / r
         g10, g11 = -dy / q, dx / q
@@ -379,7 +392,7 @@ def _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice, fp
         h00, h01, h02 = -g00, -g01, w0
         h10, h11, h12 = -g10, -g11, w1
         nu0 = ranges[k] - r
-        nu1 = _wrap(bearings[k] + (pth + oyaw) - math.atan2(dy, dx))
+        nu1 = _wrap(bearings[k] + (pth + oyaw) - bearing)
         det = q00 * q11 - q01 * q01
         scale = 1.0 / det
         i00, i01, i11 = q11 * scale, -q01 * scale, q00 * scale
@@ -578,12 +591,16 @@ def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, rang
     robust = np.empty(count)
     info, b, a = np.empty(9), np.empty(3), np.empty(9)
     cof, full, sigma = np.empty(9), np.empty(9), np.empty(9)
+    terms = np.empty((width, 5))
+    picked = np.empty(count, np.int64)
+    scored = ip[I_MODE] != 0
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
     for m in range(lo, hi):
         _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
                             labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
-                            log_lik, mahalanobis, pick, value, order, cumulative)
+                            log_lik, mahalanobis, pick, value, order, cumulative, terms,
+                            picked)
         _reject_outliers(m, choice, factor, robust, fp)
         if localization:
             # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
@@ -592,7 +609,8 @@ def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, rang
                     choice[k, m] = IGNORE
         if propose:
             joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice,
-                                      fp, normals, poses_out, info, b, a, cof, full, sigma)
+                                      fp, normals, poses_out, info, b, a, cof, full, sigma,
+                                      terms, picked, scored)
             # The associated observations weigh their joint likelihood (on the first row)
             # times 1 / q (``FastSLAM._sample_proposal``).
             for k in range(count):
