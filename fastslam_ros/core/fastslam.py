@@ -211,7 +211,8 @@ class FastSLAM:
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.num_particles, 3))
-            self.poses = sample_motion(self.poses, control, variances, normals)
+            sample = sample_motion if self.kernels is None else self.kernels.sample_motion
+            self.poses = sample(self.poses, control, variances, normals)
             return
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))

@@ -946,6 +946,31 @@ def sample_pose(mean: np.ndarray, cov: np.ndarray, standard_normals: np.ndarray)
 
 
 @njit(**_JIT)
+def _sample_motion_kernel(poses, rot1, trans, rot2, sigma_rot1, sigma_trans, sigma_rot2,
+                          normals):
+    count = poses.shape[0]
+    moved = np.empty((count, 3))
+    for m in range(count):
+        noisy_rot1 = rot1 - normals[m, 0] * sigma_rot1
+        noisy_trans = trans - normals[m, 1] * sigma_trans
+        noisy_rot2 = rot2 - normals[m, 2] * sigma_rot2
+        heading = poses[m, 2] + noisy_rot1
+        moved[m, 0] = poses[m, 0] + noisy_trans * math.cos(heading)
+        moved[m, 1] = poses[m, 1] + noisy_trans * math.sin(heading)
+        moved[m, 2] = _wrap(heading + noisy_rot2)
+    return moved
+
+
+def sample_motion(poses: np.ndarray, u, variances: np.ndarray,
+                  standard_normals: np.ndarray) -> np.ndarray:
+    """``motion.sample_motion``."""
+    sigma_rot1, sigma_trans, sigma_rot2 = (float(v) for v in np.sqrt(variances))
+    return _sample_motion_kernel(np.ascontiguousarray(poses), float(u.rot1), float(u.trans),
+                                 float(u.rot2), sigma_rot1, sigma_trans, sigma_rot2,
+                                 np.ascontiguousarray(standard_normals))
+
+
+@njit(**_JIT)
 def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
     count = mean.shape[0]
     moved = np.empty((count, 3))
@@ -1135,6 +1160,7 @@ def warm_up() -> float:
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
+    sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
     gather(LandmarkStore(m, 5.0), np.zeros((m, 1), np.int64), 2)
