@@ -11,6 +11,8 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import numba_available
+from fastslam_ros.core.landmark_store import WorkingSet
+from fastslam_ros.core.resampling import systematic_resample
 from fastslam_ros.tools.synthetic import make_world
 
 from conftest import REPO_ROOT
@@ -57,6 +59,74 @@ def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association
         order = [np.argsort(keys) for keys in (numpy_map[4], numba_map[4])]
         for a, b in zip(numpy_map, numba_map):
             np.testing.assert_allclose(a[order[0]], b[order[1]], atol=1e-9, rtol=0)
+
+
+@needs_numba
+def test_compiled_systematic_resampling_draws_the_numpy_indices():
+    """Same weights and generator state: the same indices as ``systematic_resample``, also
+    with degenerate weights (one particle holds all, zeros, ties at the pointers)."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(5)
+    cases = [rng.gamma(0.3, size=count) for count in (1, 7, 100, 1000) for _ in range(20)]
+    cases += [np.eye(50)[17], np.full(64, 1.0), np.repeat([0.0, 1.0], 40)]
+    for weights in cases:
+        weights = weights / weights.sum()
+        seed = int(rng.integers(1 << 31))
+        expected = systematic_resample(weights, np.random.default_rng(seed))
+        got = kernels.systematic_resample(weights, np.random.default_rng(seed))
+        np.testing.assert_array_equal(got, expected)
+
+
+@needs_numba
+def test_compiled_take_matches_the_working_set_take():
+    """Resampling the working set: every array equal to ``WorkingSet.take``'s, in fresh
+    arrays (the source is left as it was)."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(2)
+    particles, width = 40, 9
+    ws = WorkingSet(row=rng.integers(-1, 50, (particles, width)),
+                    slot=rng.integers(0, 8, (particles, width)),
+                    block=rng.integers(-1, 4, (particles, width)),
+                    columns=np.broadcast_to(np.arange(4), (particles, 4)),
+                    state=rng.normal(size=(particles, width, 6)),
+                    ident=rng.integers(-1, 99, (particles, width, 2)),
+                    valid=rng.random((particles, width)) < 0.5,
+                    dirty=rng.random((particles, width)) < 0.5,
+                    is_new=rng.random((particles, width)) < 0.5, first_new_slot=6)
+    before = {name: np.copy(getattr(ws, name)) for name in vars(ws) if name != "first_new_slot"}
+    indices = np.sort(rng.integers(0, particles, particles))
+    expected, got = ws.take(indices), kernels.take(ws, indices)
+    assert got.first_new_slot == expected.first_new_slot
+    for name, original in before.items():
+        np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+        np.testing.assert_array_equal(getattr(ws, name), original)
+        assert not np.shares_memory(getattr(got, name), getattr(ws, name))
+
+
+@needs_numba
+def test_compiled_gather_matches_the_store_gather():
+    """The working set of some cells of a shared store with copy-on-write blocks, full cells
+    and particles without a landmark there: equal to ``LandmarkStore.gather``'s."""
+    from fastslam_ros.core import kernels
+    world = make_world(seed=4, num_landmarks=40, extent=20.0, num_steps=40, max_range=6.0)
+    slam = FastSLAM(FastSLAMConfig(num_particles=30, association="ml", max_range=6.0,
+                                   cell_size=3.0, backend="numpy"),
+                    rng=np.random.default_rng(1), initial_pose=world.steps[0].truth)
+    previous = world.steps[0].odometry
+    for k, step in enumerate(world.steps[1:]):
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        slam.update(step.ranges, step.bearings, stamp=float(k))
+    slam.flush()
+    store = slam.landmarks
+    store.resample(np.sort(np.random.default_rng(3).integers(0, 30, 30)))
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        columns = rng.integers(-1, store.num_cells, (30, 6))
+        expected, got = store.gather(columns, 4), kernels.gather(store, columns, 4)
+        assert got.first_new_slot == expected.first_new_slot > 0
+        for name in vars(expected):
+            np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
 
 
 def test_core_runs_without_numba():

@@ -45,6 +45,7 @@ MAX_PRIOR_HEADING_SIGMA = 0.3
 proposal sees all of its uncertainty; once its heading standard deviation exceeds this (rad)
 the particles are sampled from it, before the proposal's linearisation fails."""
 _NO_DRAWS = np.zeros(0)
+_NO_NORMALS = np.zeros((0, 3))
 
 
 @dataclass
@@ -110,6 +111,8 @@ class FastSLAM:
         self.kernels = self._load_kernels()
         """The compiled backend (``core.kernels``) when it runs, else None (numpy)."""
         self.backend = "numpy" if self.kernels is None else "numba"
+        self._settings = None if self.kernels is None else self.kernels.reading_settings(
+            self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
         self.reset(initial_pose)
 
     def _load_kernels(self):
@@ -120,7 +123,6 @@ class FastSLAM:
             return None
         from . import kernels  # noqa: PLC0415 (optional dependency)
         kernels.warm_up()
-        kernels.use_threads(config.num_particles)
         return kernels
 
     # ------------------------------------------------------------------ lifecycle
@@ -164,7 +166,7 @@ class FastSLAM:
         """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
         in every particle."""
         count = self.num_particles
-        self.landmarks = LandmarkStore(count, self.config.cell_size)
+        self.landmarks = LandmarkStore(count, self.config.cell_size, kernels=self.kernels)
         self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
         """The landmarks near the robot that readings work on (kept across readings)."""
         if self._seed is None or len(self._seed[0]) == 0:
@@ -217,7 +219,8 @@ class FastSLAM:
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.num_particles, 3))
-            self.poses = sample_motion(self.poses, control, variances, normals)
+            sample = sample_motion if self.kernels is None else self.kernels.sample_motion
+            self.poses = sample(self.poses, control, variances, normals)
             return
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
@@ -251,8 +254,11 @@ class FastSLAM:
                   else np.asarray(ids, dtype=np.int64).reshape(-1))
         if not len(ranges) == len(bearings) == len(labels):
             raise ValueError("ranges, bearings and ids must have the same length")
-        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         known = self.config.association == "known"
+        if self.kernels is not None:
+            return self._update_compiled(*self.kernels.usable_observations(
+                ranges, bearings, labels, known, MIN_OBSERVATION_RANGE), stamp)
+        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         if known:
             usable &= labels >= 0
         if not usable.all():
@@ -260,8 +266,6 @@ class FastSLAM:
         bearings = wrap_angle(bearings)
 
         fastslam2 = self.config.algorithm == "fastslam2"
-        if self.kernels is not None:
-            self.kernels.use_threads(self.num_particles)
         self._advance_motion()
         proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
                                                                                     None)
@@ -290,6 +294,56 @@ class FastSLAM:
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self.working.created(int(creating.any(axis=1).sum()))
         self.check_state()
+        return report
+
+    def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
+                         stamp: float) -> UpdateReport:
+        """``update`` on the compiled backend: the reading's math in one call
+        (``kernels.update_reading``), on the numpy path's random draws in its order."""
+        config, count = self.config, self.num_particles
+        known = config.association == "known"
+        self._advance_motion()
+        mean, cov = self._prior if self._prior is not None else (self.poses, None)
+        reach = self._reach(ranges)
+        ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None)
+        draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
+                 else _NO_DRAWS)
+        propose = cov is not None and config.algorithm == "fastslam2"
+        normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
+        (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
+         finite) = self.kernels.update_reading(
+            ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
+            self.log_weights, self._settings, reach, self.landmarks.next_key, propose)
+        if propose:
+            self._prior = None
+        self.poses = poses
+        self.landmarks.next_key += keys
+        self.history.record(stamp, poses)
+        self.num_updates += 1
+        self.num_underflows += int(underflow)
+        report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),
+                              bool(underflow))
+        self._best = int(best)
+        # This reading's new-landmark columns now hold landmarks (in some particles).
+        self.working.created(int(columns))
+        if n_eff < config.resample_threshold * count:
+            weights = np.exp(self.log_weights)
+            resample = (self.kernels.systematic_resample if config.resampling == "systematic"
+                        else RESAMPLERS[config.resampling])
+            indices = resample(weights, self.rng)
+            self.poses = self.poses[indices]
+            self.landmarks.resample(indices)
+            self.working.resample(indices)
+            self.history.resample(indices)
+            self.log_weights = np.full(count, -np.log(count))
+            if config.best_particle == "central":
+                self._best = self._select_best()
+            else:
+                copies = (indices == best).nonzero()[0]
+                self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
+            report.resampled = True
+        if not finite:
+            self.check_state()
         return report
 
     def _noise(self, ranges):
@@ -338,11 +392,6 @@ class FastSLAM:
         config = self.config
         count = len(ranges)
         mode = config.association
-        if self.kernels is not None:
-            choice, log_factor, inverse_q = self._associate_compiled(ws, mean, cov, ranges,
-                                                                     bearings, labels)
-            return assoc.reject_outliers(choice, log_factor, config.outlier_probability,
-                                         self._log_outlier) + (inverse_q,)
         if mode == "known":
             candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
             if cov is not None and config.outlier_probability == 0.0:
@@ -394,23 +443,6 @@ class FastSLAM:
                                      config.outlier_probability,
                                      self._log_outlier) + (inverse_q.reshape(grid),)
 
-    def _associate_compiled(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
-                            bearings: np.ndarray, labels: np.ndarray):
-        """``_associate`` on the compiled backend: (choices, log factors, log(1 / q)) (K, M)
-        before the outlier test, on the same draws as the numpy path."""
-        config = self.config
-        mode = config.association
-        known = mode == "known"
-        reach = self._reach(ranges)
-        kept = np.zeros(0, np.int64) if known else self.kernels.columns_in_reach(ws, mean, reach)
-        draws = (self.rng.random(len(ranges) * self.num_particles) if mode == "monte_carlo"
-                 else _NO_DRAWS)
-        score_known = not (cov is not None and config.outlier_probability == 0.0)
-        return self.kernels.associate_reading(
-            ws, kept, reach, mean, cov, ranges, bearings, labels, self._noise(ranges),
-            self.offset, mode, self._log_p0, config.association_gate, config.new_landmark_gate,
-            draws, score_known)
-
     def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
         """Working-set columns (of the landmarks that existed before this reading) holding a
         landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose (the
@@ -437,12 +469,7 @@ class FastSLAM:
         used = choices >= 0
         if not used.any():
             return mean, cov, np.zeros(self.num_particles)
-        if self.kernels is None:
-            propose, landmarks = observation_proposal, ws.records_at(choices)
-        else:
-            propose, landmarks = (self.kernels.observation_proposal,
-                                  self.kernels.records_at(ws, choices))
-        return propose(mean, cov, landmarks, ranges[:, None],
+        return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
                                     bearings[:, None], used, self.offset,
                                     self._noise(ranges[:, None]))
 
@@ -493,14 +520,6 @@ class FastSLAM:
         column[creators] = first_new + np.arange(len(creators))
         if repeated is not None:
             choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
-        if self.kernels is not None:
-            created = int(creating.sum())
-            first_key = int(self.landmarks.new_keys(created)[0]) if created else 0
-            self.kernels.apply_observations(ws, observed, choices, creating, column, first_key,
-                                            self.poses, ranges, bearings, labels,
-                                            self._noise(ranges), self.offset,
-                                            config.logodds_observed, LOGODDS_MAX)
-            return creating
         obs, particle = creating.nonzero()
         if len(obs):
             slot = column[obs]
@@ -547,9 +566,6 @@ class FastSLAM:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""
         config = self.config
         if config.logodds_missed == 0.0:
-            return
-        if self.kernels is not None:
-            self.kernels.missed_evidence(ws, observed, self.poses, self.offset, config)
             return
         # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
         existing = slice(0, ws.first_new_slot)

@@ -1,18 +1,19 @@
 """Compiled (numba) backend of the per-reading math of ``FastSLAM``.
 
 The numpy core spends most of a reading at moderate M on call overhead (hundreds of small array
-operations whatever M is). These kernels do the same arithmetic in one compiled loop per stage,
-parallel over particles (``prange``), with the same results as the numpy functions they stand in
-for: the same discrete choices and floats equal to round-off, on the same random draws (drawn by
-the caller from its ``numpy.random.Generator``, exactly as the numpy path draws them).
+operations whatever M is). Here one compiled call, ``update_reading``, does the whole reading
+for every particle: candidates in reach, scoring and the four association rules, the outlier
+test, the FastSLAM 2.0 proposal and its draw, the weight update, the columns and keys of new
+landmarks, their initialisation and the Joseph-form updates, negative evidence, the weight
+normalisation, N_eff and the reported particle. The results are those of the numpy reference
+(``FastSLAM._associate``, ``proposal``, ``FastSLAM._apply_to_map``, ``_missed_evidence``,
+``resampling``): the same discrete choices and floats equal to round-off, on the same random
+draws (drawn by the caller from its ``numpy.random.Generator`` in the numpy path's order).
 
-Stages, each behind the signature of the numpy code it replaces:
-
-* ``columns_in_reach``, ``associate_reading``: ``FastSLAM._columns_in_reach`` and the scoring and
-  association rules of ``FastSLAM._associate`` (``association.score`` and the four rules);
-* ``observation_proposal``, ``sample_pose`` (``proposal``) and ``propagate_gaussian`` (``motion``);
-* ``apply_observations``: the landmark initialisation and Joseph-form updates of
-  ``FastSLAM._apply_to_map`` (``landmark_ekf``); ``missed_evidence``: ``FastSLAM._missed_evidence``.
+Each stage is a loop over particles. Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the
+reading runs on the calling thread; from there on its two per-particle phases run as one chunk
+of particles per thread (``prange``): a parallel loop costs a thread hand-off (tens of
+microseconds on a busy machine), which only pays off at large M.
 
 numba is optional (``pip install fastslam_ros[fast]``); importing this module without it raises
 ImportError, and the filter then runs on numpy. ``warm_up`` compiles the kernels (or loads them
@@ -25,14 +26,18 @@ from __future__ import annotations
 import math
 import os
 import time
+from typing import NamedTuple
 
 import numpy as np
 import numba
 from numba import njit, prange
 
+from .landmark_store import LandmarkStore, WorkingSet
+
 LOG_TWO_PI = math.log(2.0 * math.pi)
 TWO_PI = 2.0 * math.pi
 POSE_JITTER = 1e-12
+LOG2 = math.log(2.0)
 
 MODE_CODES = {"known": 0, "ml": 1, "monte_carlo": 2, "two_gate": 3}
 NEW, IGNORE = -1, -2
@@ -51,6 +56,16 @@ _COF_Q = np.array([8, 6, 7, 7, 8, 6, 5, 3, 4])
 _COF_R = np.array([5, 3, 4, 1, 2, 0, 2, 0, 1])
 _COF_S = np.array([7, 8, 6, 8, 6, 7, 4, 5, 3])
 
+# Layout of the settings of a reading: floats ``fp`` and integers ``ip`` (``ReadingSettings``).
+F_OX, F_OY, F_OYAW, F_NOISE_R, F_NOISE_R_PER_M, F_NOISE_B = 0, 1, 2, 3, 4, 5
+F_LOG_P0, F_GATE, F_NEW_GATE, F_EPS, F_LOG_OUTLIER = 6, 7, 8, 9, 10
+F_MIN_RANGE, F_MAX_RANGE, F_FOV = 11, 12, 13
+F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX = 14, 15, 16, 17
+F_REACH = 18
+NUM_F = 19
+I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
+NUM_I = 7
+
 
 @njit(**_JIT)
 def _wrap(angle):
@@ -67,37 +82,28 @@ def _lever(theta, ox, oy):
     return c * ox - s * oy, s * ox + c * oy
 
 
-# ---------------------------------------------------------------------------- association
-@njit(**_PARALLEL)
-def _reach_kernel(state, valid, existing, poses, reach):
-    width = existing
-    near = np.zeros(width, np.bool_)
-    count = poses.shape[0]
-    limit = reach * reach
-    for j in prange(width):
-        for m in range(count):
-            if valid[m, j]:
-                dx = state[m, j, 0] - poses[m, 0]
-                dy = state[m, j, 1] - poses[m, 1]
-                if dx * dx + dy * dy <= limit:
-                    near[j] = True
-                    break
-    return near
-
-
-def columns_in_reach(ws, poses: np.ndarray, reach: float) -> np.ndarray:
-    """Working-set columns (before ``first_new_slot``) holding a landmark of some particle
-    within ``reach`` of that particle's pose, ascending."""
-    near = _reach_kernel(ws.state, ws.valid, ws.first_new_slot, np.ascontiguousarray(poses),
-                         float(reach))
-    return near.nonzero()[0]
-
-
 @njit(**_JIT)
-def _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings, noise_r,
-                noise_b, log_lik, mahalanobis, column):
-    """log N and Mahalanobis distance of every observation against landmark j of particle m
-    (``association.score``), into column ``column`` of the (K, C) buffers."""
+def _logaddexp(x, y):
+    """``numpy.logaddexp`` of two floats (same branches)."""
+    if x == y:
+        return x + LOG2
+    difference = x - y
+    if difference > 0.0:
+        return x + math.log1p(math.exp(-difference))
+    if difference <= 0.0:
+        return y + math.log1p(math.exp(difference))
+    return difference
+
+
+# ---------------------------------------------------------------------------- association
+@njit(**_JIT)
+def _score_pair(m, j, k_lo, k_hi, state, mean, cov, has_cov, fp, ranges, bearings, noise_r,
+                log_lik, mahalanobis, column, terms):
+    """log N and Mahalanobis distance of observations [k_lo, k_hi) against landmark j of
+    particle m (``association.score``), into column ``column`` of the (K, C) buffers; the
+    pair's (dx, dy, q, r, predicted bearing) into ``terms[column]`` (the proposal reuses
+    them)."""
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
     px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
     lx, ly = _lever(pth, ox, oy)
     dx = state[m, j, 0] - (px + lx)
@@ -132,11 +138,13 @@ def _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
             extra_xy = p_tt * w0 * w1 - e0 * w1 - e1 * w0
             extra_yy = (p_tt * w1 - 2.0 * e1) * w1
     predicted_bearing = math.atan2(dy, dx)
+    terms[column, 0], terms[column, 1], terms[column, 2] = dx, dy, q
+    terms[column, 3], terms[column, 4] = r, predicted_bearing
     cxy = cxy0 + extra_xy
     cyy = cyy0 + extra_yy
     last_noise = np.nan
     inv_xx = inv_xy2 = inv_yy = log_norm = 0.0
-    for k in range(ranges.shape[0]):
+    for k in range(k_lo, k_hi):
         if noise_r[k] != last_noise:
             # S depends on the observation only through its range noise: mostly one S.
             last_noise = noise_r[k]
@@ -152,38 +160,25 @@ def _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
 
 
 @njit(**_JIT)
-def _score_one(m, j, k, state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings, noise_r,
-               noise_b):
-    """log N of observation k against landmark j of particle m (known ids)."""
-    buffer_lik = np.empty((1, 1))
-    buffer_mah = np.empty((1, 1))
-    _score_pair(m, j, state, mean, cov, has_cov, ox, oy, oyaw, ranges[k:k + 1],
-                bearings[k:k + 1], noise_r[k:k + 1], noise_b, buffer_lik, buffer_mah, 0)
-    return buffer_lik[0, 0]
-
-
-@njit(**_JIT)
-def _argmax_first(row):
-    """numpy's argmax: the first maximum (0 when all are -inf)."""
+def _argmax_first(row, width):
+    """numpy's argmax of row[:width]: the first maximum (0 when all are -inf)."""
     best, value = 0, row[0]
-    for c in range(1, row.shape[0]):
+    for c in range(1, width):
         if row[c] > value:
             best, value = c, row[c]
     return best, value
 
 
 @njit(**_JIT)
-def _exclusive_ml(log_lik, log_p0, choice, factor, m):
+def _exclusive_ml(log_lik, width, log_p0, choice, factor, m, pick, value):
     """``association.associate_exclusive_maximum_likelihood`` for one particle."""
-    count, width = log_lik.shape
-    pick = np.empty(count, np.int64)
-    value = np.empty(count)
+    count = choice.shape[0]
     while True:
         for k in range(count):
             if width == 0:
                 pick[k], value[k] = NEW, log_p0
                 continue
-            best, best_value = _argmax_first(log_lik[k])
+            best, best_value = _argmax_first(log_lik[k], width)
             if best_value < log_p0:
                 pick[k], value[k] = NEW, log_p0
             else:
@@ -210,11 +205,10 @@ def _exclusive_ml(log_lik, log_p0, choice, factor, m):
 
 
 @njit(**_JIT)
-def _monte_carlo(log_lik, log_p0, draws, choice, factor, inverse_q, m, num_particles):
+def _monte_carlo(log_lik, width, log_p0, draws, choice, factor, inverse_q, m, order,
+                 cumulative):
     """``association.associate_monte_carlo`` (marginal weight) for one particle."""
-    count, width = log_lik.shape
-    order = np.empty(width, np.int64)
-    cumulative = np.empty(width + 1)
+    count, num_particles = choice.shape
     for k in range(count):
         row = log_lik[k]
         # Stable descending order (insertion sort: C is a few tens).
@@ -249,14 +243,13 @@ def _monte_carlo(log_lik, log_p0, draws, choice, factor, inverse_q, m, num_parti
         else:
             chosen = order[picked]
             choice[k, m] = chosen
-            inverse_q[k, m] = log_marginal - row[chosen]
+            inverse_q[k] = log_marginal - row[chosen]
 
 
 @njit(**_JIT)
-def _two_gates(log_lik, mahalanobis, log_p0, gate, new_gate, choice, factor, m):
+def _two_gates(log_lik, mahalanobis, width, log_p0, gate, new_gate, choice, factor, m):
     """``association.associate_two_gates`` for one particle."""
-    count, width = log_lik.shape
-    for k in range(count):
+    for k in range(choice.shape[0]):
         if width == 0:
             choice[k, m], factor[k, m] = NEW, log_p0
             continue
@@ -272,232 +265,677 @@ def _two_gates(log_lik, mahalanobis, log_p0, gate, new_gate, choice, factor, m):
             choice[k, m], factor[k, m] = IGNORE, 0.0
 
 
-@njit(**_PARALLEL)
-def _associate_kernel(state, valid, label, existing, kept, reach, mean, cov, has_cov, ranges,
-                      bearings, labels, noise_r, noise_b, ox, oy, oyaw, mode, log_p0, gate,
-                      new_gate, draws, score_known):
+@njit(**_JIT)
+def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings, labels,
+                        noise_r, draws, fp, ip, choice, factor, inverse_q, local, log_lik,
+                        mahalanobis, pick, value, order, cumulative, terms, picked):
+    """``FastSLAM._associate`` for particle m before the outlier test: its choices (working-set
+    columns or ``NEW`` / ``IGNORE``) and log factors into column m of ``choice`` and
+    ``factor``, log(1 / q) of its associations into ``inverse_q`` (K,); ``picked[k]``: the row
+    of ``terms`` of the chosen candidate (but with known ids)."""
     count = ranges.shape[0]
-    num_particles = mean.shape[0]
-    choice = np.empty((count, num_particles), np.int64)
-    factor = np.empty((count, num_particles))
-    inverse_q = np.zeros((count, num_particles))
-    width = kept.shape[0]
-    limit = reach * reach
-    for m in prange(num_particles):
-        if mode == 0:
-            for k in range(count):
-                candidate = -1
-                for j in range(existing):
-                    if valid[m, j] and label[m, j] == labels[k]:
-                        candidate = j
-                        break
-                choice[k, m] = candidate
-                if candidate < 0:
-                    factor[k, m] = log_p0
-                elif score_known:
-                    factor[k, m] = _score_one(m, candidate, k, state, mean, cov, has_cov, ox,
-                                              oy, oyaw, ranges, bearings, noise_r, noise_b)
-                else:
-                    factor[k, m] = 0.0
-            continue
-        # This particle's candidates, in column order: the rules see the same choices as on
-        # the full row with -inf / +inf for the others, which can never be picked.
-        local = np.empty(width, np.int64)
-        found = 0
-        for c in range(width):
-            j = kept[c]
+    has_cov = ip[I_HAS_COV] != 0
+    log_p0 = fp[F_LOG_P0]
+    for k in range(count):
+        inverse_q[k] = 0.0
+    if ip[I_MODE] == 0:
+        for k in range(count):
+            candidate = -1
+            for j in range(existing):
+                if valid[m, j] and label[m, j] == labels[k]:
+                    candidate = j
+                    break
+            choice[k, m] = candidate
+            if candidate < 0:
+                factor[k, m] = log_p0
+            elif ip[I_SCORE_KNOWN] != 0:
+                _score_pair(m, candidate, k, k + 1, state, mean, cov, has_cov, fp, ranges,
+                            bearings, noise_r, log_lik, mahalanobis, 0, terms)
+                factor[k, m] = log_lik[k, 0]
+            else:
+                factor[k, m] = 0.0
+        return
+    # This particle's candidates within reach, in column order: the rules see the same
+    # choices as on the numpy path's full row, where the others are -inf / +inf.
+    limit = fp[F_REACH] * fp[F_REACH]
+    found = 0
+    for j in range(existing):
+        if valid[m, j]:
             dx = state[m, j, 0] - mean[m, 0]
             dy = state[m, j, 1] - mean[m, 1]
-            if valid[m, j] and dx * dx + dy * dy <= limit:
+            if dx * dx + dy * dy <= limit:
                 local[found] = j
                 found += 1
-        log_lik = np.empty((count, found))
-        mahalanobis = np.empty((count, found))
-        for c in range(found):
-            _score_pair(m, local[c], state, mean, cov, has_cov, ox, oy, oyaw, ranges, bearings,
-                        noise_r, noise_b, log_lik, mahalanobis, c)
-        if mode == 1:
-            _exclusive_ml(log_lik, log_p0, choice, factor, m)
-        elif mode == 2:
-            _monte_carlo(log_lik, log_p0, draws, choice, factor, inverse_q, m, num_particles)
+    for c in range(found):
+        _score_pair(m, local[c], 0, count, state, mean, cov, has_cov, fp, ranges, bearings,
+                    noise_r, log_lik, mahalanobis, c, terms)
+    mode = ip[I_MODE]
+    if mode == 1:
+        _exclusive_ml(log_lik, found, log_p0, choice, factor, m, pick, value)
+    elif mode == 2:
+        _monte_carlo(log_lik, found, log_p0, draws, choice, factor, inverse_q, m, order,
+                     cumulative)
+    else:
+        _two_gates(log_lik, mahalanobis, found, log_p0, fp[F_GATE], fp[F_NEW_GATE], choice,
+                   factor, m)
+    for k in range(count):
+        picked[k] = choice[k, m]
+        if choice[k, m] >= 0:
+            choice[k, m] = local[choice[k, m]]
+
+
+@njit(**_JIT)
+def _reject_outliers(m, choice, factor, robust, fp):
+    """``association.reject_outliers`` for particle m: outliers become ``IGNORE`` with the
+    robust factor; ``robust`` (K,) gets the inliers' correction."""
+    eps, log_outlier = fp[F_EPS], fp[F_LOG_OUTLIER]
+    for k in range(choice.shape[0]):
+        robust[k] = 0.0
+        if eps <= 0.0 or choice[k, m] < 0:
+            continue
+        inlier = math.log1p(-eps) + factor[k, m]
+        combined = _logaddexp(inlier, log_outlier)
+        if inlier < log_outlier:
+            choice[k, m] = IGNORE
+            factor[k, m] = combined
         else:
-            _two_gates(log_lik, mahalanobis, log_p0, gate, new_gate, choice, factor, m)
-        for k in range(count):
-            if choice[k, m] >= 0:
-                choice[k, m] = local[choice[k, m]]
-    return choice, factor, inverse_q
-
-
-def associate_reading(ws, kept, reach: float, mean, cov, ranges, bearings, labels, noise,
-                      offset, mode: str, log_p0: float, gate: float, new_gate: float, draws,
-                      score_known: bool):
-    """Choices (K, M) (working-set columns or ``NEW`` / ``IGNORE``), log factors (K, M) and
-    log(1 / q) (K, M) of one reading, as ``FastSLAM._associate`` forms them before the outlier
-    test. ``kept``: the candidate columns (``columns_in_reach``; unused with known ids), of
-    which a particle scores those within ``reach`` of its pose;
-    ``draws``: the (K * M) uniforms of ``monte_carlo``; ``score_known``: known ids score their
-    landmark (otherwise the factor is 0, FastSLAM 2.0 weighing by the proposal)."""
-    noise_r, noise_b = _noise_arrays(noise, len(ranges))
-    has_cov = cov is not None
-    return _associate_kernel(
-        ws.state, ws.valid, ws.label, ws.first_new_slot, np.asarray(kept, np.int64),
-        float(reach), np.ascontiguousarray(mean),
-        np.ascontiguousarray(cov) if has_cov else _NO_COV, has_cov,
-        ranges, bearings, labels, noise_r, noise_b, offset.x, offset.y, offset.yaw,
-        MODE_CODES[mode], log_p0, gate, new_gate, draws, score_known)
-
-
-_NO_COV = np.zeros((1, 3, 3))
-_NO_DRAWS = np.zeros(0)
-
-
-def _noise_arrays(noise, count: int) -> tuple[np.ndarray, float]:
-    """(range variance per observation (K,), bearing variance) from ``FastSLAM._noise``."""
-    range_variance, bearing_variance = noise[0], float(noise[1])
-    if isinstance(range_variance, np.ndarray) and range_variance.size == count:
-        return np.ascontiguousarray(range_variance, dtype=float).reshape(count), bearing_variance
-    return np.full(count, float(range_variance)), bearing_variance
+            robust[k] = combined - factor[k, m]
 
 
 # ---------------------------------------------------------------------------- proposal
-@njit(**_PARALLEL)
-def _records_kernel(state, columns):
-    count, num_particles = columns.shape
-    out = np.empty((count, num_particles, state.shape[2]))
-    for m in prange(num_particles):
-        for k in range(count):
-            column = max(columns[k, m], 0)
-            for i in range(state.shape[2]):
-                out[k, m, i] = state[m, column, i]
-    return out
-
-
-def records_at(ws, columns: np.ndarray) -> np.ndarray:
-    """``WorkingSet.records_at`` for (K, M) columns."""
-    return _records_kernel(ws.state, np.ascontiguousarray(columns, dtype=np.int64))
-
-
-
-@njit(**_PARALLEL)
-def _proposal_kernel(mean, cov, landmarks, ranges, bearings, used, ox, oy, oyaw, noise_r,
-                     noise_b):
-    count, num_particles = used.shape
-    point = np.empty((num_particles, 3))
-    sigma = np.empty((num_particles, 3, 3))
-    log_weight = np.empty(num_particles)
-    for m in prange(num_particles):
-        px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
-        lx, ly = _lever(pth, ox, oy)
-        lever_free = lx == 0.0 and ly == 0.0 and ox == 0.0 and oy == 0.0
-        info = np.zeros((3, 3))
-        b = np.zeros(3)
-        quadratic = 0.0
-        log_det_q = 0.0
-        pairs = 0
-        g = np.empty((2, 3))
-        u = np.empty((2, 3))
-        for k in range(count):
-            if not used[k, m]:
-                continue
-            pairs += 1
-            dx = landmarks[k, m, 0] - (px + lx)
-            dy = landmarks[k, m, 1] - (py + ly)
+@njit(**_JIT)
+def _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice, fp, normals,
+                      poses_out, info, b, a, cof, full, sigma, terms, picked, scored):
+    """``proposal.observation_proposal`` (linearised once) from particle m's associated
+    observations, then ``sample_pose`` from it into ``poses_out[m]`` (heading wrapped);
+    returns the joint log likelihood of those observations. ``scored``: the pairs' terms,
+    taken at the same mean, are in ``terms[picked[k]]`` (the same numbers, not recomputed)."""
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
+    lx, ly = _lever(pth, ox, oy)
+    lever_free = lx == 0.0 and ly == 0.0 and ox == 0.0 and oy == 0.0
+    for i in range(9):
+        info[i] = 0.0
+    b[0] = b[1] = b[2] = 0.0
+    quadratic = 0.0
+    log_det_q = 0.0
+    pairs = 0
+    for k in range(choice.shape[0]):
+        j = choice[k, m]
+        if j < 0:
+            continue
+        pairs += 1
+        if scored:
+            c = picked[k]
+            dx, dy, q, r, bearing = (terms[c, 0], terms[c, 1], terms[c, 2], terms[c, 3],
+                                     terms[c, 4])
+        else:
+            dx = state[m, j, 0] - (px + lx)
+            dy = state[m, j, 1] - (py + ly)
             q = dx * dx + dy * dy
             r = math.sqrt(q)
-            sxx, sxy, syy = landmarks[k, m, 2], landmarks[k, m, 3], landmarks[k, m, 4]
-            g00, g01 = dx / r, dy / r
-            g10, g11 = -dy / q, dx / q
-            a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
-            b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
-            q00 = g00 * a0 + g01 * a1 + noise_r[k]
-            q01 = g10 * a0 + g11 * a1
-            q11 = g10 * b0 + g11 * b1 + noise_b
-            if lever_free:
-                w0, w1 = 0.0, -1.0
-            else:
-                w0 = (dx * ly - dy * lx) / r
-                w1 = -(dx * lx + dy * ly) / q - 1.0
-            g[0, 0], g[0, 1], g[0, 2] = -g00, -g01, w0
-            g[1, 0], g[1, 1], g[1, 2] = -g10, -g11, w1
-            nu0 = ranges[k] - r
-            nu1 = _wrap(bearings[k] + (pth + oyaw) - math.atan2(dy, dx))
-            det = q00 * q11 - q01 * q01
-            scale = 1.0 / det
-            i00, i01, i11 = q11 * scale, -q01 * scale, q00 * scale
-            for col in range(3):
-                u[0, col] = i00 * g[0, col] + i01 * g[1, col]
-                u[1, col] = i01 * g[0, col] + i11 * g[1, col]
-            for row in range(3):
-                for col in range(3):
-                    info[row, col] += g[0, row] * u[0, col] + g[1, row] * u[1, col]
-                b[row] += u[0, row] * nu0 + u[1, row] * nu1
-            quadratic += nu0 * (i00 * nu0 + i01 * nu1) + nu1 * (i01 * nu0 + i11 * nu1)
-            log_det_q += math.log(det)
-        # Sigma_s = (I + P J)^-1 P through the adjugate (``proposal._combine``).
-        a = np.empty(9)
-        for row in range(3):
-            for col in range(3):
-                a[3 * row + col] = (cov[m, row, 0] * info[0, col] + cov[m, row, 1] * info[1, col]
-                                    + cov[m, row, 2] * info[2, col])
-        a[0] += 1.0
-        a[4] += 1.0
-        a[8] += 1.0
-        cof = np.empty(9)
-        for i in range(9):
-            cof[i] = a[_COF_P[i]] * a[_COF_Q[i]] - a[_COF_R[i]] * a[_COF_S[i]]
-        det_a = a[0] * cof[0] + a[1] * cof[1] + a[2] * cof[2]
-        full = np.empty((3, 3))
-        for row in range(3):
-            for col in range(3):
-                full[row, col] = (cof[row] * cov[m, 0, col] + cof[3 + row] * cov[m, 1, col]
-                                  + cof[6 + row] * cov[m, 2, col]) / det_a
-        for row in range(3):
-            for col in range(3):
-                sigma[m, row, col] = 0.5 * (full[row, col] + full[col, row])
-        mahalanobis = quadratic
-        for row in range(3):
-            shift = sigma[m, row, 0] * b[0] + sigma[m, row, 1] * b[1] + sigma[m, row, 2] * b[2]
-            mahalanobis -= b[row] * shift
-            point[m, row] = mean[m, row] + shift
-        point[m, 2] = _wrap(point[m, 2])
-        log_weight[m] = (-0.5 * (mahalanobis + log_det_q + math.log(det_a))
-                         - pairs * LOG_TWO_PI)
-    return point, sigma, log_weight
+            bearing = math.atan2(dy, dx)
+        sxx, sxy, syy = state[m, j, 2], state[m, j, 3], state[m, j, 4]
+        g00, g01 = dx / r, dy / r
+        g10, g11 = -dy / q, dx / q
+        a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
+        b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
+        q00 = g00 * a0 + g01 * a1 + noise_r[k]
+        q01 = g10 * a0 + g11 * a1
+        q11 = g10 * b0 + g11 * b1 + noise_b
+        if lever_free:
+            w0, w1 = 0.0, -1.0
+        else:
+            w0 = (dx * ly - dy * lx) / r
+            w1 = -(dx * lx + dy * ly) / q - 1.0
+        # Rows of G_s: (-g00, -g01, w0) and (-g10, -g11, w1).
+        h00, h01, h02 = -g00, -g01, w0
+        h10, h11, h12 = -g10, -g11, w1
+        nu0 = ranges[k] - r
+        nu1 = _wrap(bearings[k] + (pth + oyaw) - bearing)
+        det = q00 * q11 - q01 * q01
+        scale = 1.0 / det
+        i00, i01, i11 = q11 * scale, -q01 * scale, q00 * scale
+        u00, u01, u02 = i00 * h00 + i01 * h10, i00 * h01 + i01 * h11, i00 * h02 + i01 * h12
+        u10, u11, u12 = i01 * h00 + i11 * h10, i01 * h01 + i11 * h11, i01 * h02 + i11 * h12
+        info[0] += h00 * u00 + h10 * u10
+        info[1] += h00 * u01 + h10 * u11
+        info[2] += h00 * u02 + h10 * u12
+        info[3] += h01 * u00 + h11 * u10
+        info[4] += h01 * u01 + h11 * u11
+        info[5] += h01 * u02 + h11 * u12
+        info[6] += h02 * u00 + h12 * u10
+        info[7] += h02 * u01 + h12 * u11
+        info[8] += h02 * u02 + h12 * u12
+        b[0] += u00 * nu0 + u10 * nu1
+        b[1] += u01 * nu0 + u11 * nu1
+        b[2] += u02 * nu0 + u12 * nu1
+        quadratic += nu0 * (i00 * nu0 + i01 * nu1) + nu1 * (i01 * nu0 + i11 * nu1)
+        log_det_q += math.log(det)
+    # Sigma_s = (I + P J)^-1 P through the adjugate (``proposal._combine``).
+    for row in range(3):
+        for col in range(3):
+            a[3 * row + col] = (cov[m, row, 0] * info[col] + cov[m, row, 1] * info[3 + col]
+                                + cov[m, row, 2] * info[6 + col])
+    a[0] += 1.0
+    a[4] += 1.0
+    a[8] += 1.0
+    for i in range(9):
+        cof[i] = a[_COF_P[i]] * a[_COF_Q[i]] - a[_COF_R[i]] * a[_COF_S[i]]
+    det_a = a[0] * cof[0] + a[1] * cof[1] + a[2] * cof[2]
+    for row in range(3):
+        for col in range(3):
+            full[3 * row + col] = (cof[row] * cov[m, 0, col] + cof[3 + row] * cov[m, 1, col]
+                                   + cof[6 + row] * cov[m, 2, col]) / det_a
+    for row in range(3):
+        for col in range(3):
+            sigma[3 * row + col] = 0.5 * (full[3 * row + col] + full[3 * col + row])
+    mahalanobis = quadratic
+    for row in range(3):
+        shift = sigma[3 * row] * b[0] + sigma[3 * row + 1] * b[1] + sigma[3 * row + 2] * b[2]
+        mahalanobis -= b[row] * shift
+        full[row] = mean[m, row] + shift
+    full[2] = _wrap(full[2])
+    joint = -0.5 * (mahalanobis + log_det_q + math.log(det_a)) - pairs * LOG_TWO_PI
+    _draw_pose(full[0], full[1], full[2], sigma[0], sigma[1], sigma[2], sigma[4], sigma[5],
+               sigma[8], normals, m, poses_out)
+    poses_out[m, 2] = _wrap(poses_out[m, 2])
+    return joint
 
 
-def observation_proposal(mean: np.ndarray, cov: np.ndarray, landmarks: np.ndarray,
-                         ranges: np.ndarray, bearings: np.ndarray, used: np.ndarray,
-                         offset, noise_diag, iterations: int = 1):
-    """``proposal.observation_proposal`` for one reading (``ranges`` and ``bearings`` (K, 1)),
-    linearised once (``iterations`` 1)."""
-    if iterations != 1:
-        raise ValueError("the compiled proposal is linearised once (iterations 1)")
-    count = used.shape[0]
-    noise_r, noise_b = _noise_arrays(noise_diag, count)
-    return _proposal_kernel(np.ascontiguousarray(mean), np.ascontiguousarray(cov),
-                            np.ascontiguousarray(landmarks),
-                            np.ascontiguousarray(ranges, dtype=float).reshape(count),
-                            np.ascontiguousarray(bearings, dtype=float).reshape(count),
-                            np.ascontiguousarray(used), offset.x, offset.y, offset.yaw,
-                            noise_r, noise_b)
+@njit(**_JIT)
+def _draw_pose(mx, my, mt, c00, c01, c02, c11, c12, c22, normals, m, out):
+    """``proposal.sample_pose`` of one particle into ``out[m]`` (heading not wrapped)."""
+    l00 = math.sqrt(max(c00, 0.0) + POSE_JITTER)
+    l10, l20 = c01 / l00, c02 / l00
+    l11 = math.sqrt(max(c11 - l10 * l10, 0.0) + POSE_JITTER)
+    l21 = (c12 - l20 * l10) / l11
+    l22 = math.sqrt(max(c22 - l20 * l20 - l21 * l21, 0.0) + POSE_JITTER)
+    n0, n1, n2 = normals[m, 0], normals[m, 1], normals[m, 2]
+    out[m, 0] = mx + l00 * n0
+    out[m, 1] = my + (l10 * n0 + l11 * n1)
+    out[m, 2] = mt + (l20 * n0 + l21 * n1 + l22 * n2)
+
+
+# ---------------------------------------------------------------------------- map
+@njit(**_JIT)
+def _map_particle(m, state, ident, valid, dirty, is_new, existing, choice, creating, column,
+                  keys, poses, ranges, bearings, labels, noise_r, fp, observed):
+    """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m: its new landmarks,
+    the Joseph-form updates of its associated ones (observations in turn), then the log-odds
+    of the landmarks in the perceptual range it did not observe. False if an updated
+    landmark is not finite (``FastSLAM.check_state`` then repairs)."""
+    count = choice.shape[0]
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
+    lx, ly = _lever(pth, ox, oy)
+    heading = pth + oyaw
+    finite = True
+    for j in range(existing):
+        observed[j] = False
+    for k in range(count):
+        if not creating[k, m]:
+            continue
+        slot = column[k]
+        # Mean g^-1(z, s), covariance G_m^-1 R G_m^-T (``initialize_landmarks``).
+        c, s = math.cos(pth), math.sin(pth)
+        sensor_x = px + c * ox - s * oy
+        sensor_y = py + s * ox + c * oy
+        angle = pth + oyaw + bearings[k]
+        mx = sensor_x + ranges[k] * math.cos(angle)
+        my = sensor_y + ranges[k] * math.sin(angle)
+        dx = mx - (px + lx)
+        dy = my - (py + ly)
+        q = dx * dx + dy * dy
+        r = math.sqrt(q)
+        inv00, inv01 = r * dx / q, -dy
+        inv10, inv11 = r * dy / q, dx
+        r0 = noise_r[k]
+        state[m, slot, 0], state[m, slot, 1] = mx, my
+        state[m, slot, 2] = inv00 * inv00 * r0 + inv01 * inv01 * noise_b
+        state[m, slot, 3] = inv00 * inv10 * r0 + inv01 * inv11 * noise_b
+        state[m, slot, 4] = inv10 * inv10 * r0 + inv11 * inv11 * noise_b
+        state[m, slot, 5] = logodds_observed
+        ident[m, slot, 0] = labels[k]
+        ident[m, slot, 1] = keys[k, m]
+        valid[m, slot] = True
+        is_new[m, slot] = True
+        choice[k, m] = slot
+    for k in range(count):
+        slot = choice[k, m]
+        if slot < 0 or creating[k, m]:
+            continue
+        # Joseph-form EKF update (``update_landmarks``), observations in turn.
+        mx, my = state[m, slot, 0], state[m, slot, 1]
+        sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
+        dx = mx - (px + lx)
+        dy = my - (py + ly)
+        q = dx * dx + dy * dy
+        r = math.sqrt(q)
+        r0, r1 = noise_r[k], noise_b
+        g00, g01 = dx / r, dy / r
+        g10, g11 = -dy / q, dx / q
+        a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
+        b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
+        s00 = g00 * a0 + g01 * a1 + r0
+        s01 = g10 * a0 + g11 * a1
+        s11 = g10 * b0 + g11 * b1 + r1
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
+        k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
+        nu0 = ranges[k] - r
+        nu1 = _wrap(bearings[k] + heading - math.atan2(dy, dx))
+        state[m, slot, 0] = mx + (k00 * nu0 + k01 * nu1)
+        state[m, slot, 1] = my + (k10 * nu0 + k11 * nu1)
+        a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
+        a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
+        m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
+        m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
+        state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
+        state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
+        state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
+        state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
+        for i in range(6):
+            if not math.isfinite(state[m, slot, i]):
+                finite = False
+        dirty[m, slot] = True
+        if slot < existing:
+            observed[slot] = True
+    logodds_missed = fp[F_LOGODDS_MISSED]
+    if logodds_missed == 0.0:
+        return finite
+    # Negative evidence on the landmarks that existed before this reading (the new ones were
+    # all observed).
+    min_range, max_range, field_of_view = fp[F_MIN_RANGE], fp[F_MAX_RANGE], fp[F_FOV]
+    logodds_remove = fp[F_LOGODDS_REMOVE]
+    limited = field_of_view < TWO_PI
+    cos_half = math.cos(0.5 * field_of_view)
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    for j in range(existing):
+        if not valid[m, j] or observed[j]:
+            continue
+        dx = state[m, j, 0] - (px + lx)
+        dy = state[m, j, 1] - (py + ly)
+        r = math.sqrt(dx * dx + dy * dy)
+        if r < min_range or r > max_range:
+            continue
+        if limited and dx * cos_h + dy * sin_h < r * cos_half:
+            continue
+        state[m, j, 5] += logodds_missed
+        dirty[m, j] = True
+        if state[m, j, 5] < logodds_remove:
+            valid[m, j] = False
+    return finite
+
+
+# ---------------------------------------------------------------------------- the reading
+@njit(**_JIT)
+def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, ranges, bearings,
+                   labels, noise_r, draws, normals, log_weights, fp, ip, choice, factor,
+                   poses_out, weights_out):
+    """Particles [lo, hi): association, outlier test, (FastSLAM 2.0) proposal and draw, and
+    the new log weights (before normalisation)."""
+    count = ranges.shape[0]
+    width = max(existing, 1)
+    label = ident[:, :, 0]
+    local = np.empty(width, np.int64)
+    log_lik = np.empty((count, width))
+    mahalanobis = np.empty((count, width))
+    pick = np.empty(count, np.int64)
+    value = np.empty(count)
+    order = np.empty(width, np.int64)
+    cumulative = np.empty(width + 1)
+    inverse_q = np.empty(count)
+    robust = np.empty(count)
+    info, b, a = np.empty(9), np.empty(3), np.empty(9)
+    cof, full, sigma = np.empty(9), np.empty(9), np.empty(9)
+    terms = np.empty((width, 5))
+    picked = np.empty(count, np.int64)
+    scored = ip[I_MODE] != 0
+    propose = ip[I_PROPOSE] != 0
+    localization = ip[I_LOCALIZATION] != 0
+    for m in range(lo, hi):
+        _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
+                            labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
+                            log_lik, mahalanobis, pick, value, order, cumulative, terms,
+                            picked)
+        _reject_outliers(m, choice, factor, robust, fp)
+        if localization:
+            # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
+            for k in range(count):
+                if choice[k, m] == NEW:
+                    choice[k, m] = IGNORE
+        if propose:
+            joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice,
+                                      fp, normals, poses_out, info, b, a, cof, full, sigma,
+                                      terms, picked, scored)
+            # The associated observations weigh their joint likelihood (on the first row)
+            # times 1 / q (``FastSLAM._sample_proposal``).
+            for k in range(count):
+                if choice[k, m] >= 0:
+                    factor[k, m] = inverse_q[k]
+            if count:
+                factor[0, m] += joint
+        else:
+            poses_out[m, 0], poses_out[m, 1], poses_out[m, 2] = (poses[m, 0], poses[m, 1],
+                                                                 poses[m, 2])
+        total = 0.0
+        for k in range(count):
+            factor[k, m] = factor[k, m] + robust[k]
+            total += factor[k, m]
+        weights_out[m] = log_weights[m] + total
+
+
+@njit(**_JIT)
+def _assign_columns(choice, labels, known, existing, first_key, creating, column, keys):
+    """Which pairs create a landmark (``creating``), the working-set column of each creating
+    observation (one per observation that creates in some particle, from ``existing`` on) and
+    the keys of the new landmarks (observation-major from ``first_key``); with known ids a
+    repeated id updates the landmark its first observation creates. Returns (columns taken,
+    keys taken)."""
+    count, num_particles = choice.shape
+    taken = 0
+    for k in range(count):
+        creator = k
+        if known:
+            for other in range(k):
+                if labels[other] == labels[k]:
+                    creator = other
+                    break
+        any_new = False
+        for m in range(num_particles):
+            creating[k, m] = choice[k, m] == NEW and creator == k
+            any_new = any_new or creating[k, m]
+        column[k] = -1
+        if any_new:
+            column[k] = existing + taken
+            taken += 1
+        if creator != k:
+            for m in range(num_particles):
+                if choice[k, m] == NEW:
+                    choice[k, m] = column[creator]
+    new_keys = 0
+    for k in range(count):
+        for m in range(num_particles):
+            keys[k, m] = -1
+            if creating[k, m]:
+                keys[k, m] = first_key + new_keys
+                new_keys += 1
+    return taken, new_keys
+
+
+@njit(**_JIT)
+def _map_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, choice, creating, column,
+               keys, poses, ranges, bearings, labels, noise_r, fp, finite):
+    """Particles [lo, hi): ``_map_particle``; ``finite[m]`` False for a non-finite update."""
+    observed = np.empty(max(existing, 1), np.bool_)
+    for m in range(lo, hi):
+        finite[m] = _map_particle(m, state, ident, valid, dirty, is_new, existing, choice,
+                                  creating, column, keys, poses, ranges, bearings, labels,
+                                  noise_r, fp, observed)
+
+
+@njit(**_JIT)
+def _normalize(log_weights):
+    """``resampling.normalize_log_weights`` in place; returns underflow."""
+    count = log_weights.shape[0]
+    peak = -np.inf
+    for m in range(count):
+        if math.isnan(log_weights[m]):
+            log_weights[m] = -np.inf
+        elif log_weights[m] > peak:
+            peak = log_weights[m]
+    if not math.isfinite(peak):
+        for m in range(count):
+            log_weights[m] = -math.log(count)
+        return True
+    total = 0.0
+    for m in range(count):
+        log_weights[m] -= peak
+        total += math.exp(log_weights[m])
+    log_total = math.log(total)
+    for m in range(count):
+        log_weights[m] -= log_total
+    return False
+
+
+@njit(**_JIT)
+def _finish(poses, log_weights, central, finite):
+    """Normalise the log weights; (N_eff, underflow, the reported particle, all finite)."""
+    underflow = _normalize(log_weights)
+    count = log_weights.shape[0]
+    squares = mean_x = mean_y = 0.0
+    best, heaviest = 0, log_weights[0]
+    for m in range(count):
+        weight = math.exp(log_weights[m])
+        squares += weight * weight
+        mean_x += weight * poses[m, 0]
+        mean_y += weight * poses[m, 1]
+        if log_weights[m] > heaviest:
+            best, heaviest = m, log_weights[m]
+        for i in range(3):
+            if not math.isfinite(poses[m, i]):
+                finite[m] = False
+    if central:
+        nearest = np.inf
+        for m in range(count):
+            dx, dy = poses[m, 0] - mean_x, poses[m, 1] - mean_y
+            distance = dx * dx + dy * dy
+            if distance < nearest:
+                best, nearest = m, distance
+    all_finite = True
+    for m in range(count):
+        all_finite = all_finite and finite[m]
+    return 1.0 / squares, underflow, best, all_finite
+
+
+@njit(**_JIT)
+def _report(choice, creating, ident, best):
+    """``UpdateReport.associated_ids`` and ``is_new`` of particle ``best``."""
+    count = choice.shape[0]
+    ids = np.full(count, -1, np.int64)
+    is_new = np.empty(count, np.bool_)
+    for k in range(count):
+        is_new[k] = creating[k, best]
+        if choice[k, best] >= 0 and not is_new[k]:
+            ids[k] = ident[best, choice[k, best], 0]
+    return ids, is_new
+
+
+@njit(**_JIT)
+def _noise_ranges(ranges, fp):
+    """Range variance of every observation (``FastSLAM._noise``)."""
+    noise_r = np.empty(ranges.shape[0])
+    per_meter = fp[F_NOISE_R_PER_M]
+    for k in range(ranges.shape[0]):
+        noise_r[k] = fp[F_NOISE_R]
+        if per_meter != 0.0:
+            noise_r[k] = fp[F_NOISE_R] + (per_meter * ranges[k]) ** 2
+    return noise_r
+
+
+@njit(**_JIT)
+def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
+                    bearings, labels, draws, normals, log_weights, fp, ip):
+    """The whole reading on the calling thread (``update_reading``)."""
+    count, num_particles = ranges.shape[0], poses.shape[0]
+    noise_r = _noise_ranges(ranges, fp)
+    choice = np.empty((count, num_particles), np.int64)
+    factor = np.empty((count, num_particles))
+    poses_out = np.empty((num_particles, 3))
+    weights_out = np.empty(num_particles)
+    _observe_chunk(0, num_particles, state, ident, valid, existing, mean, cov, poses, ranges,
+                   bearings, labels, noise_r, draws, normals, log_weights, fp, ip, choice,
+                   factor, poses_out, weights_out)
+    creating = np.empty((count, num_particles), np.bool_)
+    column = np.empty(count, np.int64)
+    keys = np.empty((count, num_particles), np.int64)
+    taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
+                                      ip[I_FIRST_KEY], creating, column, keys)
+    finite = np.ones(num_particles, np.bool_)
+    if ip[I_LOCALIZATION] == 0:
+        _map_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, choice,
+                   creating, column, keys, poses_out, ranges, bearings, labels, noise_r, fp,
+                   finite)
+    n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
+                                                 finite)
+    report_ids, report_new = _report(choice, creating, ident, best)
+    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
+            new_keys, all_finite)
 
 
 @njit(**_PARALLEL)
+def _reading_parallel(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
+                      bearings, labels, draws, normals, log_weights, fp, ip, chunks):
+    """``_reading_serial`` with the two per-particle phases split into ``chunks`` chunks of
+    particles run in parallel."""
+    count, num_particles = ranges.shape[0], poses.shape[0]
+    noise_r = _noise_ranges(ranges, fp)
+    choice = np.empty((count, num_particles), np.int64)
+    factor = np.empty((count, num_particles))
+    poses_out = np.empty((num_particles, 3))
+    weights_out = np.empty(num_particles)
+    for c in prange(chunks):
+        _observe_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
+                       ident, valid, existing, mean, cov, poses, ranges, bearings, labels,
+                       noise_r, draws, normals, log_weights, fp, ip, choice, factor,
+                       poses_out, weights_out)
+    creating = np.empty((count, num_particles), np.bool_)
+    column = np.empty(count, np.int64)
+    keys = np.empty((count, num_particles), np.int64)
+    taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
+                                      ip[I_FIRST_KEY], creating, column, keys)
+    finite = np.ones(num_particles, np.bool_)
+    if ip[I_LOCALIZATION] == 0:
+        for c in prange(chunks):
+            _map_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
+                       ident, valid, dirty, is_new, existing, choice, creating, column, keys,
+                       poses_out, ranges, bearings, labels, noise_r, fp, finite)
+    n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
+                                                 finite)
+    report_ids, report_new = _report(choice, creating, ident, best)
+    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
+            new_keys, all_finite)
+
+
+@njit(**_JIT)
+def _usable_kernel(ranges, bearings, labels, known, min_range):
+    count = 0
+    for k in range(ranges.shape[0]):
+        count += (math.isfinite(ranges[k]) and math.isfinite(bearings[k])
+                  and ranges[k] >= min_range and (labels[k] >= 0 or not known))
+    kept_ranges, kept_bearings = np.empty(count), np.empty(count)
+    kept_labels = np.empty(count, np.int64)
+    i = 0
+    for k in range(ranges.shape[0]):
+        if (math.isfinite(ranges[k]) and math.isfinite(bearings[k]) and ranges[k] >= min_range
+                and (labels[k] >= 0 or not known)):
+            kept_ranges[i], kept_bearings[i] = ranges[k], _wrap(bearings[k])
+            kept_labels[i] = labels[k]
+            i += 1
+    return kept_ranges, kept_bearings, kept_labels
+
+
+def usable_observations(ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
+                        known: bool, min_range: float):
+    """The gating of ``FastSLAM.update``: the observations with a finite range of at least
+    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0."""
+    return _usable_kernel(np.ascontiguousarray(ranges), np.ascontiguousarray(bearings),
+                          np.ascontiguousarray(labels), known, min_range)
+
+
+@njit(**_JIT)
+def _box_kernel(poses):
+    low_x, low_y = poses[0, 0], poses[0, 1]
+    high_x, high_y = low_x, low_y
+    for m in range(1, poses.shape[0]):
+        low_x, high_x = min(low_x, poses[m, 0]), max(high_x, poses[m, 0])
+        low_y, high_y = min(low_y, poses[m, 1]), max(high_y, poses[m, 1])
+    return low_x, low_y, high_x, high_y
+
+
+def pose_box(poses: np.ndarray) -> tuple[float, float, float, float]:
+    """(lowest x, lowest y, highest x, highest y) of the poses (M, 3), M >= 1."""
+    return _box_kernel(poses)
+
+
+class ReadingSettings(NamedTuple):
+    """The filter's constants in the kernels' layout (``F_*`` floats, ``I_*`` integers)."""
+
+    floats: np.ndarray
+    integers: np.ndarray
+
+
+def reading_settings(config, offset, log_p0: float, log_outlier: float,
+                     logodds_max: float) -> ReadingSettings:
+    """``ReadingSettings`` of a validated ``FastSLAMConfig`` (the per-reading entries, reach,
+    first key and which stages run, are filled by ``update_reading``)."""
+    floats = np.zeros(NUM_F)
+    floats[[F_OX, F_OY, F_OYAW]] = offset.x, offset.y, offset.yaw
+    floats[F_NOISE_R] = config.sigma_range ** 2
+    floats[F_NOISE_R_PER_M] = config.sigma_range_per_meter
+    floats[F_NOISE_B] = config.sigma_bearing ** 2
+    floats[F_LOG_P0], floats[F_GATE] = log_p0, config.association_gate
+    floats[F_NEW_GATE] = config.new_landmark_gate
+    floats[F_EPS], floats[F_LOG_OUTLIER] = config.outlier_probability, log_outlier
+    floats[[F_MIN_RANGE, F_MAX_RANGE, F_FOV]] = (config.min_range, config.max_range,
+                                                 config.field_of_view)
+    floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
+        config.logodds_observed, config.logodds_missed, config.logodds_remove, logodds_max)
+    integers = np.zeros(NUM_I, np.int64)
+    integers[I_MODE] = MODE_CODES[config.association]
+    integers[I_LOCALIZATION] = config.mode == "localization"
+    integers[I_CENTRAL] = config.best_particle == "central"
+    return ReadingSettings(floats, integers)
+
+
+_NO_COV = np.zeros((1, 3, 3))
+
+
+def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
+                   log_weights, settings: ReadingSettings, reach: float, first_key: int,
+                   propose: bool):
+    """One reading for every particle, on the working set ``ws`` (updated in place).
+
+    ``mean`` (M, 3) and ``cov`` (M, 3, 3) or None: the pose the observations are scored at and
+    its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
+    ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
+    (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
+    store's next landmark key. Returns (the reported particle's ``UpdateReport``
+    associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
+    underflow, the reported particle, working-set columns taken, keys taken, all finite).
+    """
+    fp, ip = settings
+    has_cov = cov is not None
+    fp[F_REACH] = reach
+    ip[I_FIRST_KEY] = first_key
+    ip[I_HAS_COV] = has_cov
+    ip[I_PROPOSE] = propose
+    # FastSLAM 2.0 weighs the associated observations by the proposal's joint likelihood,
+    # and without an outlier test nothing needs the likelihood of a known id's landmark.
+    ip[I_SCORE_KNOWN] = not (has_cov and fp[F_EPS] == 0.0)
+    args = (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot, mean,
+            cov if has_cov else _NO_COV, poses, np.ascontiguousarray(ranges),
+            np.ascontiguousarray(bearings), np.ascontiguousarray(labels), draws, normals,
+            log_weights, fp, ip)
+    threads = _threads_for(poses.shape[0])
+    if threads == 1:
+        return _reading_serial(*args)
+    if numba.get_num_threads() != threads:
+        numba.set_num_threads(threads)
+    return _reading_parallel(*args, threads)
+
+
+# ---------------------------------------------------------------------------- motion
+@njit(**_JIT)
 def _sample_pose_kernel(mean, cov, normals):
     count = mean.shape[0]
     out = np.empty((count, 3))
-    for m in prange(count):
-        c00, c01, c02 = cov[m, 0, 0], cov[m, 0, 1], cov[m, 0, 2]
-        c11, c12, c22 = cov[m, 1, 1], cov[m, 1, 2], cov[m, 2, 2]
-        l00 = math.sqrt(max(c00, 0.0) + POSE_JITTER)
-        l10, l20 = c01 / l00, c02 / l00
-        l11 = math.sqrt(max(c11 - l10 * l10, 0.0) + POSE_JITTER)
-        l21 = (c12 - l20 * l10) / l11
-        l22 = math.sqrt(max(c22 - l20 * l20 - l21 * l21, 0.0) + POSE_JITTER)
-        n0, n1, n2 = normals[m, 0], normals[m, 1], normals[m, 2]
-        out[m, 0] = mean[m, 0] + l00 * n0
-        out[m, 1] = mean[m, 1] + (l10 * n0 + l11 * n1)
-        out[m, 2] = mean[m, 2] + (l20 * n0 + l21 * n1 + l22 * n2)
+    for m in range(count):
+        _draw_pose(mean[m, 0], mean[m, 1], mean[m, 2], cov[m, 0, 0], cov[m, 0, 1],
+                   cov[m, 0, 2], cov[m, 1, 1], cov[m, 1, 2], cov[m, 2, 2], normals, m, out)
     return out
 
 
@@ -507,12 +945,37 @@ def sample_pose(mean: np.ndarray, cov: np.ndarray, standard_normals: np.ndarray)
                                np.ascontiguousarray(standard_normals))
 
 
-@njit(**_PARALLEL)
+@njit(**_JIT)
+def _sample_motion_kernel(poses, rot1, trans, rot2, sigma_rot1, sigma_trans, sigma_rot2,
+                          normals):
+    count = poses.shape[0]
+    moved = np.empty((count, 3))
+    for m in range(count):
+        noisy_rot1 = rot1 - normals[m, 0] * sigma_rot1
+        noisy_trans = trans - normals[m, 1] * sigma_trans
+        noisy_rot2 = rot2 - normals[m, 2] * sigma_rot2
+        heading = poses[m, 2] + noisy_rot1
+        moved[m, 0] = poses[m, 0] + noisy_trans * math.cos(heading)
+        moved[m, 1] = poses[m, 1] + noisy_trans * math.sin(heading)
+        moved[m, 2] = _wrap(heading + noisy_rot2)
+    return moved
+
+
+def sample_motion(poses: np.ndarray, u, variances: np.ndarray,
+                  standard_normals: np.ndarray) -> np.ndarray:
+    """``motion.sample_motion``."""
+    sigma_rot1, sigma_trans, sigma_rot2 = (float(v) for v in np.sqrt(variances))
+    return _sample_motion_kernel(np.ascontiguousarray(poses), float(u.rot1), float(u.trans),
+                                 float(u.rot2), sigma_rot1, sigma_trans, sigma_rot2,
+                                 np.ascontiguousarray(standard_normals))
+
+
+@njit(**_JIT)
 def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
     count = mean.shape[0]
     moved = np.empty((count, 3))
     predicted = np.empty((count, 3, 3))
-    for m in prange(count):
+    for m in range(count):
         heading = mean[m, 2] + rot1
         cos_h, sin_h = math.cos(heading), math.sin(heading)
         fx, fy = -trans * sin_h, trans * cos_h
@@ -539,133 +1002,111 @@ def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u, variances: np.ndarr
                              v_rot2)
 
 
-# ---------------------------------------------------------------------------- map
-@njit(**_PARALLEL)
-def _apply_kernel(state, ident, valid, dirty, is_new, observed, choices, creating, column,
-                  keys, poses, ranges, bearings, labels, noise_r, noise_b, ox, oy, oyaw,
-                  logodds_observed, logodds_max):
-    count, num_particles = choices.shape
-    for m in prange(num_particles):
-        px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
-        lx, ly = _lever(pth, ox, oy)
-        heading = pth + oyaw
-        for k in range(count):
-            if not creating[k, m]:
+# ---------------------------------------------------------------------------- resampling
+@njit(**_JIT)
+def _systematic_kernel(weights, offset):
+    count = weights.shape[0]
+    cumulative = np.cumsum(weights)
+    cumulative[count - 1] = 1.0  # as ``resampling._cumulative``
+    indices = np.empty(count, np.int64)
+    source = 0
+    for m in range(count):
+        # searchsorted(side="right") of the sorted positions: one merge pass.
+        position = (offset + m) / count
+        while source < count - 1 and cumulative[source] <= position:
+            source += 1
+        indices[m] = source
+    return indices
+
+
+def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``resampling.systematic_resample``: on the same weights and draw, the same indices."""
+    return _systematic_kernel(weights, rng.random())
+
+
+@njit(**_JIT)
+def _take_rows(indices, source):
+    """source[indices] along the first axis, element by element (numba's slice copies are
+    slower than numpy's)."""
+    width = 1
+    for extent in source.shape[1:]:
+        width *= extent
+    flat = source.reshape((source.shape[0], width))
+    out = np.empty((indices.shape[0], flat.shape[1]), flat.dtype)
+    for m in range(indices.shape[0]):
+        row = indices[m]
+        for i in range(flat.shape[1]):
+            out[m, i] = flat[row, i]
+    return out.reshape((indices.shape[0],) + source.shape[1:])
+
+
+@njit(**_JIT)
+def _take_kernel(indices, row, slot, block, state, ident, valid, dirty, is_new):
+    return (_take_rows(indices, row), _take_rows(indices, slot), _take_rows(indices, block),
+            _take_rows(indices, state), _take_rows(indices, ident), _take_rows(indices, valid),
+            _take_rows(indices, dirty), _take_rows(indices, is_new))
+
+
+def take(ws, indices: np.ndarray):
+    """``WorkingSet.take``: the working set after resampling, its entries in one compiled
+    pass (``columns``, which may be a read-only broadcast, by numpy)."""
+    row, slot, block, state, ident, valid, dirty, is_new = _take_kernel(
+        indices, ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
+    return WorkingSet(row, slot, block, ws.columns[indices], state, ident, valid, dirty, is_new,
+                      ws.first_new_slot)
+
+
+@njit(**_JIT)
+def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slots):
+    num_particles, num_columns = columns.shape
+    capacity = occupied.shape[1]
+    counts = np.zeros(num_particles, np.int64)
+    for m in range(num_particles):
+        for c in range(num_columns):
+            if columns[m, c] >= 0 and table[m, columns[m, c]] >= 0:
+                for s in range(capacity):
+                    counts[m] += occupied[table[m, columns[m, c]], s]
+    width = counts.max() if num_particles else 0
+    total = width + num_new_slots
+    # Empty slots get a unit covariance so that scoring them stays finite.
+    state = np.zeros((num_particles, total, pool_state.shape[2]))
+    state[:, :, 2] = 1.0
+    state[:, :, 4] = 1.0
+    ident = np.full((num_particles, total, 2), -1, np.int64)
+    row = np.full((num_particles, total), -1, np.int64)
+    slot = np.zeros((num_particles, total), np.int64)
+    block = np.full((num_particles, total), -1, np.int64)
+    valid = np.zeros((num_particles, total), np.bool_)
+    for m in range(num_particles):
+        rank = 0
+        for c in range(num_columns):
+            if columns[m, c] < 0 or table[m, columns[m, c]] < 0:
                 continue
-            slot = column[k]
-            # Mean g^-1(z, s), covariance G_m^-1 R G_m^-T (``initialize_landmarks``).
-            c, s = math.cos(pth), math.sin(pth)
-            sensor_x = px + c * ox - s * oy
-            sensor_y = py + s * ox + c * oy
-            angle = pth + oyaw + bearings[k]
-            mx = sensor_x + ranges[k] * math.cos(angle)
-            my = sensor_y + ranges[k] * math.sin(angle)
-            dx = mx - (px + lx)
-            dy = my - (py + ly)
-            q = dx * dx + dy * dy
-            r = math.sqrt(q)
-            inv00, inv01 = r * dx / q, -dy
-            inv10, inv11 = r * dy / q, dx
-            r0 = noise_r[k]
-            state[m, slot, 0], state[m, slot, 1] = mx, my
-            state[m, slot, 2] = inv00 * inv00 * r0 + inv01 * inv01 * noise_b
-            state[m, slot, 3] = inv00 * inv10 * r0 + inv01 * inv11 * noise_b
-            state[m, slot, 4] = inv10 * inv10 * r0 + inv11 * inv11 * noise_b
-            state[m, slot, 5] = logodds_observed
-            ident[m, slot, 0] = labels[k]
-            ident[m, slot, 1] = keys[k, m]
-            valid[m, slot] = True
-            is_new[m, slot] = True
-            observed[m, slot] = True
-            choices[k, m] = slot
-        for k in range(count):
-            slot = choices[k, m]
-            if slot < 0 or creating[k, m]:
-                continue
-            # Joseph-form EKF update (``update_landmarks``), observations in turn.
-            mx, my = state[m, slot, 0], state[m, slot, 1]
-            sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
-            dx = mx - (px + lx)
-            dy = my - (py + ly)
-            q = dx * dx + dy * dy
-            r = math.sqrt(q)
-            r0, r1 = noise_r[k], noise_b
-            g00, g01 = dx / r, dy / r
-            g10, g11 = -dy / q, dx / q
-            a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
-            b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
-            s00 = g00 * a0 + g01 * a1 + r0
-            s01 = g10 * a0 + g11 * a1
-            s11 = g10 * b0 + g11 * b1 + r1
-            det = s00 * s11 - s01 * s01
-            i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-            k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
-            k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
-            nu0 = ranges[k] - r
-            nu1 = _wrap(bearings[k] + heading - math.atan2(dy, dx))
-            state[m, slot, 0] = mx + (k00 * nu0 + k01 * nu1)
-            state[m, slot, 1] = my + (k10 * nu0 + k11 * nu1)
-            a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
-            a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
-            m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
-            m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
-            state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
-            state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
-            state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
-            state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
-            dirty[m, slot] = True
-            observed[m, slot] = True
+            source = table[m, columns[m, c]]
+            for s in range(capacity):
+                if not occupied[source, s]:
+                    continue
+                for i in range(pool_state.shape[2]):
+                    state[m, rank, i] = pool_state[source, s, i]
+                ident[m, rank, 0] = pool_ident[source, s, 0]
+                ident[m, rank, 1] = pool_ident[source, s, 1]
+                row[m, rank], slot[m, rank], block[m, rank] = source, s, c
+                valid[m, rank] = True
+                rank += 1
+    return row, slot, block, state, ident, valid, width
 
 
-def apply_observations(ws, observed, choices, creating, column, first_key: int, poses, ranges,
-                       bearings, labels, noise, offset, logodds_observed: float,
-                       logodds_max: float) -> None:
-    """The map part of ``FastSLAM._apply_to_map`` once the new landmarks' columns are known:
-    creating pairs (K, M) initialise the landmark in ``column[k]`` (keys from ``first_key`` in
-    observation-major order) and get it as their choice; the other associated pairs update
-    their landmark, a particle's observations in turn."""
-    noise_r, noise_b = _noise_arrays(noise, len(ranges))
-    keys = (first_key - 1 + np.cumsum(creating.ravel())).reshape(creating.shape)
-    _apply_kernel(ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, observed, choices,
-                  np.ascontiguousarray(creating), np.asarray(column, np.int64), keys,
-                  np.ascontiguousarray(poses), ranges, bearings, labels, noise_r, noise_b,
-                  offset.x, offset.y, offset.yaw, logodds_observed, logodds_max)
-
-
-@njit(**_PARALLEL)
-def _missed_kernel(state, valid, dirty, observed, existing, poses, ox, oy, oyaw, min_range,
-                   max_range, field_of_view, logodds_missed, logodds_remove):
-    num_particles = poses.shape[0]
-    limited = field_of_view < TWO_PI
-    cos_half = math.cos(0.5 * field_of_view)
-    for m in prange(num_particles):
-        px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
-        lx, ly = _lever(pth, ox, oy)
-        heading = pth + oyaw
-        cos_h, sin_h = math.cos(heading), math.sin(heading)
-        for j in range(existing):
-            if not valid[m, j] or observed[m, j]:
-                continue
-            dx = state[m, j, 0] - (px + lx)
-            dy = state[m, j, 1] - (py + ly)
-            r = math.sqrt(dx * dx + dy * dy)
-            if r < min_range or r > max_range:
-                continue
-            if limited and dx * cos_h + dy * sin_h < r * cos_half:
-                continue
-            state[m, j, 5] += logodds_missed
-            dirty[m, j] = True
-            if state[m, j, 5] < logodds_remove:
-                valid[m, j] = False
-
-
-def missed_evidence(ws, observed, poses, offset, config) -> None:
-    """``FastSLAM._missed_evidence``: lower the log-odds of the unobserved landmarks in the
-    perceptual range, removing those below ``logodds_remove``."""
-    _missed_kernel(ws.state, ws.valid, ws.dirty, observed, ws.first_new_slot,
-                   np.ascontiguousarray(poses), offset.x, offset.y, offset.yaw,
-                   config.min_range, config.max_range, config.field_of_view,
-                   config.logodds_missed, config.logodds_remove)
+def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
+    """``LandmarkStore.gather`` (its resampling applied): the same working set, in one
+    compiled pass over the cells."""
+    store.apply_resampling()
+    row, slot, block, state, ident, valid, width = _gather_kernel(
+        store.table, np.require(columns, np.int64, ("C", "W")), store.occupied, store.state,
+        store.ident, num_new_slots)
+    shape = valid.shape
+    return WorkingSet(row=row, slot=slot, block=block, columns=columns, state=state,
+                      ident=ident, valid=valid, dirty=np.zeros(shape, bool),
+                      is_new=np.zeros(shape, bool), first_new_slot=int(width))
 
 
 # ---------------------------------------------------------------------------- warm-up
@@ -681,61 +1122,61 @@ def warm_up() -> float:
     global _warm
     if _warm:
         return 0.0
-    from .landmark_store import WorkingSet  # noqa: PLC0415 (no import cycle at module load)
+    from .config import FastSLAMConfig  # noqa: PLC0415 (no import cycle at module load)
     from .motion import OdometryControl
     from .observation import SensorOffset
     start = time.perf_counter()
-    m, k, width = 2, 2, 3
-    state = np.zeros((m, width, 6))
-    state[:, :, 0] = [[1.0, 2.0, 0.0], [1.0, 2.0, 0.0]]
-    state[:, :, 2] = state[:, :, 4] = 1.0
-    ws = WorkingSet(row=np.full((m, width), -1, np.int64), slot=np.zeros((m, width), np.int64),
-                    block=np.full((m, width), -1, np.int64), columns=np.zeros((m, 0), np.int64),
-                    state=state, ident=np.zeros((m, width, 2), np.int64),
-                    valid=np.array([[True, True, False]] * m), dirty=np.zeros((m, width), bool),
-                    is_new=np.zeros((m, width), bool), first_new_slot=2)
+    m, width = 2, 5
     poses = np.zeros((m, 3))
     cov = np.tile(np.eye(3) * 0.01, (m, 1, 1))
     ranges, bearings = np.array([1.0, 2.0]), np.array([0.0, 0.1])
     labels = np.array([0, 1], np.int64)
     offset = SensorOffset(0.1, 0.0, 0.0)
-    noise = (0.01, 0.001)
-    kept = columns_in_reach(ws, poses, 5.0)
     for mode in MODE_CODES:
+        settings = reading_settings(FastSLAMConfig(association=mode), offset, -5.0, -np.inf,
+                                    10.0)
         for pose_cov in (None, cov):
-            associate_reading(ws, kept, 5.0, poses, pose_cov, ranges, bearings, labels, noise,
-                              offset, mode, -5.0, 9.0, 25.0, np.full(k * m, 0.5), True)
-    used = np.ones((k, m), bool)
-    records = records_at(ws, np.zeros((k, m), np.int64))
-    mean, sigma, _ = observation_proposal(poses, cov, records, ranges[:, None],
-                                          bearings[:, None], used, offset, noise)
-    sample_pose(mean, sigma, np.zeros((m, 3)))
+            state = np.zeros((m, width, 6))
+            state[:, :2, 0] = [1.0, 2.0]
+            state[:, :, 2] = state[:, :, 4] = 1.0
+            ws = WorkingSet(row=np.full((m, width), -1, np.int64),
+                            slot=np.zeros((m, width), np.int64),
+                            block=np.full((m, width), -1, np.int64),
+                            columns=np.zeros((m, 0), np.int64), state=state,
+                            ident=np.zeros((m, width, 2), np.int64),
+                            valid=np.array([[True, True, False, False, False]] * m),
+                            dirty=np.zeros((m, width), bool),
+                            is_new=np.zeros((m, width), bool), first_new_slot=2)
+            update_reading(ws, poses, pose_cov, poses, ranges, bearings, labels,
+                           np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0,
+                           0, pose_cov is not None)
+            if _max_threads > 1:
+                args = (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot,
+                        poses, cov if pose_cov is not None else _NO_COV, poses, ranges,
+                        bearings, labels, np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m),
+                        *settings)
+                _reading_parallel(*args, 2)
+    sample_pose(poses, cov, np.zeros((m, 3)))
+    usable_observations(ranges, bearings, labels, True, 1e-3)
+    pose_box(poses)
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
-    observed = np.zeros((m, width), bool)
-    choices = np.array([[0, 0], [NEW, NEW]], np.int64)
-    creating = choices == NEW
-    apply_observations(ws, observed, choices, creating, np.array([-1, 2], np.int64), 0, poses,
-                       ranges, bearings, labels, noise, offset, 1.0, 10.0)
-    missed_evidence(ws, observed, poses, offset, _WarmConfig)
+    sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
+    indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
+    take(ws, indices)
+    gather(LandmarkStore(m, 5.0), np.zeros((m, 1), np.int64), 2)
     _warm = True
     return time.perf_counter() - start
 
 
-class _WarmConfig:
-    min_range, max_range, field_of_view = 0.0, 10.0, 3.0
-    logodds_missed, logodds_remove = -0.5, -1.5
-
-
 PARALLEL_MIN_PARTICLES = 500
-"""Below this many particles the kernels run on the calling thread: waking a second thread
+"""Below this many particles a reading runs on the calling thread: waking a second thread
 costs more than it saves, and on a busy machine far more (the reading waits for the slower
 thread)."""
 _max_threads = numba.config.NUMBA_NUM_THREADS
 
 
-def use_threads(num_particles: int) -> None:
-    """Threads for the next kernels of a filter with ``num_particles`` (on this thread)."""
-    numba.set_num_threads(1 if num_particles < PARALLEL_MIN_PARTICLES else _max_threads)
+def _threads_for(num_particles: int) -> int:
+    return 1 if num_particles < PARALLEL_MIN_PARTICLES else _max_threads
 
 
 def set_threads(count: int) -> None:

@@ -107,8 +107,11 @@ class LandmarkStore(RecordViews):
     """Per-particle landmark maps with structural sharing (see module docstring)."""
 
     def __init__(self, num_particles: int, cell_size: float, capacity: int = 8,
-                 initial_rows: int = 64) -> None:
+                 initial_rows: int = 64, kernels=None) -> None:
         self.num_particles = num_particles
+        self.kernels = kernels
+        """The compiled backend (``core.kernels``) that gathers working sets (and the cache
+        reindexes them with), or None: numpy."""
         self.cell_size = float(cell_size)
         self.capacity = capacity
         self.state = np.zeros((initial_rows, capacity, STATE_WIDTH))
@@ -262,6 +265,8 @@ class LandmarkStore(RecordViews):
         """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set with
         ``num_new_slots`` empty columns for new landmarks."""
         self.apply_resampling()
+        if self.kernels is not None:
+            return self.kernels.gather(self, columns, num_new_slots)
         num_particles = self.num_particles
         particle = np.arange(num_particles)[:, None]
         rows = np.where(columns >= 0, self.table[particle, np.maximum(columns, 0)], -1)

@@ -40,8 +40,12 @@ class WorkingSetCache:
         the observed ids) and has free columns; otherwise it is written back and a new one
         gathered.
         """
-        low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
         store = self.store
+        if store.kernels is None:
+            low, high = poses[:, :2].min(axis=0) - reach, poses[:, :2].max(axis=0) + reach
+        else:
+            low_x, low_y, high_x, high_y = store.kernels.pose_box(poses)
+            low, high = (low_x - reach, low_y - reach), (high_x + reach, high_y + reach)
         box = store.cell_box(low, high)
         # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
         label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
@@ -95,7 +99,9 @@ class WorkingSetCache:
     def resample(self, indices: np.ndarray) -> None:
         """Particle m takes the working-set entries of particle ``indices[m]``."""
         if self.current is not None:
-            self.current = self.current.take(indices)
+            kernels = self.store.kernels
+            self.current = (self.current.take(indices) if kernels is None
+                            else kernels.take(self.current, indices))
 
     def flush(self) -> None:
         """Write the working set back into the store and drop it."""

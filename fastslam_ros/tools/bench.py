@@ -3,7 +3,7 @@
 Four measurements on synthetic worlds (``fastslam_ros.tools.synthetic``), single process, on
 each ``--backend`` in turn (numpy and, when installed, numba: side by side in one run, so their
 ratio holds on a busy machine), timed in wall-clock seconds (the compiled kernels may use
-several threads):
+several threads) and, for the throughput, also in CPU seconds of all threads:
 
 * throughput: observations per second for FastSLAM 1.0 / 2.0 with every association rule, M
   particles, about six observations per step; each run is repeated and both the best (the
@@ -60,14 +60,15 @@ def run_world(slam: FastSLAM, world) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def rates(config: FastSLAMConfig, world, repeat: int) -> list[float]:
-    """Observations per wall-clock second of ``repeat`` runs, each with a fresh filter."""
+def rates(config: FastSLAMConfig, world, repeat: int) -> list[tuple[float, float]]:
+    """Observations per wall-clock second and per CPU second (all threads) of ``repeat``
+    runs, each with a fresh filter."""
     observations = world.num_observations - len(world.steps[0].ranges)
     result = []
     for _ in range(repeat):
         slam = FastSLAM(config, initial_pose=world.steps[0].truth)
-        wall, _ = run_world(slam, world)
-        result.append(observations / wall)
+        wall, cpu = run_world(slam, world)
+        result.append((observations / wall, observations / cpu))
     return result
 
 
@@ -75,27 +76,32 @@ def throughput(particles: int, seed: int, steps: int, repeat: int = 3,
                backends=("numpy",), associations=ASSOCIATION_MODES) -> list[dict]:
     """Observations per second (wall), ~6 observations per step, for each algorithm,
     association and backend: best and median of ``repeat`` runs, the backends' runs of one
-    configuration alternating, and each backend's median over the first one's."""
+    configuration alternating, and each backend's median over the first one's, in wall-clock
+    time and in CPU time (the CPU ratio is the steadier one on a machine busy with other
+    work)."""
     world = bench_world(seed, steps)
     observations = world.num_observations - len(world.steps[0].ranges)
     rows = []
     for algorithm in ("fastslam2", "fastslam1"):
         for association in associations:
-            runs: dict[str, list[float]] = {backend: [] for backend in backends}
+            runs: dict[str, list[tuple[float, float]]] = {backend: [] for backend in backends}
             for _ in range(repeat):
                 for backend in backends:
                     config = bench_config(algorithm, association, particles, seed,
                                           backend=backend)
                     runs[backend] += rates(config, world, 1)
-            reference = float(np.median(runs[backends[0]]))
+            wall_reference, cpu_reference = np.median(runs[backends[0]], axis=0)
             for backend in backends:
-                median = float(np.median(runs[backend]))
+                wall, cpu = np.array(runs[backend]).T
                 rows.append(dict(algorithm=algorithm, association=association,
                                  particles=particles, backend=backend,
                                  observations=observations,
                                  observations_per_step=observations / (len(world.steps) - 1),
-                                 runs=repeat, obs_per_s_best=max(runs[backend]),
-                                 obs_per_s_median=median, speedup=median / reference))
+                                 runs=repeat, obs_per_s_best=float(wall.max()),
+                                 obs_per_s_median=float(np.median(wall)),
+                                 speedup=float(np.median(wall) / wall_reference),
+                                 obs_per_cpu_s_median=float(np.median(cpu)),
+                                 cpu_speedup=float(np.median(cpu) / cpu_reference)))
     return rows
 
 
@@ -112,7 +118,7 @@ def sweep(particle_counts, seed: int, steps: int, repeat: int, backends) -> tupl
         for _ in range(repeat):
             for backend in backends:
                 config = bench_config("fastslam2", "ml", particles, seed, backend=backend)
-                runs[backend] += rates(config, world, 1)
+                runs[backend] += [wall for wall, _ in rates(config, world, 1)]
         reference = float(np.median(runs[backends[0]]))
         for backend in backends:
             median = float(np.median(runs[backend]))
