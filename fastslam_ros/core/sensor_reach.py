@@ -4,8 +4,9 @@ Feature elimination lowers the existence of every landmark inside the configured
 opening that a reading does not see. A range or an opening wider than the sensor's therefore
 removes real landmarks, silently; a narrower opening never confirms the landmarks seen at its
 edges. (Observations beyond ``max_range`` are dropped and counted by the node: a range below the
-sensor's is a valid way to leave out far, noisy detections.) ``ReachCheck`` collects the first observations
-and says once, in a sentence naming the parameter, when the configuration does not describe them.
+sensor's is a valid way to leave out far, noisy detections.) ``ReachCheck`` collects the first
+observations and says once, in a sentence naming the parameter, when the configuration does not
+describe them.
 """
 from __future__ import annotations
 
