@@ -26,6 +26,26 @@ needs_numba = pytest.mark.skipif(not numba_available(),
 @pytest.mark.parametrize("association", ["known", "ml", "monte_carlo", "two_gate"])
 def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association):
     """Same draws: identical associations, creations, removals and resampling; floats 1e-9."""
+    assert_same_run(algorithm, association)
+
+
+@needs_numba
+@pytest.mark.skipif(not numba_available() or int(os.environ.get("NUMBA_NUM_THREADS",
+                                                                 os.cpu_count() or 1)) < 2,
+                    reason="one numba thread: the parallel kernel never runs")
+@pytest.mark.parametrize("algorithm,association", [("fastslam1", "monte_carlo"),
+                                                   ("fastslam2", "ml")])
+def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association,
+                                                          monkeypatch):
+    """The reading split into chunks of particles on two threads (what M >= 500 runs) gives
+    the numpy reference's results too."""
+    from fastslam_ros.core import kernels
+    monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: 2)
+    assert_same_run(algorithm, association)
+
+
+def assert_same_run(algorithm: str, association: str) -> None:
+    """Run numpy and numba side by side on one synthetic world and compare every step."""
     world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=60, max_range=9.0,
                        clutter_per_step=0.5, detection_probability=0.85)
     base = FastSLAMConfig(num_particles=150, algorithm=algorithm, association=association,

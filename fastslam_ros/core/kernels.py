@@ -757,33 +757,52 @@ def _noise_ranges(ranges, fp):
 
 
 @njit(**_JIT)
-def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip):
-    """The whole reading on the calling thread (``update_reading``)."""
-    count, num_particles = ranges.shape[0], poses.shape[0]
-    noise_r = _noise_ranges(ranges, fp)
-    choice = np.empty((count, num_particles), np.int64)
-    factor = np.empty((count, num_particles))
-    poses_out = np.empty((num_particles, 3))
-    weights_out = np.empty(num_particles)
-    _observe_chunk(0, num_particles, state, ident, valid, existing, mean, cov, poses, ranges,
-                   bearings, labels, noise_r, draws, normals, log_weights, fp, ip, choice,
-                   factor, poses_out, weights_out)
+def _reading_buffers(ranges, num_particles, fp):
+    """Range variances and the per-reading outputs of the observation phase."""
+    count = ranges.shape[0]
+    return (_noise_ranges(ranges, fp), np.empty((count, num_particles), np.int64),
+            np.empty((count, num_particles)), np.empty((num_particles, 3)),
+            np.empty(num_particles))
+
+
+@njit(**_JIT)
+def _columns(choice, labels, existing, ip):
+    """Columns and keys of the landmarks this reading creates (between the two phases)."""
+    count, num_particles = choice.shape
     creating = np.empty((count, num_particles), np.bool_)
     column = np.empty(count, np.int64)
     keys = np.empty((count, num_particles), np.int64)
     taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
                                       ip[I_FIRST_KEY], creating, column, keys)
-    finite = np.ones(num_particles, np.bool_)
-    if ip[I_LOCALIZATION] == 0:
-        _map_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, choice,
-                   creating, column, keys, poses_out, ranges, bearings, labels, noise_r, fp,
-                   finite)
+    return creating, column, keys, taken, new_keys, np.ones(num_particles, np.bool_)
+
+
+@njit(**_JIT)
+def _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken, new_keys):
+    """Weights normalised, N_eff, the reported particle and its report."""
     n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
                                                  finite)
     report_ids, report_new = _report(choice, creating, ident, best)
     return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
             new_keys, all_finite)
+
+
+@njit(**_JIT)
+def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
+                    bearings, labels, draws, normals, log_weights, fp, ip):
+    """The whole reading on the calling thread (``update_reading``)."""
+    num_particles = poses.shape[0]
+    noise_r, choice, factor, poses_out, weights_out = _reading_buffers(ranges, num_particles, fp)
+    _observe_chunk(0, num_particles, state, ident, valid, existing, mean, cov, poses, ranges,
+                   bearings, labels, noise_r, draws, normals, log_weights, fp, ip, choice,
+                   factor, poses_out, weights_out)
+    creating, column, keys, taken, new_keys, finite = _columns(choice, labels, existing, ip)
+    if ip[I_LOCALIZATION] == 0:
+        _map_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, choice,
+                   creating, column, keys, poses_out, ranges, bearings, labels, noise_r, fp,
+                   finite)
+    return _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken,
+                       new_keys)
 
 
 @njit(**_PARALLEL)
@@ -791,33 +810,21 @@ def _reading_parallel(state, ident, valid, dirty, is_new, existing, mean, cov, p
                       bearings, labels, draws, normals, log_weights, fp, ip, chunks):
     """``_reading_serial`` with the two per-particle phases split into ``chunks`` chunks of
     particles run in parallel."""
-    count, num_particles = ranges.shape[0], poses.shape[0]
-    noise_r = _noise_ranges(ranges, fp)
-    choice = np.empty((count, num_particles), np.int64)
-    factor = np.empty((count, num_particles))
-    poses_out = np.empty((num_particles, 3))
-    weights_out = np.empty(num_particles)
+    num_particles = poses.shape[0]
+    noise_r, choice, factor, poses_out, weights_out = _reading_buffers(ranges, num_particles, fp)
     for c in prange(chunks):
         _observe_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
                        ident, valid, existing, mean, cov, poses, ranges, bearings, labels,
                        noise_r, draws, normals, log_weights, fp, ip, choice, factor,
                        poses_out, weights_out)
-    creating = np.empty((count, num_particles), np.bool_)
-    column = np.empty(count, np.int64)
-    keys = np.empty((count, num_particles), np.int64)
-    taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
-                                      ip[I_FIRST_KEY], creating, column, keys)
-    finite = np.ones(num_particles, np.bool_)
+    creating, column, keys, taken, new_keys, finite = _columns(choice, labels, existing, ip)
     if ip[I_LOCALIZATION] == 0:
         for c in prange(chunks):
             _map_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
                        ident, valid, dirty, is_new, existing, choice, creating, column, keys,
                        poses_out, ranges, bearings, labels, noise_r, fp, finite)
-    n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
-                                                 finite)
-    report_ids, report_new = _report(choice, creating, ident, best)
-    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
-            new_keys, all_finite)
+    return _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken,
+                       new_keys)
 
 
 @njit(**_JIT)

@@ -19,7 +19,7 @@ USED_FRACTION = 0.6
 """The 99th percentile of the observed ranges (bearings) must reach this share of max_range
 (of half the opening); below it the configured reach is much wider than the sensor's."""
 
-OUTSIDE_FRACTION = 0.01
+OUTSIDE_FRACTION = 0.05
 """Share of observations outside the configured opening above which it is too narrow."""
 
 
