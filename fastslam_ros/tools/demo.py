@@ -14,11 +14,10 @@ from pathlib import Path
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, json_ready, load_run, markdown_table
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.tools.output import check_output, prepare_output, write_params_yaml
 from fastslam_ros.tools.plot import plot_evaluation
 from fastslam_ros.tools.replay import replay_bag, summary_lines
-from fastslam_ros.tools.sim import (SCENARIOS, SimConfig, recommended_params, simulate,
-                                    write_params_yaml)
+from fastslam_ros.tools.sim import SCENARIOS, SimConfig, recommended_params, simulate
 
 
 def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: int = 0,

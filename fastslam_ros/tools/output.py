@@ -12,6 +12,8 @@ import shutil
 from pathlib import Path
 from typing import Iterable
 
+import yaml
+
 BAG_FILE_SUFFIXES = (".mcap", ".db3", ".db3-shm", ".db3-wal", ".yaml")
 """Files a rosbag2 folder holds: ``metadata.yaml`` and the storage files (MCAP or sqlite3)."""
 
@@ -84,4 +86,16 @@ def prepare_output(path: str | Path, overwrite: bool, kind: str = "bag",
         else:
             shutil.rmtree(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
+                      comment: str, overwrite: bool = False) -> Path:
+    """A ROS 2 parameter file holding ``params``, keyed ``/**`` so that it applies to the node
+    under any name and namespace; an existing file is replaced only with ``overwrite``."""
+    lines = [f"# {line}" for line in comment.splitlines()]
+    body = yaml.safe_dump({"/**": {"ros__parameters": params}}, default_flow_style=False,
+                          sort_keys=False)
+    path = prepare_output(path, overwrite, "file")
+    path.write_text("\n".join(lines) + "\n" + body)
     return path

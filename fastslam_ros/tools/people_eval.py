@@ -363,11 +363,11 @@ def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
     ``out_dir`` (sim_people/, sim_people.yaml, replay/, metrics.json, summary.md,
     result.png). Every output is checked before anything is written; an existing one is
     replaced only with ``overwrite`` (``tools.output``)."""
-    from fastslam_ros.tools.people_replay import replay_people_bag
+    from fastslam_ros.tools.replay import replay_people_bag
     from fastslam_ros.tools.people_sim import (PeopleSimConfig, recommended_params,
                                                simulate_people, write_people_bag)
     from fastslam_ros.tools.replay import summary_lines
-    from fastslam_ros.tools.sim import write_params_yaml
+    from fastslam_ros.tools.output import write_params_yaml
     out_dir = Path(out_dir)
     bag_path, replay_path = out_dir / "sim_people", out_dir / "replay"
     files = {name: out_dir / name for name in ("sim_people.yaml", "summary.md", "metrics.json",

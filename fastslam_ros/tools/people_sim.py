@@ -28,15 +28,14 @@ import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
-from fastslam_ros.tools.bag_schema import (TYPESTORE, LandmarkScans, PoseSeries, SchemaBag,
-                                           stamp_to_ns, write_schema_bag, yaw_to_quaternion)
-from fastslam_ros.tools.output import check_output
-from fastslam_ros.tools.sim import write_params_yaml
+from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
+                                           PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
+                                           yaw_to_quaternion)
+from fastslam_ros.tools.output import check_output, write_params_yaml
 
 MAP_TOPIC = "/map"
 SCAN_TOPIC = "/scan"
 PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
-INITIAL_POSE_TOPIC = "/initialpose"
 PEOPLE_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4")])
 SIZE = 20.0
 RESOLUTION = 0.05

@@ -49,9 +49,10 @@ from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, P
                                read_params_file)
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC, TF_TYPE,
-                                           TYPESTORE, SchemaError, open_writer, ros_message_class,
-                                           tf_message_bytes, transform_message)
+                                           INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, ODOM_TOPIC,
+                                           TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
+                                           open_writer, ros_message_class, tf_message_bytes,
+                                           transform_message)
 from fastslam_ros.tools.output import check_output
 
 INFO_TOPIC = "/fastslam_replay/info"
@@ -60,8 +61,6 @@ STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
                   QosTime(0, 0), QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)]
 """QoS recorded for ``/tf_static``: latched, as tf2's static broadcaster offers it."""
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
-INITIAL_POSE_TOPIC = "/initialpose"
-"""Fed to the node too when the bag has it (RViz "2D Pose Estimate" clicks, recorded)."""
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
 PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
@@ -339,6 +338,19 @@ SLAM_TARGET = ReplayTarget(
     ("algorithm", "association"))
 
 
+def people_target() -> ReplayTarget:
+    """The people tracker's target (its node is imported only when a people bag is replayed)."""
+    from fastslam_ros.people_node import NODE_NAME, PeopleTrackerNode, parameter_specs
+    from fastslam_ros.tools.people_sim import MAP_TOPIC, PEOPLE_TRUTH_TOPIC, SCAN_TOPIC
+    return ReplayTarget(
+        NODE_NAME, PeopleTrackerNode, parameter_specs(),
+        lambda node: {MAP_TOPIC: node.on_map, INITIAL_POSE_TOPIC: node.on_initial_pose,
+                      ODOM_TOPIC: node.on_odometry, SCAN_TOPIC: node.on_scan},
+        (ODOM_TOPIC, SCAN_TOPIC),
+        (MAP_TOPIC, SCAN_TOPIC, ODOM_TOPIC, GROUND_TRUTH_POSE_TOPIC, PEOPLE_TRUTH_TOPIC),
+        SCAN_TOPIC, "scan_frame")
+
+
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                params_file: str | Path | None = None, out_path: str | Path | None = None,
                progress: bool = False, overwrite: bool = False,
@@ -352,6 +364,16 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
     for an output that exists (without ``overwrite``, or that is not a bag, or an input).
     """
     return replay_through(SLAM_TARGET, bag_path, params, params_file, out_path, progress,
+                          overwrite, remap)
+
+
+def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
+                      params_file: str | Path | None = None, out_path: str | Path | None = None,
+                      progress: bool = False, overwrite: bool = False,
+                      remap: dict[str, str] | None = None) -> ReplayResult:
+    """Feed a people bag (``/map``, ``/initialpose``, ``/odom``, ``/scan``) to a fresh
+    ``PeopleTrackerNode`` and record its outputs (arguments and errors as ``replay_bag``)."""
+    return replay_through(people_target(), bag_path, params, params_file, out_path, progress,
                           overwrite, remap)
 
 
@@ -601,10 +623,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
     try:
-        if args.node == "people_tracker":
-            from fastslam_ros.tools.people_replay import PEOPLE_TARGET as target
-        else:
-            target = SLAM_TARGET
+        target = people_target() if args.node == "people_tracker" else SLAM_TARGET
         result = replay_through(target, args.bag, params, args.params, out,
                                 progress=args.progress or sys.stderr.isatty(),
                                 overwrite=args.overwrite, remap=remap)

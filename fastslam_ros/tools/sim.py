@@ -21,13 +21,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
 from fastslam_ros.tools.converters import polar_to_points
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.tools.output import check_output, write_params_yaml
 from fastslam_ros.tools.world import (Car, RangeBearingSensor, distance_to_route,
                                       scatter_landmarks)
 
@@ -213,18 +212,6 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
     return {name: float(value) if isinstance(value, (float, np.floating)) else value
             for name, value in params.items()}
-
-
-def write_params_yaml(path: str | Path, params: dict[str, float | int | str],
-                      comment: str, overwrite: bool = False) -> Path:
-    """A ROS 2 parameter file holding ``params``, keyed ``/**`` so that it applies to the node
-    under any name and namespace; an existing file is replaced only with ``overwrite``."""
-    lines = [f"# {line}" for line in comment.splitlines()]
-    body = yaml.safe_dump({"/**": {"ros__parameters": params}}, default_flow_style=False,
-                          sort_keys=False)
-    path = prepare_output(path, overwrite, "file")
-    path.write_text("\n".join(lines) + "\n" + body)
-    return path
 
 
 # ---------------------------------------------------------------- command line
