@@ -290,3 +290,38 @@ def test_settings_name_the_bad_field():
         TrackerSettings(logodds_confirm=-2.0).validate()
     with pytest.raises(ValueError, match="lost_spread"):
         TrackerSettings(lost_spread=0.0).validate()
+
+
+def test_a_detection_next_to_a_person_it_does_not_fit_starts_no_new_person():
+    """A tight person 0.4 m from a detection (beyond p0 under N(z; mean, cov + R), inside
+    DUPLICATE_GATE) is not joined by a second person; 1 m away a new person starts."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    for offset, people_after in ((0.4, 1), (1.0, 2)):
+        tracker = tracker_at(grid, pose, num_particles=4)
+        tracker.alive[:, 0] = True
+        tracker.confirmed[:, 0] = True
+        tracker.logodds[:, 0] = 2.0
+        tracker.keys[:, 0] = 0
+        tracker.people[:, 0] = (6.0 + offset, 5.5)     # behind the real person: occluded
+        tracker.next_key = 1
+        tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+        np.testing.assert_array_equal(tracker.alive.sum(axis=1), people_after)
+
+
+def test_a_tentative_person_on_a_confirmed_one_is_removed():
+    """A tentative person 0.3 m behind a confirmed one (occluded, so no negative evidence) is
+    a duplicate and removed; a tentative person 3 m away is kept."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose, num_particles=4)
+    for slot, position, logodds in ((0, (6.0, 5.5), 2.0), (1, (6.3, 5.5), 1.0),
+                                    (2, (6.0, 8.5), 1.0)):
+        tracker.alive[:, slot] = True
+        tracker.confirmed[:, slot] = slot == 0
+        tracker.logodds[:, slot] = logodds
+        tracker.keys[:, slot] = slot
+        tracker.people[:, slot] = position
+    tracker.next_key = 3
+    tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+    np.testing.assert_array_equal(tracker.alive[:, :3], np.tile([True, False, True], (4, 1)))

@@ -14,15 +14,17 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    detection starts a new person (its key is shared by every robot particle that starts one for
    that detection, and it takes the key most of the particles' weight associated that
    detection to, so a person one particle lost and found again keeps its id and ids stay
-   stable when another particle becomes the best); the robot particle's weight is multiplied
-   by max(likelihood, p0);
+   stable when another particle becomes the best); no new person within DUPLICATE_GATE of a
+   person of that robot particle; the robot particle's weight is multiplied by
+   max(likelihood, p0);
 5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
 6. existence (core.existence): + tau+ when detected; + tau- when in view, not occluded (the
    beams toward it passed beyond it: a person behind a wall or another person is no evidence)
    and not detected; removed below the bound, or when its particles' spread exceeds
    ``lost_spread`` (out of view for long, the person is lost: its Brownian cloud would cover
    half the map and catch anyone's detection); a new person is tentative, not published,
-   until its log-odds reach ``logodds_confirm``;
+   until its log-odds reach ``logodds_confirm``, and removed as a duplicate within
+   DUPLICATE_GATE of a confirmed one;
 7. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
@@ -67,6 +69,10 @@ localization (2 s at 10 Hz)."""
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
+DUPLICATE_GATE = 0.5
+"""A detection no person explains starts no new person within this distance (m) of a person
+of its robot particle (tentative or confirmed, already detected in this scan or not): it is
+part of that person (a person cut into several segments) or of a pair seen as one."""
 
 
 @dataclass
@@ -350,7 +356,8 @@ class PeopleTracker:
             m = np.flatnonzero(associate)
             observed[m, best[m]] = True
             updates.append((m, best[m], points[m, j]))
-            new = valid & ~associate
+            duplicate = np.any(self.alive & (np.hypot(dx, dy) < DUPLICATE_GATE), axis=1)
+            new = valid & ~associate & ~duplicate
             free = ~self.alive
             has_slot = free.any(axis=1)
             unexplained += new & ~has_slot
@@ -367,6 +374,7 @@ class PeopleTracker:
             self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
                 0.0, s.detection_sigma, (len(m), s.people_particles, 2))
             self.alive[m, slot] = True
+            mean[m, slot] = points[m, j]
             self.logodds[m, slot] = 0.0
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
@@ -397,7 +405,8 @@ class PeopleTracker:
         behind a wall or another person has its particles where the beams ended short of
         them: no evidence, its existence is unchanged. A person whose particles' position
         standard deviation exceeds ``lost_spread`` is lost and removed; one whose log-odds
-        reached ``logodds_confirm`` is confirmed (published).
+        reached ``logodds_confirm`` is confirmed (published); a tentative one within
+        DUPLICATE_GATE of a confirmed one is a duplicate of it and removed.
         """
         s = self.settings
         m, n = np.nonzero(self.alive & ~observed)
@@ -419,9 +428,14 @@ class PeopleTracker:
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
         spread = self.people.var(axis=2).sum(axis=2)
-        gone = self.alive & (removed(self.logodds, s.logodds_remove)
-                             | (spread > 2.0 * s.lost_spread ** 2))
         self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
+        mean = self.people.mean(axis=2)
+        apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
+        confirmed = self.alive & self.confirmed
+        duplicate = ~self.confirmed & np.any(confirmed[:, None, :] & (apart < DUPLICATE_GATE),
+                                             axis=2)
+        gone = self.alive & (removed(self.logodds, s.logodds_remove)
+                             | (spread > 2.0 * s.lost_spread ** 2) | duplicate)
         self.alive &= ~gone
         self.keys[gone] = -1
         return gone.sum(axis=1)
