@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries
-from fastslam_ros.tools.evaluate import (LandmarkEstimate, RunData, Transform2D, align_se2,
-                                         error_stats, evaluate_run, evaluate_trajectory,
-                                         interpolate_positions, json_ready, landmark_metrics,
-                                         match_landmarks, markdown_table, matches_by_id, ospa)
+from fastslam_ros.tools.evaluate import (LandmarkEstimate, RunData, evaluate_run, markdown_table,
+                                         matches_by_id)
+from fastslam_ros.tools.metrics import (Transform2D, align_se2, error_stats, evaluate_trajectory,
+                                        interpolate_positions, json_ready, landmark_metrics,
+                                        match_landmarks, ospa)
 
 RNG = np.random.default_rng(7)
 

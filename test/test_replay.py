@@ -6,10 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from fastslam_ros.tools.bag_schema import (LandmarkScans, PoseSeries, SchemaBag, SchemaError,
-                                           read_last, read_topic, read_topics, write_schema_bag)
-from fastslam_ros.tools.replay import (INFO_TOPIC, load_params_file, node_parameters,
-                                       parse_assignment, replay_bag)
+from fastslam_ros.tools.bag_schema import (REPLAY_INFO_TOPIC, LandmarkScans, PoseSeries,
+                                           SchemaBag, SchemaError, read_last, read_topic,
+                                           read_topics, write_schema_bag)
+from fastslam_ros.tools.replay import (load_params_file, node_parameters, parse_assignment,
+                                       replay_bag)
 from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
 
 PARAMS = dict(recommended_params(SimConfig()), num_particles=20)
@@ -36,9 +37,9 @@ def test_replay_records_outputs_at_bag_time(tmp_path, short_bag):
     np.testing.assert_allclose(pose_stamps, scan_stamps, atol=1e-9)  # one pose per reading
     assert np.all(log_stamps >= np.array(pose_stamps) - 1e-9)  # logged when it was computed
     assert len(data["/ground_truth/pose"][1]) == 801 and len(data["/odom"][1]) == 801
-    last = read_last(tmp_path / "out", ["/fastslam/map_cloud", "/diagnostics", INFO_TOPIC])
+    last = read_last(tmp_path / "out", ["/fastslam/map_cloud", "/diagnostics", REPLAY_INFO_TOPIC])
     assert last["/fastslam/map_cloud"][1].width > 0
-    info = json.loads(last[INFO_TOPIC][1].data)
+    info = json.loads(last[REPLAY_INFO_TOPIC][1].data)
     assert info["stats"] == result.stats and info["real_time_factor"] > 0
     values = {kv.key: kv.value for status in last["/diagnostics"][1].status for kv in status.values}
     assert int(values["associations_checked"]) > 0

@@ -108,7 +108,7 @@ def bag_for(sequence: Sequence, bag_dir: Path, duration: float | None) -> Path:
 def dead_reckoning(bag: Path) -> dict[str, Any] | None:
     """ATE of the odometry itself (raw and aligned RMSE) against the bag's ground truth."""
     from fastslam_ros.tools.bag_schema import read_schema_bag
-    from fastslam_ros.tools.evaluate import evaluate_trajectory
+    from fastslam_ros.tools.metrics import evaluate_trajectory
 
     schema = read_schema_bag(bag)
     if schema.ground_truth is None:

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import write_schema_bag
-from fastslam_ros.tools.evaluate import evaluate_run, json_ready, load_run, markdown_table
+from fastslam_ros.tools.evaluate import evaluate_run, load_run, markdown_table
+from fastslam_ros.tools.metrics import json_ready
 from fastslam_ros.tools.output import check_output, prepare_output, write_params_yaml
 from fastslam_ros.tools.plot import plot_evaluation
 from fastslam_ros.tools.replay import replay_bag, summary_lines

@@ -31,226 +31,30 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-from fastslam_ros.core.geometry import compose, quaternion_to_yaw
-from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           LANDMARKS_TOPIC, ODOM_TOPIC, TF_STATIC_TOPIC,
-                                           LandmarkSet, PoseSeries,
-                                           bag_topics, cloud_to_arrays, landmark_cloud_arrays,
-                                           pose_series_from_messages, read_last, read_topics,
-                                           time_msg_to_stamp)
+                                           LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
+                                           TF_STATIC_TOPIC, LandmarkSet, PoseSeries, bag_topics,
+                                           cloud_to_arrays, landmark_cloud_arrays,
+                                           pose_series_from_messages, read_last, read_topics)
+from fastslam_ros.tools.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHOLD, OSPA_CUTOFF, OSPA_ORDER,
+                                        TrajectoryResult, Transform2D, evaluate_trajectory,
+                                        json_ready, landmark_metrics, pose_stamped_series,
+                                        reference_positions)
 from fastslam_ros.tools.output import check_output, prepare_output
 
 POSE_TOPIC = "/fastslam/pose"
 PATH_TOPIC = "/fastslam/path"
 MAP_CLOUD_TOPIC = "/fastslam/map_cloud"
 DIAGNOSTICS_TOPIC = "/diagnostics"
-REPLAY_INFO_TOPIC = "/fastslam_replay/info"
-OSPA_CUTOFF = 2.0
-"""OSPA cut-off c (m): a missing or spurious landmark costs as much as one c metres off."""
-OSPA_ORDER = 2
-"""OSPA order p."""
-DEFAULT_MAX_GAP = 1.0
-"""Ground truth is not interpolated across gaps longer than this (s)."""
-JUMP_THRESHOLD = 0.5
-"""An estimate jumps (m) when its error changes by more than this from one sample to the next:
-it moved that much further than the truth did, e.g. when another particle became the best."""
 LANDMARK_MATCHES = ("auto", "id", "assignment")
 """How estimated landmarks are paired with the truth (see ``matches_by_id``)."""
-
-
-# ---------------------------------------------------------------- metric functions
-
-
-@dataclass
-class Transform2D:
-    """A planar rigid transform ``p -> R(yaw) p + translation``."""
-
-    yaw: float = 0.0
-    translation: np.ndarray = field(default_factory=lambda: np.zeros(2))
-
-    @property
-    def rotation(self) -> np.ndarray:
-        """The 2x2 rotation matrix."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return np.array([[c, -s], [s, c]])
-
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        """Transform (N, 2) points."""
-        return np.asarray(points, dtype=float) @ self.rotation.T + self.translation
-
-
-def align_se2(estimate: np.ndarray, reference: np.ndarray) -> Transform2D:
-    """The rigid transform minimising ``sum |T(estimate_i) - reference_i|^2`` (closed form).
-
-    2-D Kabsch/Umeyama without scale: with centred point sets and ``H = sum e_i r_i^T``, the
-    optimal angle is ``atan2(H01 - H10, H00 + H11)``.
-    """
-    estimate = np.asarray(estimate, dtype=float)
-    reference = np.asarray(reference, dtype=float)
-    if len(estimate) == 0:
-        return Transform2D()
-    estimate_mean, reference_mean = estimate.mean(axis=0), reference.mean(axis=0)
-    h = (estimate - estimate_mean).T @ (reference - reference_mean)
-    yaw = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
-    rotated_mean = Transform2D(yaw).apply(estimate_mean[None])[0]
-    return Transform2D(yaw, reference_mean - rotated_mean)
-
-
-def error_stats(errors: np.ndarray) -> dict[str, float]:
-    """RMSE, maximum and final value of position errors (m); NaN when there are none."""
-    if len(errors) == 0:
-        return {"rmse": math.nan, "max": math.nan, "final": math.nan}
-    return {"rmse": float(np.sqrt(np.mean(errors**2))), "max": float(np.max(errors)),
-            "final": float(errors[-1])}
-
-
-def interpolate_positions(stamps: np.ndarray, poses: np.ndarray, query: np.ndarray,
-                          max_gap: float = DEFAULT_MAX_GAP) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (N, 2) at ``query`` stamps of a pose series (``timing.interpolate_poses``),
-    and a mask of the valid ones.
-
-    A query is valid when it lies inside the series and its two neighbours are at most
-    ``max_gap`` seconds apart (an exact stamp match is always valid).
-    """
-    stamps = np.asarray(stamps, dtype=float)
-    query = np.asarray(query, dtype=float)
-    if len(stamps) == 0:
-        return np.zeros((len(query), 2)), np.zeros(len(query), dtype=bool)
-    upper = np.clip(np.searchsorted(stamps, query, side="left"), 0, len(stamps) - 1)
-    lower = np.clip(upper - 1, 0, len(stamps) - 1)
-    exact = stamps[upper] == query
-    lower = np.where(exact, upper, lower)
-    inside = (query >= stamps[0]) & (query <= stamps[-1])
-    valid = inside & (exact | (stamps[upper] - stamps[lower] <= max_gap))
-    return interpolate_poses(stamps, poses, query)[:, :2], valid
-
-
-@dataclass
-class TrajectoryResult:
-    """A trajectory matched to the ground truth, raw and aligned."""
-
-    stamps: np.ndarray
-    estimate: np.ndarray
-    reference: np.ndarray
-    alignment: Transform2D
-    raw_errors: np.ndarray
-    aligned_errors: np.ndarray
-
-    def error_steps(self) -> np.ndarray:
-        """(N - 1,) change of the position error between consecutive samples (m): how much
-        further than the truth the estimate moved."""
-        return np.linalg.norm(np.diff(self.estimate - self.reference, axis=0), axis=1)
-
-    def metrics(self) -> dict[str, Any]:
-        """ATE statistics (m) raw and aligned, the alignment, the number of samples and the
-        jumps (error steps above ``JUMP_THRESHOLD``: how many, and the largest step)."""
-        steps = self.error_steps()
-        return {"raw": error_stats(self.raw_errors), "aligned": error_stats(self.aligned_errors),
-                "alignment": {"yaw": self.alignment.yaw,
-                              "x": float(self.alignment.translation[0]),
-                              "y": float(self.alignment.translation[1])},
-                "samples": int(len(self.stamps)),
-                "jumps": {"threshold": JUMP_THRESHOLD,
-                          "count": int(np.count_nonzero(steps > JUMP_THRESHOLD)),
-                          "max_step": float(steps.max()) if len(steps) else 0.0}}
-
-
-def reference_positions(poses: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
-    """Positions (N, 2) of the point the ground truth measures, from estimated poses (N, 3):
-    the base itself, or the point at ``offset`` (x, y) in the base frame (a GPS antenna)."""
-    poses = np.asarray(poses, dtype=float)
-    if offset is None:
-        return poses[:, :2]
-    return compose(poses, np.array([offset[0], offset[1], 0.0]))[:, :2]
-
-
-def evaluate_trajectory(stamps: np.ndarray, positions: np.ndarray, ground_truth: PoseSeries,
-                        max_gap: float = DEFAULT_MAX_GAP) -> TrajectoryResult | None:
-    """Match an estimated trajectory to the ground truth; None when no sample overlaps."""
-    reference, valid = interpolate_positions(ground_truth.stamps, ground_truth.poses,
-                                             stamps, max_gap)
-    if not np.any(valid):
-        return None
-    estimate = np.asarray(positions, dtype=float)[valid]
-    reference = reference[valid]
-    alignment = align_se2(estimate, reference)
-    return TrajectoryResult(
-        stamps=np.asarray(stamps)[valid], estimate=estimate, reference=reference,
-        alignment=alignment,
-        raw_errors=np.linalg.norm(estimate - reference, axis=1),
-        aligned_errors=np.linalg.norm(alignment.apply(estimate) - reference, axis=1))
-
-
-def ospa(estimate: np.ndarray, truth: np.ndarray, cutoff: float = OSPA_CUTOFF,
-         order: int = OSPA_ORDER) -> float:
-    """OSPA distance (m) between two point sets (Schuhmacher et al. 2008)."""
-    estimate = np.asarray(estimate, dtype=float).reshape(-1, 2)
-    truth = np.asarray(truth, dtype=float).reshape(-1, 2)
-    larger = max(len(estimate), len(truth))
-    if larger == 0:
-        return 0.0
-    if min(len(estimate), len(truth)) == 0:
-        return float(cutoff)
-    distance = np.minimum(np.linalg.norm(estimate[:, None] - truth[None], axis=2), cutoff)
-    cost = distance**order
-    rows, cols = linear_sum_assignment(cost)
-    total = cost[rows, cols].sum() + cutoff**order * (larger - len(rows))
-    return float((total / larger) ** (1.0 / order))
-
-
-def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.ndarray,
-                    truth_ids: np.ndarray, cutoff: float,
-                    by_id: bool = True) -> tuple[np.ndarray, np.ndarray, str]:
-    """Pairs ``(estimate index, truth index)`` closer than ``cutoff`` and the method used.
-
-    By id when ``by_id`` and both sides carry ids (the nearest estimate of each truth id;
-    estimates without an id are then unmatched); otherwise by optimal assignment of the
-    distances.
-    """
-    estimate = np.asarray(estimate, dtype=float).reshape(-1, 2)
-    truth = np.asarray(truth, dtype=float).reshape(-1, 2)
-    empty = np.zeros(0, dtype=int)
-    if len(estimate) == 0 or len(truth) == 0:
-        return empty, empty, "none"
-    distance = np.linalg.norm(estimate[:, None] - truth[None], axis=2)
-    if by_id and np.any(np.asarray(estimate_ids) >= 0) and np.any(np.asarray(truth_ids) >= 0):
-        method = "id"
-        pairs = []
-        for truth_index, truth_id in enumerate(truth_ids):
-            candidates = np.flatnonzero(estimate_ids == truth_id) if truth_id >= 0 else empty
-            if len(candidates):
-                best = candidates[np.argmin(distance[candidates, truth_index])]
-                pairs.append((best, truth_index))
-        rows = np.array([p[0] for p in pairs], dtype=int)
-        cols = np.array([p[1] for p in pairs], dtype=int)
-    else:
-        method = "assignment"
-        rows, cols = linear_sum_assignment(np.minimum(distance, cutoff * 10.0))
-    close = distance[rows, cols] <= cutoff
-    return rows[close], cols[close], method
-
-
-def landmark_metrics(estimate: np.ndarray, estimate_ids: np.ndarray, truth: LandmarkSet,
-                     cutoff: float = OSPA_CUTOFF, by_id: bool = True) -> dict[str, Any]:
-    """RMSE of matched landmarks, missed / spurious counts and OSPA (positions in map frame)."""
-    rows, cols, method = match_landmarks(estimate, estimate_ids, truth.positions, truth.ids,
-                                         cutoff, by_id)
-    errors = np.linalg.norm(np.asarray(estimate).reshape(-1, 2)[rows] - truth.positions[cols],
-                            axis=1)
-    return {"rmse": float(np.sqrt(np.mean(errors**2))) if len(errors) else math.nan,
-            "matched": int(len(rows)), "missed": int(len(truth.positions) - len(rows)),
-            "spurious": int(len(estimate) - len(rows)), "estimated": int(len(estimate)),
-            "truth": int(len(truth.positions)), "match_method": method, "cutoff": cutoff,
-            "ospa": ospa(estimate, truth.positions, OSPA_CUTOFF, OSPA_ORDER)}
 
 
 # ---------------------------------------------------------------- loading a run
@@ -281,19 +85,6 @@ class RunData:
     observed_ids: np.ndarray | None = None
     """Labels (>= 0) that appear in the input clouds: the landmarks the robot saw; None when the
     clouds carry no labels."""
-
-
-def _pose_stamped_series(messages: list[Any]) -> PoseSeries:
-    """Planar poses of PoseStamped / PoseWithCovarianceStamped messages."""
-    stamps, poses = [], []
-    for msg in messages:
-        pose = msg.pose.pose if hasattr(msg.pose, "pose") else msg.pose
-        q = pose.orientation
-        stamps.append(time_msg_to_stamp(msg.header.stamp))
-        poses.append((pose.position.x, pose.position.y,
-                      quaternion_to_yaw(q.x, q.y, q.z, q.w)))
-    frame = messages[0].header.frame_id if messages else "map"
-    return PoseSeries(np.array(stamps), np.array(poses).reshape(-1, 3), frame, "base_link")
 
 
 def _landmark_estimate(msg: Any) -> LandmarkEstimate:
@@ -344,8 +135,8 @@ def load_run(out_path: str | Path, ground_truth_path: str | Path | None = None) 
     observed_ids = np.unique(np.concatenate(labels)) if labels else np.zeros(0, np.int32)
     observed_ids = observed_ids[observed_ids >= 0]
     return RunData(
-        estimate=_pose_stamped_series(pose_messages) if pose_messages else None,
-        final_path=(_pose_stamped_series(last[PATH_TOPIC][1].poses)
+        estimate=pose_stamped_series(pose_messages) if pose_messages else None,
+        final_path=(pose_stamped_series(last[PATH_TOPIC][1].poses)
                     if PATH_TOPIC in last and last[PATH_TOPIC][1].poses else None),
         odometry=pose_series_from_messages(series[ODOM_TOPIC]) if series[ODOM_TOPIC] else None,
         ground_truth=(pose_series_from_messages(series[GROUND_TRUTH_POSE_TOPIC],
@@ -462,17 +253,6 @@ def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
     """
     run = load_run(out_path, ground_truth_path)
     return evaluate_run(run, cutoff, max_gap, min_existence, at_base, match).metrics
-
-
-def json_ready(value: Any) -> Any:
-    """``value`` with NaN and infinities replaced by None (strict JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {key: json_ready(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(item) for item in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _number(value: float, digits: int = 3) -> str:

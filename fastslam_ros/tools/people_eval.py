@@ -35,11 +35,12 @@ from scipy.optimize import linear_sum_assignment
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.output import check_output, prepare_output
-from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_POSE_TOPIC, PoseSeries, cloud_to_arrays,
+from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_POSE_TOPIC, REPLAY_INFO_TOPIC,
+                                           PoseSeries, cloud_to_arrays,
                                            pose_series_from_messages, read_topics,
                                            time_msg_to_stamp)
-from fastslam_ros.tools.evaluate import (REPLAY_INFO_TOPIC, _pose_stamped_series,
-                                         evaluate_trajectory, json_ready, ospa)
+from fastslam_ros.tools.metrics import (evaluate_trajectory, json_ready, ospa,
+                                        pose_stamped_series)
 
 PEOPLE_TOPIC = "/people_tracker/people"
 POSE_TOPIC = "/people_tracker/pose"
@@ -269,7 +270,7 @@ def evaluate_people_bag(out_path: str | Path, ground_truth_path: str | Path | No
     max_range = float(scans[0].range_max) if scans else 12.0
     info = json.loads(data[REPLAY_INFO_TOPIC][1][-1].data) if data[REPLAY_INFO_TOPIC][1] else {}
     max_range = min(max_range, float(info.get("params", {}).get("max_range", max_range)))
-    estimate = _pose_stamped_series(data[POSE_TOPIC][1])
+    estimate = pose_stamped_series(data[POSE_TOPIC][1])
     truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1])
     truth_frames = people_frames(*data[PEOPLE_TRUTH_TOPIC])
     estimate_frames = people_frames(*data[PEOPLE_TOPIC])

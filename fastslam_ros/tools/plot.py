@@ -65,7 +65,7 @@ def plot_evaluation(evaluation, path: str | Path, title: str | None = None) -> P
 
 
 def _draw_landmarks(axes, positions: np.ndarray, covariances: np.ndarray, alignment) -> None:
-    """Estimated landmarks (aligned by an ``evaluate.Transform2D``, if any) as dots with their
+    """Estimated landmarks (aligned by a ``metrics.Transform2D``, if any) as dots with their
     2-sigma covariance ellipses."""
     if alignment is not None:
         positions = alignment.apply(positions)

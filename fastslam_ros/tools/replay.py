@@ -50,12 +50,12 @@ from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, P
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, ODOM_TOPIC,
+                                           REPLAY_INFO_TOPIC,
                                            TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
                                            open_writer, ros_message_class, tf_message_bytes,
                                            transform_message)
 from fastslam_ros.tools.output import check_output
 
-INFO_TOPIC = "/fastslam_replay/info"
 TF_TOPIC = "/tf"
 STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL,
                   QosTime(0, 0), QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)]
@@ -415,7 +415,7 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                     "wall_time": result.wall_time, "cpu_time": result.cpu_time,
                     "bag_duration": duration, "real_time_factor": result.real_time_factor,
                     "messages": done, "stats": result.stats, "params": used_params}
-            recorder.record(INFO_TOPIC, String(data=json.dumps(info)))
+            recorder.record(REPLAY_INFO_TOPIC, String(data=json.dumps(info)))
         return result
 
 

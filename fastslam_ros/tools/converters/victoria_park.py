@@ -133,7 +133,7 @@ def calibrate(folder: Path | str) -> dict[str, float]:
     """
     from scipy.optimize import least_squares
 
-    from fastslam_ros.tools.evaluate import align_se2
+    from fastslam_ros.tools.metrics import align_se2
 
     folder = Path(folder)
     if (folder / "rfs_slam_txt").is_dir():
