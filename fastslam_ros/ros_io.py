@@ -154,11 +154,9 @@ def pose_msg(pose: Sequence[float]) -> Pose:
 
 
 def _planar_pose(x: float, y: float, yaw: float) -> Pose:
-    """``pose_msg`` of floats; the quaternion (0, 0, sin(yaw / 2), cos(yaw / 2)) of
-    ``geometry.yaw_to_quaternion``, written out: a PoseArray builds one per particle."""
-    half = 0.5 * yaw
-    return Pose(position=Point(x=x, y=y), orientation=Quaternion(z=math.sin(half),
-                                                                 w=math.cos(half)))
+    """``pose_msg`` of floats (a PoseArray builds one per particle)."""
+    _, _, qz, qw = geometry.yaw_to_quaternion(yaw)
+    return Pose(position=Point(x=x, y=y), orientation=Quaternion(z=qz, w=qw))
 
 
 # --- point clouds ------------------------------------------------------------------------------
