@@ -30,16 +30,17 @@ def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association
 
 
 @needs_numba
-@pytest.mark.skipif(not numba_available() or int(os.environ.get("NUMBA_NUM_THREADS",
-                                                                 os.cpu_count() or 1)) < 2,
-                    reason="one numba thread: the parallel kernel never runs")
 @pytest.mark.parametrize("algorithm,association", [("fastslam1", "monte_carlo"),
                                                    ("fastslam2", "ml")])
 def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association,
                                                           monkeypatch):
     """The reading split into chunks of particles on two threads (what M >= 500 runs) gives
     the numpy reference's results too."""
+    import numba
+
     from fastslam_ros.core import kernels
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one numba thread (NUMBA_NUM_THREADS): the parallel kernel never runs")
     monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: 2)
     assert_same_run(algorithm, association)
 
@@ -59,12 +60,21 @@ def assert_same_run(algorithm: str, association: str) -> None:
     resampled = 0
     for k, step in enumerate(world.steps[1:]):
         ids = step.ids if association != "known" else np.maximum(step.ids, 0)
+        ranges, bearings = step.ranges, step.bearings
+        if k % 7 == 3:  # observations the filter must skip (NaN, at the origin, inf, no id)
+            ranges = np.append(ranges, [np.nan, 1e-4, 3.0, 4.0])
+            bearings = np.append(bearings, [0.1, 0.2, np.inf, 0.5])
+            ids = np.append(ids, [5, 5, 5, -1])
         reports = []
         for slam in filters:
             slam.predict(previous, step.odometry)
-            reports.append(slam.update(step.ranges, step.bearings, ids, stamp=float(k)))
+            reports.append(slam.update(ranges, bearings, ids, stamp=float(k)))
         previous = step.odometry
         numpy_report, numba_report = reports
+        assert numpy_report.num_observations == numba_report.num_observations
+        if k % 7 == 3:
+            skipped = 4 if association == "known" else 3
+            assert numpy_report.num_observations == len(step.ranges) + 4 - skipped
         np.testing.assert_array_equal(numpy_report.associated_ids, numba_report.associated_ids)
         np.testing.assert_array_equal(numpy_report.is_new, numba_report.is_new)
         assert numpy_report.resampled == numba_report.resampled

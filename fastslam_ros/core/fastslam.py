@@ -113,6 +113,10 @@ class FastSLAM:
         self.backend = "numpy" if self.kernels is None else "numba"
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
+        compiled = self.kernels is not None and config.resampling == "systematic"
+        self._resample = (self.kernels.systematic_resample if compiled
+                          else RESAMPLERS[config.resampling])
+        """The resampler of ``config.resampling`` (the compiled one where it exists)."""
         self.reset(initial_pose)
 
     def _load_kernels(self):
@@ -326,22 +330,7 @@ class FastSLAM:
         self._best = int(best)
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self.working.created(int(columns))
-        if n_eff < config.resample_threshold * count:
-            weights = np.exp(self.log_weights)
-            resample = (self.kernels.systematic_resample if config.resampling == "systematic"
-                        else RESAMPLERS[config.resampling])
-            indices = resample(weights, self.rng)
-            self.poses = self.poses[indices]
-            self.landmarks.resample(indices)
-            self.working.resample(indices)
-            self.history.resample(indices)
-            self.log_weights = np.full(count, -np.log(count))
-            if config.best_particle == "central":
-                self._best = self._select_best()
-            else:
-                copies = (indices == best).nonzero()[0]
-                self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
-            report.resampled = True
+        self._resample_if_degenerate(report)
         if not finite:
             self.check_state()
         return report
@@ -595,22 +584,30 @@ class FastSLAM:
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
                               effective_sample_size(weights), underflow)
         self._best = best
-        if report.n_eff < self.config.resample_threshold * self.num_particles:
-            indices = RESAMPLERS[self.config.resampling](weights, self.rng)
-            self.poses = self.poses[indices]
-            self.landmarks.resample(indices)
-            self.working.resample(indices)
-            self.history.resample(indices)
-            self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-            if self.config.best_particle == "central":
-                self._best = self._select_best()
-            else:
-                # Multinomial resampling may draw no copy of the heaviest particle: take the
-                # heaviest particle drawn instead.
-                copies = (indices == best).nonzero()[0]
-                self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
-            report.resampled = True
+        self._resample_if_degenerate(report)
         return report
+
+    def _resample_if_degenerate(self, report: UpdateReport) -> None:
+        """Resample (poses, maps, working set, history) when N_eff is below the threshold;
+        the reported particle follows its copy. Weights are normalised."""
+        if report.n_eff >= self.config.resample_threshold * self.num_particles:
+            return
+        weights = np.exp(self.log_weights)
+        best = self._best
+        indices = self._resample(weights, self.rng)
+        self.poses = self.poses[indices]
+        self.landmarks.resample(indices)
+        self.working.resample(indices)
+        self.history.resample(indices)
+        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
+        if self.config.best_particle == "central":
+            self._best = self._select_best()
+        else:
+            # Multinomial resampling may draw no copy of the heaviest particle: take the
+            # heaviest particle drawn instead.
+            copies = (indices == best).nonzero()[0]
+            self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
+        report.resampled = True
 
     def _select_best(self) -> int:
         """The particle to report (``best_particle``): nearest the weighted mean position

@@ -1104,9 +1104,8 @@ def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slo
 
 
 def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
-    """``LandmarkStore.gather`` (its resampling applied): the same working set, in one
-    compiled pass over the cells."""
-    store.apply_resampling()
+    """``LandmarkStore.gather`` (which applies its resampling first): the same working set, in
+    one compiled pass over the cells."""
     row, slot, block, state, ident, valid, width = _gather_kernel(
         store.table, np.require(columns, np.int64, ("C", "W")), store.occupied, store.state,
         store.ident, num_new_slots)

@@ -28,7 +28,7 @@ class ReachCheck:
 
     def __init__(self, max_range: float, field_of_view: float, min_points: int = MIN_POINTS):
         self.max_range = max_range
-        self.half_opening = 0.5 * min(field_of_view, 2.0 * np.pi)
+        self.half_opening = 0.5 * field_of_view
         self.min_points = min_points
         self._ranges: list[np.ndarray] = []
         self._bearings: list[np.ndarray] = []
