@@ -103,24 +103,6 @@ def load_map_file(path: str | Path, max_distance: float) -> OccupancyMap:
     return OccupancyMap(occupied[::-1], free[::-1], resolution, (x, y), max_distance)
 
 
-def initial_pose(msg) -> tuple[np.ndarray, np.ndarray]:
-    """(pose (3,), covariance (3, 3) over x, y, yaw) of a PoseWithCovarianceStamped."""
-    position = msg.pose.pose.position
-    if not (math.isfinite(position.x) and math.isfinite(position.y)):
-        raise ros_io.NonFiniteError(f"position ({position.x}, {position.y}) is not finite")
-    yaw = ros_io.quaternion_to_yaw(msg.pose.pose.orientation)
-    full = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)
-    planar = [0, 1, 5]
-    covariance = full[np.ix_(planar, planar)]
-    if not np.all(np.isfinite(covariance)):
-        raise ros_io.NonFiniteError("covariance is not finite")
-    covariance = 0.5 * (covariance + covariance.T)
-    eigenvalues = np.linalg.eigvalsh(covariance)
-    if eigenvalues.min() < 0.0:
-        raise ros_io.NonFiniteError("covariance is not positive semi-definite")
-    return np.array([position.x, position.y, yaw]), covariance
-
-
 def people_cloud(header: Header, people: PeopleEstimate) -> PointCloud2:
     """``~/people``: one point per person (stable id, covariance, existence)."""
     return ros_io.estimate_cloud(header, people.means, people.covariances, people.existence,

@@ -288,6 +288,8 @@ def test_settings_name_the_bad_field():
         TrackerSettings(logodds_remove=5.0).validate()
     with pytest.raises(ValueError, match="logodds_confirm"):
         TrackerSettings(logodds_confirm=-2.0).validate()
+    with pytest.raises(ValueError, match="logodds_confirm"):
+        TrackerSettings(logodds_confirm=3.5).validate()  # never reached: nobody published
     with pytest.raises(ValueError, match="lost_spread"):
         TrackerSettings(lost_spread=0.0).validate()
 
@@ -305,7 +307,9 @@ def test_a_detection_next_to_a_person_it_does_not_fit_starts_no_new_person():
         tracker.keys[:, 0] = 0
         tracker.people[:, 0] = (6.0 + offset, 5.5)     # behind the real person: occluded
         tracker.next_key = 1
-        tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+        report = tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+        # No person is created at all (not one created and then removed as a duplicate).
+        assert report.created == people_after - 1
         np.testing.assert_array_equal(tracker.alive.sum(axis=1), people_after)
 
 

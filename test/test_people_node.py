@@ -346,6 +346,10 @@ def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
         assert node.settings["markers_rate"] == 0.5 and node._throttles["markers_rate"].rate == 0.5
         refused = node.set_parameters([Parameter("max_speed", value=-1.0)])[0]
         assert not refused.successful and node.settings["max_speed"] == 20.0
+        # In the descriptor's range but refused by the node's own validation.
+        refused = node.set_parameters([Parameter("map_frame", value="")])[0]
+        assert not refused.successful and "map_frame" in refused.reason
+        assert node.settings["map_frame"] == "map"
         fixed = node.set_parameters([Parameter("num_particles", value=50)])[0]
         assert not fixed.successful and "restart" in fixed.reason
         assert node.tracker_settings.num_particles == 20

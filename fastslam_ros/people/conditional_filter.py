@@ -427,9 +427,10 @@ class PeopleTracker:
             missed = np.zeros_like(observed)
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
-        spread = self.people.var(axis=2).sum(axis=2)
         self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
         mean = self.people.mean(axis=2)
+        # Variance of x plus variance of y, from the mean just taken (``var`` would take it again).
+        spread = np.square(self.people - mean[:, :, None]).mean(axis=2).sum(axis=2)
         apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
         confirmed = self.alive & self.confirmed
         duplicate = ~self.confirmed & np.any(confirmed[:, None, :] & (apart < DUPLICATE_GATE),

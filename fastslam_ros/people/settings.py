@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fastslam_ros.core.existence import LOGODDS_MAX
 from fastslam_ros.core.params import check_fields, parameter
 
 INF = math.inf
@@ -96,7 +97,8 @@ class TrackerSettings:
                                             "removed.")
     logodds_confirm: float = parameter(
         1.5, "A new person is tentative (not published) until its log-odds reach this: 1.5 "
-             "is two detections at the default tau+.")
+             "is two detections at the default tau+ (log-odds saturate at 3).",
+        high=LOGODDS_MAX)
     lost_spread: float = parameter(
         1.0, "A person whose particles' position standard deviation (m, per axis) exceeds "
              "this is lost and removed (unseen for long, its Brownian cloud would catch "
