@@ -131,6 +131,11 @@ def test_command_line_writes_a_loadable_parameter_file(tmp_path, capsys):
                            "--motion-model", "alphas"]) == 0
     values = load_params_file(out)
     assert values["rotation_variance_per_meter"] == 0.0 and "num_particles" not in values
+    # Never its own input, not even with --overwrite.
+    before = base.read_bytes()
+    assert calibrate.main([str(bag), "--params", str(base), "--out", str(base),
+                           "--overwrite"]) == 1
+    assert base.read_bytes() == before and "input" in capsys.readouterr().err
 
 
 def one_line_error(capsys) -> str:

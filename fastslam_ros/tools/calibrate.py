@@ -439,7 +439,8 @@ def main(argv: list[str] | None = None) -> int:
             base = load_params_file(args.params)
         if args.out is not None:
             cli.output_file(args.out, "--out")
-            check_output(args.out, args.overwrite, "file", inputs=list(args.bags))
+            inputs = list(args.bags) + ([args.params] if args.params is not None else [])
+            check_output(args.out, args.overwrite, "file", inputs=inputs)
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except FileExistsError as error:
