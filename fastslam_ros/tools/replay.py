@@ -291,19 +291,13 @@ class OutputRecorder:
         self.copy(topic, TF_TYPE, self.stamp_ns, tf_message_bytes(transforms))
 
     def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
-        """``/tf`` odom -> base_link of an odometry message; one the node would drop (no
-        orientation, a non-finite pose or stamp) is left out."""
+        """``/tf`` odom -> base_link of an odometry message the node used (so valid)."""
         pose, stamp = msg.pose.pose, msg.header.stamp
         q = pose.orientation
-        try:
-            planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
-        except ValueError:
-            return
-        if stamp.sec >= 0 and 0 <= stamp.nanosec < 1_000_000_000 \
-                and all(math.isfinite(value) for value in planar):
-            self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
-                stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id or odom_frame,
-                msg.child_frame_id or base_frame, planar))
+        planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+        self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
+            stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id or odom_frame,
+            msg.child_frame_id or base_frame, planar))
 
 
 @dataclass(frozen=True)
@@ -543,9 +537,10 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
             msg = reader.deserialize(raw, connection.msgtype)
         else:
             msg = deserialize_message(bytes(raw), classes[topic])
+        used_odometry = node.stats["used_odom"]
         callbacks[topic](msg)
-        if recorder is not None and topic == ODOM_TOPIC:
-            recorder.odometry_tf(msg, *frames)
+        if recorder is not None and node.stats["used_odom"] > used_odometry:
+            recorder.odometry_tf(msg, *frames)  # only what the node did not drop
         done += 1
         if bar is not None:
             bar.update(done, (stamp_ns - first_ns) * 1e-9)
