@@ -31,11 +31,11 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
-from fastslam_ros.core import FastSLAMConfig, LandmarkMap
+from fastslam_ros.core import LandmarkMap
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools.bag_schema import TYPESTORE, write_schema_bag
+from fastslam_ros.tools.bag_schema import INITIAL_POSE_TOPIC, TYPESTORE, write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, load_run
-from fastslam_ros.tools.replay import INITIAL_POSE_TOPIC, replay_bag
+from fastslam_ros.tools.replay import replay_bag
 from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
 
 INITIAL_POSE_TYPE = "geometry_msgs/msg/PoseWithCovarianceStamped"
@@ -89,14 +89,13 @@ def with_initial_pose(bag: Path, out: Path, pose: np.ndarray, covariance: np.nda
     return out
 
 
-def save_final_map(out_bag: Path, map_file: Path, min_existence: float) -> int:
-    """Write the final ``~/map_cloud`` of a replay output as a map file, as ``~/save_map``
-    writes it (without the landmarks less likely to exist than ``min_existence``); the number
-    of landmarks written."""
+def save_final_map(out_bag: Path, map_file: Path) -> int:
+    """Write the final ``~/map_cloud`` of a replay output (the confirmed landmarks, as
+    ``~/save_map`` writes them) as a map file; the number of landmarks written."""
     landmarks = load_run(out_bag).landmarks
     count = len(landmarks.positions)
     best_map = LandmarkMap(landmarks.positions, landmarks.covariances, landmarks.existence,
-                           landmarks.ids, np.arange(count)).confirmed(min_existence)
+                           landmarks.ids, np.arange(count))
     ros_io.write_map_file(map_file, best_map, "map", 0.0)
     return len(best_map)
 
@@ -110,9 +109,7 @@ def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
     replay_bag(mapping_bag, params, out_path=workdir / "mapping_out")
     mapping = evaluate_run(load_run(workdir / "mapping_out")).metrics
     map_file = workdir / "map.yaml"
-    save_final_map(workdir / "mapping_out", map_file, FastSLAMConfig(
-        **{name: value for name, value in params.items()
-           if name in FastSLAMConfig.__dataclass_fields__}).map_min_existence)
+    save_final_map(workdir / "mapping_out", map_file)
 
     second = SimConfig(seed=seed + 100, world_seed=seed, duration=duration)
     second_bag = write_schema_bag(workdir / "second", simulate(second))
