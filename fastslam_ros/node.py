@@ -302,7 +302,8 @@ class FastSLAMNode(FilterNode):
         """Predict to the observation's stamp, update, publish the per-observation outputs."""
         self._predict_to(observation.stamp, "late_observations")
         check_ids = observation.ids is not None and self.config.association != "known"
-        known_before = set(self.slam.best_map().ids.tolist()) if check_ids else set()
+        labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
+                         else None)
         recoveries = self.slam.num_recoveries
         try:
             report = self.slam.update(observation.ranges, observation.bearings,
@@ -320,7 +321,7 @@ class FastSLAMNode(FilterNode):
         self._note_lag(observation.stamp)
         if check_ids:
             checked, correct = association_score(observation.ids, report.is_new,
-                                                 report.associated_ids, known_before)
+                                                 report.associated_ids, labels_before)
             self.stats["associations_checked"] += checked
             self.stats["associations_correct"] += correct
         self.stats["used_landmarks"] += 1

@@ -285,3 +285,52 @@ def test_robust_likelihood_floors_outliers_and_rejects_them():
     kept, factors, correction = assoc.reject_outliers(choices, log_lik, 0.0, -np.inf)
     assert kept.tolist() == choices.tolist() and np.array_equal(factors, log_lik)
     assert not correction.any()
+
+
+def test_association_score_against_hand_counted_readings():
+    from fastslam_ros.core.association import association_score
+
+    labels = np.array([5, 7, -1, 9, 9, 3, 4])
+    is_new = np.array([False, True, False, True, True, False, True])
+    associated = np.array([5, -1, -1, -1, -1, 8, -1])
+    # 5 right, 7 rightly new, -1 unscored, 9 twice wrongly new (mapped), 3 to 8 wrong, 4 new.
+    assert association_score(labels, is_new, associated, np.array([5, -1, 9, 2])) == (6, 3)
+    assert association_score(labels, is_new, associated, np.array([], np.int64)) == (6, 5)
+
+
+def reference_score(labels, is_new, associated, mapped: set) -> tuple[int, int]:
+    """Observation by observation, as the score is defined."""
+    checked = correct = 0
+    for label, new, went_to in zip(labels.tolist(), is_new.tolist(), associated.tolist()):
+        if label < 0 or (not new and went_to < 0):
+            continue
+        checked += 1
+        correct += (label not in mapped) if new else (went_to == label)
+    return checked, correct
+
+
+def test_association_score_from_the_best_particles_labels_equals_the_best_maps():
+    """The node scores with the best particle's labels (``particle_map``), not a built map."""
+    from fastslam_ros.core import FastSLAM, FastSLAMConfig
+    from fastslam_ros.core.association import association_score
+    from fastslam_ros.tools.synthetic import make_world
+
+    world = make_world(seed=3, num_steps=60, num_landmarks=60, min_separation=0.8,
+                       sigma_range=0.3, sigma_bearing=0.05, clutter_per_step=1.0,
+                       odometry_noise=(0.03, 0.1, 0.03))
+    slam = FastSLAM(FastSLAMConfig(num_particles=20, sigma_range=0.3, sigma_bearing=0.05,
+                                   max_range=12.0, new_landmark_likelihood=1e-2, seed=1,
+                                   backend="numpy"), initial_pose=world.steps[0].truth)
+    previous, total, unmapped = world.steps[0].odometry, np.zeros(2, int), np.zeros(2, int)
+    for k, step in enumerate(world.steps[1:]):
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        mapped = set(slam.best_map().ids.tolist())
+        labels_before = slam.particle_map(slam.best_index())[3]
+        report = slam.update(step.ranges, step.bearings, step.ids, stamp=float(k))
+        score = association_score(step.ids, report.is_new, report.associated_ids, labels_before)
+        assert score == reference_score(step.ids, report.is_new, report.associated_ids, mapped)
+        total += score
+        unmapped += reference_score(step.ids, report.is_new, report.associated_ids, set())
+    # The run has wrong associations, and new landmarks started for labels already mapped.
+    assert total[1] < total[0] and unmapped[1] > total[1]

@@ -183,19 +183,20 @@ def reject_outliers(choices: np.ndarray, log_lik: np.ndarray, eps: float, log_ou
 
 
 def association_score(labels: np.ndarray, is_new: np.ndarray, associated_labels: np.ndarray,
-                      labels_mapped_before: set[int]) -> tuple[int, int]:
+                      labels_mapped_before: np.ndarray) -> tuple[int, int]:
     """(checked, correct): data association of one reading scored against its labels.
 
     ``labels`` (K,) are the observations' true ids (-1: unlabelled), ``is_new`` and
     ``associated_labels`` what the filter did (the label of the landmark each observation went
-    to, -1 for new or unlabelled), ``labels_mapped_before`` the labels on the map before the
-    reading. An observation associated to an existing landmark is correct when the landmark
-    carries its label; one that started a new landmark, when its label was not yet mapped.
+    to, -1 for new or unlabelled), ``labels_mapped_before`` the labels of the best particle's
+    landmarks before the reading (any order, -1 for unlabelled ones). An observation associated
+    to an existing landmark is correct when the landmark carries its label; one that started a
+    new landmark, when its label was not yet mapped.
     """
     labelled = labels >= 0
     associated = labelled & ~is_new & (associated_labels >= 0)
     new = labelled & is_new
-    correct_new = sum(int(label) not in labels_mapped_before for label in labels[new])
+    correct_new = int(np.count_nonzero(~np.isin(labels[new], labels_mapped_before)))
     checked = int(np.count_nonzero(associated | new))
     correct = int(np.count_nonzero(associated_labels[associated] == labels[associated]))
     return checked, correct + correct_new
