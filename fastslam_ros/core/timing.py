@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from decimal import Decimal
 
 import numpy as np
@@ -175,6 +176,34 @@ class InputRate:
         return silent if silent > max(SILENCE_FACTOR * self.interval, MIN_SILENCE) else 0.0
 
 
+class Confirmation:
+    """A jump in an input is believed after ``needed`` messages in a row agree on it.
+
+    Each message off the input's course is added with ``confirms``; it continues the streak when
+    it agrees with the message before it, else it starts a new one. A message on course ends the
+    streak (``clear``): one stray message is never taken, and strays that disagree never add up.
+    """
+
+    def __init__(self, needed: int) -> None:
+        self.needed = needed
+        self._streak: list = []
+
+    def confirms(self, message, agrees: Callable[[object], bool]) -> bool:
+        """Add an off-course ``message``; ``agrees(previous)`` tells whether it continues the
+        previous one. True when it makes ``needed`` in a row (the streak then starts over)."""
+        if self._streak and not agrees(self._streak[-1]):
+            self._streak.clear()
+        self._streak.append(message)
+        if len(self._streak) < self.needed:
+            return False
+        self._streak.clear()
+        return True
+
+    def clear(self) -> None:
+        """End the streak (a message on course, or a reset)."""
+        self._streak.clear()
+
+
 TIME_JUMP_BACK = 1.0
 """An input stamp this much (s) older than the newest one means time went backwards (a looped
 bag, a restarted simulation): the filter resets, once confirmed. Smaller steps back are
@@ -199,7 +228,7 @@ class StampGate:
 
     def __init__(self) -> None:
         self.newest: float | None = None
-        self._candidates: list[float] = []
+        self._jump = Confirmation(STAMP_CONFIRMATIONS)
 
     @staticmethod
     def _near(reference: float, stamp: float) -> bool:
@@ -210,23 +239,18 @@ class StampGate:
         (BACKWARDS, FORWARD), after which ``stamp`` is the newest."""
         newest = self.newest
         if newest is None or self._near(newest, stamp):
-            self._candidates.clear()
+            self._jump.clear()
             self.newest = stamp if newest is None else max(newest, stamp)
             return self.USABLE
-        candidates = self._candidates
-        if candidates and not self._near(candidates[-1], stamp):
-            candidates.clear()
-        candidates.append(stamp)
-        if len(candidates) < STAMP_CONFIRMATIONS:
+        if not self._jump.confirms(stamp, lambda previous: self._near(previous, stamp)):
             return self.OUTLIER
-        candidates.clear()
         self.newest = stamp
         return self.BACKWARDS if stamp < newest else self.FORWARD
 
     def clear(self) -> None:
         """Forget the input's time (after a reset the next stamp is taken as it comes)."""
         self.newest = None
-        self._candidates.clear()
+        self._jump.clear()
 
 
 ODOMETRY_CONFIRMATIONS = 5
@@ -252,7 +276,7 @@ class OdometryGate:
     def __init__(self) -> None:
         self.correction = np.zeros(3)
         self._bridged = False
-        self._candidates: list[tuple[float, np.ndarray]] = []
+        self._jump = Confirmation(ODOMETRY_CONFIRMATIONS)
 
     def corrected(self, pose: np.ndarray) -> np.ndarray:
         """A raw odometry pose in the frame the filter follows (the pose itself, heading
@@ -277,15 +301,11 @@ class OdometryGate:
         ``correction`` has moved and ``pose`` (corrected, changed in place) is ``latest_pose``."""
         limits = (max_speed, max_yaw_rate)
         if self.step_plausible(latest_stamp, latest_pose, stamp, pose, *limits):
-            self._candidates.clear()
+            self._jump.clear()
             return self.PLAUSIBLE
-        candidates = self._candidates
-        if candidates and not self.step_plausible(*candidates[-1], stamp, pose, *limits):
-            candidates.clear()
-        candidates.append((stamp, pose))
-        if len(candidates) < ODOMETRY_CONFIRMATIONS:
+        if not self._jump.confirms((stamp, pose), lambda previous: self.step_plausible(
+                *previous, stamp, pose, *limits)):
             return self.IMPLAUSIBLE
-        candidates.clear()
         # New frame: the jump itself becomes no motion (latest = shift * pose).
         shift = compose(latest_pose, relative_pose(pose, np.zeros(3)))
         self.correction = compose(shift, self.correction)
@@ -297,4 +317,4 @@ class OdometryGate:
         """Back to the raw odometry frame (after a reset)."""
         self.correction = np.zeros(3)
         self._bridged = False
-        self._candidates.clear()
+        self._jump.clear()
