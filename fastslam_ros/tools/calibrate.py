@@ -42,7 +42,7 @@ import numpy as np
 
 from fastslam_ros.core.config import TWO_PI, FastSLAMConfig
 from fastslam_ros.core.geometry import compose, wrap_angle
-from fastslam_ros.core.observation import SensorOffset
+from fastslam_ros.core.observation import ObservationTerms, SensorOffset, observation_terms
 from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
@@ -221,6 +221,14 @@ def pair_detections(bag, offset: SensorOffset, match_radius: float, max_gap: flo
     return readings, int(np.count_nonzero(~usable))
 
 
+def predicted_observation(reading: Reading, landmarks: np.ndarray) -> ObservationTerms:
+    """The filter's measurement model of ``landmarks`` (L, 2) seen from the reading's true
+    sensor pose (the robot pose with the sensor offset applied)."""
+    pose = reading.pose
+    return observation_terms(pose[0], pose[1], pose[2], landmarks[:, 0], landmarks[:, 1],
+                             SensorOffset())
+
+
 def residuals(readings: list[Reading]) -> Residuals:
     """Range and bearing residuals of the paired detections."""
     parts, clutter = [], 0
@@ -229,14 +237,13 @@ def residuals(readings: list[Reading]) -> Residuals:
         clutter += int(np.count_nonzero(~paired))
         if not np.any(paired):
             continue
-        offset = reading.landmarks[reading.rows[paired]] - reading.pose[:2]
-        true_range = np.hypot(offset[:, 0], offset[:, 1])
-        bearing = np.arctan2(offset[:, 1], offset[:, 0]) - reading.pose[2]
+        predicted = predicted_observation(reading, reading.landmarks[reading.rows[paired]])
         measured = reading.points[paired]
         measured_range = np.hypot(measured[:, 0], measured[:, 1])
         measured_bearing = np.arctan2(measured[:, 1], measured[:, 0])
-        parts.append((true_range, measured_range - true_range,
-                      wrap_angle(measured_bearing - bearing), measured_range, measured_bearing))
+        parts.append((predicted.range, measured_range - predicted.range,
+                      predicted.bearing_innovation(measured_bearing), measured_range,
+                      measured_bearing))
     if not parts:
         raise CalibrationError("no detection could be paired with a true landmark (ids absent "
                                "from the truth and none within --match-radius)")
@@ -273,9 +280,8 @@ def detection_share(readings: list[Reading], reach: dict[str, float]) -> tuple[f
     expected = detected = 0
     half_view = 0.5 * reach["field_of_view"]
     for reading in readings:
-        offset = reading.landmarks - reading.pose[:2]
-        distance = np.hypot(offset[:, 0], offset[:, 1])
-        bearing = wrap_angle(np.arctan2(offset[:, 1], offset[:, 0]) - reading.pose[2])
+        predicted = predicted_observation(reading, reading.landmarks)
+        distance, bearing = predicted.range, predicted.bearing
         inside = ((distance >= reach["min_range"]) & (distance <= reach["max_range"])
                   & (np.abs(bearing) <= half_view))
         expected += int(np.count_nonzero(inside))
