@@ -96,6 +96,25 @@ def test_the_sensor_pose_is_used():
     assert range_sigma(wrong, 15.0) > 2.0 * range_sigma(right, 15.0)
 
 
+def test_readings_inside_a_ground_truth_gap_are_left_out():
+    """3.4 s of ground truth cut out between two readings: the readings strictly inside the
+    gap are left out, those on the truth's stamps at its ends are kept (nothing to
+    interpolate there)."""
+    bag = simulate(SimConfig(seed=6, world_seed=6, duration=30.0))
+    truth, scans = bag.ground_truth, np.asarray(bag.scans.stamps)
+    before, after = scans[50], scans[67]
+    assert np.isin([before, after], truth.stamps).all()
+    cut = (truth.stamps > before) & (truth.stamps < after)
+    gappy = dataclasses.replace(bag, ground_truth=dataclasses.replace(
+        truth, stamps=truth.stamps[~cut], poses=truth.poses[~cut]))
+    inside = int(np.count_nonzero((scans > before) & (scans < after)))
+    _, whole = calibrate.calibrate_bags([bag], SensorOffset())
+    _, figures = calibrate.calibrate_bags([gappy], SensorOffset())
+    assert whole["readings_without_truth"] == 0 and inside == 16
+    assert figures["readings_without_truth"] == inside
+    assert figures["readings"] == whole["readings"] - inside
+
+
 def test_residuals_against_an_exact_reading():
     """One reading built by hand: residuals are measured minus predicted range and bearing."""
     truth = calibrate.Reading(np.array([1.0, 2.0, 0.5]), np.array([[3.0, 0.0]]),

@@ -11,7 +11,7 @@ from fastslam_ros.tools.evaluate import (LandmarkEstimate, RunData, evaluate_run
                                          matches_by_id)
 from fastslam_ros.tools.metrics import (Transform2D, align_se2, error_stats, evaluate_trajectory,
                                         interpolate_positions, json_ready, landmark_metrics,
-                                        match_landmarks, ospa)
+                                        match_landmarks, ospa, truth_covers)
 
 RNG = np.random.default_rng(7)
 
@@ -68,6 +68,13 @@ def test_ground_truth_is_interpolated_but_not_across_gaps():
     values, valid = interpolate_positions(stamps, poses, query, max_gap=1.0)
     np.testing.assert_array_equal(valid, [False, True, True, True, False, True, False])
     np.testing.assert_allclose(values[valid], [[0.5, 0.0], [2.0, 2.0], [2.0, 4.0], [0.0, 0.0]])
+    np.testing.assert_array_equal(truth_covers(stamps, query, 1.0), valid)
+    # The gap's bound is inclusive; a series of one stamp covers only that stamp; none nothing.
+    assert truth_covers(stamps, np.array([5.0]), 8.0).tolist() == [True]
+    assert truth_covers(stamps, np.array([5.0]), np.nextafter(8.0, 0.0)).tolist() == [False]
+    assert truth_covers(np.array([3.0]), np.array([2.9, 3.0, 3.1]), 1.0).tolist() == [
+        False, True, False]
+    assert truth_covers(np.zeros(0), query, 1.0).tolist() == [False] * len(query)
 
 
 def test_error_stats_rmse_max_final():

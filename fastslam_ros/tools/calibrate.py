@@ -47,6 +47,7 @@ from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.converters import robust_std
+from fastslam_ros.tools.metrics import truth_covers
 
 CHI2_99_2DOF = 9.21
 """Squared Mahalanobis distance of the 99 % bound of a 2-D Gaussian."""
@@ -170,13 +171,6 @@ def fit_random_walk(rows: np.ndarray) -> dict[str, float]:
 # ---------------------------------------------------------------- sensor fits
 
 
-def truth_covers(gt_stamps: np.ndarray, at: np.ndarray, max_gap: float) -> np.ndarray:
-    """Mask of the stamps ``at`` inside the ground truth and not inside a gap > ``max_gap``."""
-    inside = (at >= gt_stamps[0]) & (at <= gt_stamps[-1])
-    after = np.clip(np.searchsorted(gt_stamps, at), 1, len(gt_stamps) - 1)
-    return inside & (gt_stamps[after] - gt_stamps[after - 1] <= max_gap)
-
-
 @dataclass
 class Reading:
     """One sensor reading with the ground truth: the sensor's true pose (3,), the detections
@@ -200,7 +194,7 @@ def pair_detections(bag, offset: SensorOffset, match_radius: float, max_gap: flo
         raise CalibrationError("the ground truth is position only (no heading): bearings "
                                "cannot be predicted")
     stamps = np.asarray(bag.scans.stamps, dtype=float)
-    usable = truth_covers(truth.stamps, stamps, max_gap) if len(stamps) else np.zeros(0, bool)
+    usable = truth_covers(truth.stamps, stamps, max_gap)
     robot = interpolate_poses(truth.stamps, truth.poses, stamps[usable])
     sensor = compose(robot, np.array([offset.x, offset.y, offset.yaw]))
     row_of_id = {int(i): row for row, i in enumerate(landmarks.ids)}

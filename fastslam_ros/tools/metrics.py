@@ -76,20 +76,29 @@ def interpolate_positions(stamps: np.ndarray, poses: np.ndarray, query: np.ndarr
     """Positions (N, 2) at ``query`` stamps of a pose series (``timing.interpolate_poses``),
     and a mask of the valid ones.
 
-    A query is valid when it lies inside the series and its two neighbours are at most
-    ``max_gap`` seconds apart (an exact stamp match is always valid).
+    A query is valid where ``truth_covers`` says so: inside the series, not across a gap
+    longer than ``max_gap`` s.
     """
     stamps = np.asarray(stamps, dtype=float)
     query = np.asarray(query, dtype=float)
     if len(stamps) == 0:
         return np.zeros((len(query), 2)), np.zeros(len(query), dtype=bool)
+    return interpolate_poses(stamps, poses, query)[:, :2], truth_covers(stamps, query, max_gap)
+
+
+def truth_covers(stamps: np.ndarray, query: np.ndarray, max_gap: float = DEFAULT_MAX_GAP
+                 ) -> np.ndarray:
+    """Mask of the ``query`` stamps a timed series (sorted ``stamps``) can be interpolated at:
+    inside the series, and on one of its stamps or between two at most ``max_gap`` s apart."""
+    stamps = np.asarray(stamps, dtype=float)
+    query = np.asarray(query, dtype=float)
+    if len(stamps) == 0:
+        return np.zeros(len(query), dtype=bool)
     upper = np.clip(np.searchsorted(stamps, query, side="left"), 0, len(stamps) - 1)
     lower = np.clip(upper - 1, 0, len(stamps) - 1)
     exact = stamps[upper] == query
-    lower = np.where(exact, upper, lower)
     inside = (query >= stamps[0]) & (query <= stamps[-1])
-    valid = inside & (exact | (stamps[upper] - stamps[lower] <= max_gap))
-    return interpolate_poses(stamps, poses, query)[:, :2], valid
+    return inside & (exact | (stamps[upper] - stamps[lower] <= max_gap))
 
 
 @dataclass

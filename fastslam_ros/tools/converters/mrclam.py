@@ -24,6 +24,7 @@ from fastslam_ros.tools.calibrate import (fit_alphas, fit_random_walk, random_wa
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table,
                                            robust_std)
+from fastslam_ros.tools.metrics import truth_covers
 
 EPOCH_THRESHOLD = 1.0e8
 """Stamps above this (s) are Unix-epoch times of the distributed files."""
@@ -185,7 +186,7 @@ def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
     for robot in robots:
         gt_stamps, gt_poses, _ = load_ground_truth(folder, robot)
         stamps, subjects, ranges, bearings, _ = load_measurements(folder, robot)
-        inside = (stamps >= gt_stamps[0]) & (stamps <= gt_stamps[-1])
+        inside = truth_covers(gt_stamps, stamps)
         poses = interpolate_poses(gt_stamps, gt_poses, stamps[inside])
         landmark = positions[np.searchsorted(ids, subjects[inside])]
         delta = landmark - poses[:, :2]
