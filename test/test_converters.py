@@ -96,6 +96,24 @@ def test_mrclam_bag_round_trip(dataset_dir, tmp_path):
     np.testing.assert_array_equal(np.sort(bag.landmarks_truth.ids), np.arange(6, 21))
 
 
+def test_mrclam_calibration_is_fastslam_calibrates_on_the_converted_bag(dataset_dir, tmp_path):
+    """``fastslam-convert mrclam --calibrate`` prints the noise fastslam-calibrate fits on the
+    converted bag (one fit), with the command correction on top."""
+    from fastslam_ros.core.observation import SensorOffset
+    from fastslam_ros.tools.bag_schema import read_schema_bag
+    from fastslam_ros.tools.calibrate import calibrate_bags
+
+    folder = dataset_dir(MRCLAM6)
+    fit = mrclam.calibrate(folder, robots=(3,))
+    convert.convert("mrclam", folder, tmp_path / "r3", robot=3)
+    on_bag, _ = calibrate_bags([read_schema_bag(tmp_path / "r3")], SensorOffset())
+    assert set(fit) == set(on_bag) | {"command_delay", "speed_scale", "yaw_rate_scale",
+                                      "heading_residual_raw", "heading_residual_corrected"}
+    for name, value in on_bag.items():  # the bag stores points as float32
+        assert fit[name] == pytest.approx(value, rel=1e-5, abs=1e-9), name
+    assert fit["heading_residual_corrected"] < fit["heading_residual_raw"]
+
+
 def write_rows(path: Path, rows: list[list[float]]) -> None:
     path.write_text("".join(" ".join(f"{v:.6f}" for v in row) + "\n" for row in rows))
 

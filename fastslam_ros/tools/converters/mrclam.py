@@ -18,13 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.observation import SensorOffset
 from fastslam_ros.core.timing import interpolate_poses
-from fastslam_ros.tools.calibrate import (fit_alphas, fit_random_walk, random_walk_rows,
-                                          relative_motion)
+from fastslam_ros.tools.calibrate import calibrate_bags
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
-                                           isolated_jumps, polar_to_points, read_table,
-                                           robust_std)
-from fastslam_ros.tools.metrics import truth_covers
+                                           isolated_jumps, polar_to_points, read_table)
 
 EPOCH_THRESHOLD = 1.0e8
 """Stamps above this (s) are Unix-epoch times of the distributed files."""
@@ -172,50 +170,25 @@ def load_mrclam(folder: Path | str, robot: int, use_ids: bool = True,
 
 def calibrate(folder: Path | str, robots: tuple[int, ...] = (1, 2, 3, 4, 5),
               step: float = 1.0) -> dict[str, float]:
-    """Noise parameters of the MRCLAM setup, estimated against the Vicon ground truth.
+    """Parameters of the MRCLAM setup, estimated against the Vicon ground truth of ``robots``.
 
-    * sigma_range, sigma_bearing: robust std (MAD) of the measurement residuals, the range and
-      bearing predicted from the interpolated Vicon pose and the landmark truth.
-    * alpha1..alpha4: the odometry (rot1, trans, rot2) of ``step``-second increments compared
-      with the Vicon increments (see :func:`fit_alphas`).
+    * command_delay, speed_scale, yaw_rate_scale: the correction of the logged commands
+      (:func:`fit_command_correction` on the raw commands, ``step`` windows).
+    * The noise, reach and odometry fits of ``fastslam-calibrate``
+      (``calibrate.calibrate_bags``) on the robots' recordings as converted (commands
+      corrected with the defaults, camera at the base), as it gives on the converted bags.
     """
     folder = Path(folder)
-    range_residuals, bearing_residuals, odometry_steps, true_steps = [], [], [], []
-    true_ranges, walk_rows, command_rows = [], [], []
-    positions, ids = load_landmarks(folder)
+    command_rows = []
     for robot in robots:
         gt_stamps, gt_poses, _ = load_ground_truth(folder, robot)
-        stamps, subjects, ranges, bearings, _ = load_measurements(folder, robot)
-        inside = truth_covers(gt_stamps, stamps)
-        poses = interpolate_poses(gt_stamps, gt_poses, stamps[inside])
-        landmark = positions[np.searchsorted(ids, subjects[inside])]
-        delta = landmark - poses[:, :2]
-        true_ranges.append(np.hypot(delta[:, 0], delta[:, 1]))
-        range_residuals.append(ranges[inside] - true_ranges[-1])
-        bearing_residuals.append(wrap_angle(bearings[inside] - np.arctan2(delta[:, 1], delta[:, 0])
-                                            + poses[:, 2]))
-
         raw_stamps, raw_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3),
                                                     delay=0.0, speed_scale=1.0,
                                                     yaw_rate_scale=1.0)
         command_rows.append((raw_stamps, raw_poses, gt_stamps, gt_poses))
-        odom_stamps, odom_poses, _, _ = load_odometry(folder, robot, start_pose=np.zeros(3))
-        grid = np.arange(max(odom_stamps[0], gt_stamps[0]), min(odom_stamps[-1], gt_stamps[-1]),
-                         step)
-        odometry_steps.append(relative_motion(interpolate_poses(odom_stamps, odom_poses, grid)))
-        true_steps.append(relative_motion(interpolate_poses(gt_stamps, gt_poses, grid)))
-        walk_rows.append(random_walk_rows(odom_stamps, odom_poses, gt_stamps, gt_poses, grid))
-    range_residuals = np.concatenate(range_residuals)
-    bearing_residuals = np.concatenate(bearing_residuals)
-    true_ranges = np.concatenate(true_ranges)
-    return {"sigma_range": robust_std(range_residuals),
-            "sigma_range_per_meter": robust_std(range_residuals / true_ranges),
-            "sigma_bearing": robust_std(bearing_residuals),
-            "sigma_range_q90": float(np.quantile(np.abs(range_residuals), 0.9) / 1.645),
-            "sigma_bearing_q90": float(np.quantile(np.abs(bearing_residuals), 0.9) / 1.645),
-            **fit_command_correction(command_rows, step),
-            **fit_alphas(np.concatenate(odometry_steps), np.concatenate(true_steps)),
-            **fit_random_walk(np.concatenate(walk_rows))}
+    bags = [load_mrclam(folder, robot).to_schema_bag() for robot in robots]
+    params, _ = calibrate_bags(bags, SensorOffset(), step)
+    return {**fit_command_correction(command_rows, step), **params}
 
 
 def fit_command_correction(runs: list, step: float = 1.0,
