@@ -208,8 +208,9 @@ class FastSLAM:
         """
         self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
         self._has_pending = True
-        if (np.hypot(self._pending[0], self._pending[1]) > self.config.max_pending_translation
-                or abs(self._pending[2]) > self.config.max_pending_rotation):
+        x, y, theta = self._pending.tolist()
+        if (math.hypot(x, y) > self.config.max_pending_translation
+                or abs(theta) > self.config.max_pending_rotation):
             self._advance_motion()
 
     def _advance_motion(self) -> None:

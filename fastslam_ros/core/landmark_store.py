@@ -181,8 +181,15 @@ class ResampledTable:
         """Particle ``particle``'s current entries of the first ``width`` columns (a copy)."""
         if not self._steps:
             return self.data[particle, :width].copy()
-        ancestors = self.lineage()[self.epoch[:width], particle]
-        return self.data[ancestors, np.arange(width)]
+        if self._lineage is not None:
+            chain = self._lineage[:, particle]
+        else:
+            # One particle's ancestry: O(S), not the O(S M) of the whole lineage.
+            chain = [int(particle)]
+            for step in reversed(self._steps):
+                chain.append(int(step[chain[-1]]))
+            chain = np.array(chain[::-1])
+        return self.data[chain[self.epoch[:width]], np.arange(width)]
 
     def widen(self, extra: int) -> None:
         """Append ``extra`` columns of -1 (current: nothing to reindex)."""
