@@ -157,6 +157,16 @@ def test_compiled_gather_matches_the_store_gather():
         assert got.first_new_slot == expected.first_new_slot > 0
         for name in vars(expected):
             np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+    # One particle's stored map, read back compiled: the same records in the same order.
+    for particle in range(30):
+        rows = store.tables.row(particle, store.num_cells)
+        rows[rng.integers(0, store.num_cells, 3)] = -1
+        state, ident = kernels.block_records(rows, store.occupied, store.state, store.ident)
+        kept = rows[rows >= 0]
+        mask = store.occupied[kept]
+        assert len(state) == mask.sum()
+        np.testing.assert_array_equal(state, store.state[kept][mask])
+        np.testing.assert_array_equal(ident, store.ident[kept][mask])
 
 
 def test_core_runs_without_numba():

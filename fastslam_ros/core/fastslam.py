@@ -66,6 +66,8 @@ class LandmarkMap:
         """The landmarks at least ``min_existence`` likely to exist: the map without the
         tentative ones (a new landmark starts at sigmoid(logodds_observed)), as a user sees it
         (``map_min_existence``)."""
+        if min_existence <= 0.0:
+            return self
         keep = self.existence >= min_existence
         return LandmarkMap(self.means[keep], self.covariances[keep], self.existence[keep],
                            self.ids[keep], self.keys[keep])

@@ -1115,6 +1115,34 @@ def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> Wor
                       is_new=np.zeros(shape, bool), first_new_slot=int(width))
 
 
+@njit(**_JIT)
+def _block_records_kernel(rows, occupied, pool_state, pool_ident):
+    count = 0
+    for i in range(rows.shape[0]):
+        if rows[i] >= 0:
+            for s in range(occupied.shape[1]):
+                count += occupied[rows[i], s]
+    state = np.empty((count, pool_state.shape[2]))
+    ident = np.empty((count, pool_ident.shape[2]), pool_ident.dtype)
+    n = 0
+    for i in range(rows.shape[0]):
+        if rows[i] < 0:
+            continue
+        for s in range(occupied.shape[1]):
+            if occupied[rows[i], s]:
+                state[n] = pool_state[rows[i], s]
+                ident[n] = pool_ident[rows[i], s]
+                n += 1
+    return state, ident
+
+
+def block_records(rows: np.ndarray, occupied: np.ndarray, pool_state: np.ndarray,
+                  pool_ident: np.ndarray):
+    """The float and integer records (N, 6), (N, 2) of the occupied slots of pool ``rows``
+    (-1 skipped), in row then slot order: ``LandmarkStore.particle_map``'s, in one pass."""
+    return _block_records_kernel(np.ascontiguousarray(rows), occupied, pool_state, pool_ident)
+
+
 # ---------------------------------------------------------------------------- warm-up
 _warm = False
 
@@ -1169,7 +1197,9 @@ def warm_up() -> float:
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
-    gather(LandmarkStore(m, 5.0), np.zeros((m, 1), np.int64), 2)
+    store = LandmarkStore(m, 5.0)
+    gather(store, np.zeros((m, 1), np.int64), 2)
+    block_records(store.table[0], store.occupied, store.state, store.ident)
     _warm = True
     return time.perf_counter() - start
 

@@ -532,8 +532,12 @@ class LandmarkStore(RecordViews):
         rows = self.tables.row(particle, self.num_cells)
         if skip_columns is not None:
             rows[skip_columns[skip_columns >= 0]] = -1
-        rows = rows[rows >= 0]
-        mask = self.occupied[rows]
-        state, ident = self.state[rows][mask], self.ident[rows][mask]
+        if self.kernels is not None:
+            state, ident = self.kernels.block_records(rows, self.occupied, self.state,
+                                                      self.ident)
+        else:
+            rows = rows[rows >= 0]
+            mask = self.occupied[rows]
+            state, ident = self.state[rows][mask], self.ident[rows][mask]
         return (state[:, MEAN], state[:, COV], state[:, LOGODDS], ident[:, LABEL],
                 ident[:, KEY])
