@@ -11,7 +11,7 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import numba_available
-from fastslam_ros.core.landmark_store import WorkingSet
+from fastslam_ros.core.landmark_store import LandmarkStore, WorkingSet
 from fastslam_ros.core.resampling import systematic_resample
 from fastslam_ros.tools.synthetic import make_world
 
@@ -167,6 +167,44 @@ def test_compiled_gather_matches_the_store_gather():
         assert len(state) == mask.sum()
         np.testing.assert_array_equal(state, store.state[kept][mask])
         np.testing.assert_array_equal(ident, store.ident[kept][mask])
+
+
+@needs_numba
+def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
+    """Random insertions (overflowing blocks), resamplings, updates and removals with known
+    labels: the compiled write-back gives the numpy store's pool, tables and counts."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(8)
+    count = 6
+    stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
+                                                                   kernels=kernels)]
+    for step in range(80):
+        points = rng.uniform(-25.0, 25.0, (3, 2))
+        particle, labels = int(rng.integers(0, count)), 10 * step + np.arange(3)
+        indices = np.sort(rng.integers(0, count, count))
+        low, change = rng.uniform(-25.0, 15.0, 2), rng.random(64)
+        for store in stores:
+            ws = store.gather(np.full((count, 0), -1, np.int64), 3)
+            ws.mean[particle], ws.cov[particle] = points, (0.1, 0.0, 0.1)
+            ws.label[particle] = labels
+            ws.valid[particle] = ws.is_new[particle] = True
+            store.scatter(ws, track_labels=True)
+            store.resample(indices)
+            columns = store.columns_in_box(low, low + 10.0)
+            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
+            live = ws.valid.nonzero()
+            pick = change[:len(live[0])] < 0.4
+            ws.mean[live[0][pick], live[1][pick]] += 0.01
+            ws.dirty[live[0][pick], live[1][pick]] = True
+            gone = pick & (change[:len(live[0])] < 0.1)
+            ws.valid[live[0][gone], live[1][gone]] = False
+            store.scatter(ws, track_labels=True)
+        for name in ("state", "ident", "occupied", "refcount", "table", "label_column"):
+            np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
+    for store in stores:
+        store.apply_resampling()
+    for name in ("table", "refcount", "label_column"):
+        np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
 
 
 def test_core_runs_without_numba():

@@ -1143,6 +1143,111 @@ def block_records(rows: np.ndarray, occupied: np.ndarray, pool_state: np.ndarray
     return _block_records_kernel(np.ascontiguousarray(rows), occupied, pool_state, pool_ident)
 
 
+# ---------------------------------------------------------------------------- write-back
+@njit(**_JIT)
+def _claim_plan_kernel(table, particles, columns, distinct, refcount):
+    for c in distinct:
+        for m in range(table.shape[0]):
+            if table[m, c] >= 0:
+                refcount[table[m, c]] = 0
+    for c in distinct:
+        for m in range(table.shape[0]):
+            if table[m, c] >= 0:
+                refcount[table[m, c]] += 1
+    rows = np.empty(particles.shape[0], np.int64)
+    needed = np.empty(particles.shape[0], np.bool_)
+    for i in range(particles.shape[0]):
+        rows[i] = table[particles[i], columns[i]]
+        needed[i] = rows[i] < 0 or refcount[rows[i]] > 1
+    return rows, needed
+
+
+def claim_plan(table, particles, columns, refcount):
+    """``LandmarkStore._own_rows``'s first half: the references to the rows of ``columns``
+    counted exactly (into ``refcount``), each pair's row and whether it needs a fresh one."""
+    return _claim_plan_kernel(table, np.ascontiguousarray(particles, np.int64),
+                              np.ascontiguousarray(columns, np.int64),
+                              np.unique(columns).astype(np.int64), refcount)
+
+
+@njit(**_JIT)
+def _claim_kernel(table, particles, columns, rows, needed, fresh, refcount, state, ident,
+                  occupied):
+    j = 0
+    for i in range(particles.shape[0]):
+        if not needed[i]:
+            continue
+        new, old = fresh[j], rows[i]
+        j += 1
+        if old < 0:
+            occupied[new] = False
+        else:
+            state[new] = state[old]
+            ident[new] = ident[old]
+            occupied[new] = occupied[old]
+            refcount[old] -= 1
+        rows[i] = new
+        table[particles[i], columns[i]] = new
+    return rows
+
+
+def claim(table, particles, columns, rows, needed, fresh, refcount, state, ident, occupied):
+    """``LandmarkStore._own_rows``'s second half: the pairs that need one take the ``fresh``
+    rows in order (a copy of their shared block, or an empty one)."""
+    return _claim_kernel(table, np.ascontiguousarray(particles, np.int64),
+                         np.ascontiguousarray(columns, np.int64), rows, needed,
+                         np.ascontiguousarray(fresh, np.int64), refcount, state, ident,
+                         occupied)
+
+
+@njit(**_JIT)
+def _dirty_pairs_kernel(dirty, row, block, num_blocks):
+    num_particles, width = dirty.shape
+    marker = np.zeros((num_particles, num_blocks), np.bool_)
+    count = 0
+    for m in range(num_particles):
+        for k in range(width):
+            if dirty[m, k] and row[m, k] >= 0 and not marker[m, block[m, k]]:
+                marker[m, block[m, k]] = True
+                count += 1
+    particles = np.empty(count, np.int64)
+    blocks = np.empty(count, np.int64)
+    n = 0
+    for m in range(num_particles):
+        for b in range(num_blocks):
+            if marker[m, b]:
+                particles[n], blocks[n] = m, b
+                n += 1
+    return particles, blocks
+
+
+def dirty_pairs(ws):
+    """The distinct (particle, gathered block) pairs holding a changed gathered entry, in
+    particle then block order (``LandmarkStore._write_existing``'s)."""
+    return _dirty_pairs_kernel(ws.dirty, ws.row, ws.block, ws.columns.shape[1])
+
+
+@njit(**_JIT)
+def _write_back_kernel(dirty, row, block, slot, valid, ws_state, pair_particles, pair_blocks,
+                       pair_rows, num_blocks, pool_state, occupied):
+    target = np.full((dirty.shape[0], num_blocks), -1, np.int64)
+    for i in range(pair_particles.shape[0]):
+        target[pair_particles[i], pair_blocks[i]] = pair_rows[i]
+    for m in range(dirty.shape[0]):
+        for k in range(dirty.shape[1]):
+            if dirty[m, k] and row[m, k] >= 0:
+                destination = target[m, block[m, k]]
+                pool_state[destination, slot[m, k]] = ws_state[m, k]
+                occupied[destination, slot[m, k]] = valid[m, k]
+
+
+def write_back(ws, pair_particles, pair_blocks, pair_rows, pool_state, occupied) -> None:
+    """Every changed gathered entry into its (now private) block row and slot."""
+    _write_back_kernel(ws.dirty, ws.row, ws.block, ws.slot, ws.valid, ws.state,
+                       pair_particles, pair_blocks, pair_rows, ws.columns.shape[1], pool_state,
+                       occupied)
+
+
 # ---------------------------------------------------------------------------- warm-up
 _warm = False
 
@@ -1200,6 +1305,13 @@ def warm_up() -> float:
     store = LandmarkStore(m, 5.0)
     gather(store, np.zeros((m, 1), np.int64), 2)
     block_records(store.table[0], store.occupied, store.state, store.ident)
+    pairs = np.zeros(1, np.int64)
+    rows, needed = claim_plan(store.table, pairs, pairs, store.refcount)
+    claim(store.table, pairs, pairs, rows, needed, np.zeros(1, np.int64), store.refcount,
+          store.state, store.ident, store.occupied)
+    pair_particles, pair_blocks = dirty_pairs(ws)
+    write_back(ws, pair_particles, pair_blocks, np.zeros(0, np.int64), store.state,
+               store.occupied)
     _warm = True
     return time.perf_counter() - start
 

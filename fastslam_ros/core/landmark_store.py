@@ -356,6 +356,15 @@ class LandmarkStore(RecordViews):
 
         Shared blocks are copied; missing blocks are created empty. Pairs must be unique.
         """
+        if self.kernels is not None:
+            self.tables.refresh(columns)
+            rows, needed = self.kernels.claim_plan(self.table, particles, columns,
+                                                   self.refcount)
+            if not needed.any():
+                return rows
+            fresh = self._allocate_rows(int(needed.sum()))
+            return self.kernels.claim(self.table, particles, columns, rows, needed, fresh,
+                                      self.refcount, self.state, self.ident, self.occupied)
         self._count_columns(columns)
         rows = self.table[particles, columns]
         missing = rows < 0
@@ -437,6 +446,16 @@ class LandmarkStore(RecordViews):
         self._insert_new(ws, track_labels)
 
     def _write_existing(self, ws: WorkingSet, track_labels: bool) -> None:
+        if self.kernels is not None:
+            pair_particle, pair_block = self.kernels.dirty_pairs(ws)
+            if len(pair_particle) == 0:
+                return
+            rows = self._own_rows(pair_particle, ws.columns[pair_particle, pair_block])
+            self.kernels.write_back(ws, pair_particle, pair_block, rows, self.state,
+                                    self.occupied)
+            if track_labels:
+                self._forget_labels(ws, *np.nonzero(ws.dirty & (ws.row >= 0) & ~ws.valid))
+            return
         owner, entry = np.nonzero(ws.dirty & (ws.row >= 0))
         if len(owner) == 0:
             return
@@ -454,12 +473,16 @@ class LandmarkStore(RecordViews):
         self.state.reshape(-1, STATE_WIDTH)[target] = ws.state[owner, entry]
         self.occupied.flat[target] = keep
         if track_labels and not np.all(keep):
-            gone = ~keep
-            labels = ws.label[owner[gone], entry[gone]]
-            index = self._label_indices(labels, create=False)
-            known = index >= 0
-            self.label_tables.refresh(index[known])
-            self.label_column[owner[gone][known], index[known]] = -1
+            self._forget_labels(ws, owner[~keep], entry[~keep])
+
+    def _forget_labels(self, ws: WorkingSet, owner: np.ndarray, entry: np.ndarray) -> None:
+        """Known ids: removed working-set entries (owner, entry) no longer hold their label."""
+        if len(owner) == 0:
+            return
+        index = self._label_indices(ws.label[owner, entry], create=False)
+        known = index >= 0
+        self.label_tables.refresh(index[known])
+        self.label_column[owner[known], index[known]] = -1
 
     def _insert_new(self, ws: WorkingSet, track_labels: bool) -> None:
         """Put new landmarks in their cell's block, opening another column when it is full."""
