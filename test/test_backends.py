@@ -207,6 +207,39 @@ def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
         np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
 
 
+@needs_numba
+def test_compiled_odometry_prior_matches_the_numpy_steps():
+    """``kernels.advance_prior`` against ``from_delta``, ``control_variances`` and
+    ``propagate_gaussian``: forward, backward, turning in place, with random-walk terms."""
+    from fastslam_ros.core import kernels
+    from fastslam_ros.core.motion import OdometryControl, control_variances, propagate_gaussian
+    from fastslam_ros.core.observation import SensorOffset
+    rng = np.random.default_rng(4)
+    config = FastSLAMConfig(alpha1=0.02, alpha2=0.001, alpha3=0.01, alpha4=0.005,
+                            rotation_variance_per_radian=1e-3, rotation_variance_per_meter=2e-4,
+                            translation_variance_per_meter=3e-3,
+                            translation_variance_per_radian=1e-4).validate()
+    settings = kernels.reading_settings(config, SensorOffset(0.0, 0.0, 0.0), -5.0, -np.inf,
+                                        10.0)
+    poses = rng.normal(0.0, 2.0, (20, 3))
+    prior = None
+    for delta in ([0.5, 0.02, 0.01], [-0.4, 0.01, -0.02], [0.0, 0.0, 0.3], [1e-12, 0.0, 0.0],
+                  [0.1, -0.3, 3.0]):
+        delta = np.array(delta)
+        control = OdometryControl.from_delta(delta)
+        variances = control_variances(control, (config.alpha1, config.alpha2, config.alpha3,
+                                                config.alpha4),
+                                      config.min_translation_sigma, config.min_rotation_sigma,
+                                      (1e-3, 2e-4, 3e-3, 1e-4))
+        mean, cov = prior if prior is not None else (poses, np.zeros((20, 3, 3)))
+        expected = propagate_gaussian(mean, cov, control, variances)
+        got, widest = kernels.advance_prior(prior, poses, delta, settings)
+        for a, b in zip(got, expected):
+            np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
+        assert widest == expected[1][:, 2, 2].max()
+        prior = got
+
+
 def test_core_runs_without_numba():
     """numba hidden: ``auto`` runs numpy, ``numba`` fails naming the parameter."""
     script = (

@@ -219,6 +219,15 @@ class FastSLAM:
         """Apply the accumulated odometry: sampled (1.0) or into the Gaussian prior (2.0)."""
         if not self._has_pending:
             return
+        if self.kernels is not None and self.config.algorithm == "fastslam2":
+            # The same steps as below, in one compiled call.
+            self._prior, widest = self.kernels.advance_prior(self._prior, self.poses,
+                                                             self._pending, self._settings)
+            self._pending = np.zeros(3)
+            self._has_pending = False
+            if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
+                self.poses = self._sample_prior()
+            return
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
                                       self.config.min_rotation_sigma, self.linear_noise)

@@ -62,7 +62,10 @@ F_LOG_P0, F_GATE, F_NEW_GATE, F_EPS, F_LOG_OUTLIER = 6, 7, 8, 9, 10
 F_MIN_RANGE, F_MAX_RANGE, F_FOV = 11, 12, 13
 F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX = 14, 15, 16, 17
 F_REACH = 18
-NUM_F = 19
+F_ALPHAS = 19                                  # alpha1..alpha4
+F_MIN_TRANSLATION_SIGMA, F_MIN_ROTATION_SIGMA = 23, 24
+F_LINEAR_NOISE = 25                            # the four random-walk terms (``motion``)
+NUM_F = 29
 I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
 NUM_I = 7
 
@@ -891,6 +894,12 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
                                                  config.field_of_view)
     floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
         config.logodds_observed, config.logodds_missed, config.logodds_remove, logodds_max)
+    floats[F_ALPHAS:F_ALPHAS + 4] = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+    floats[F_MIN_TRANSLATION_SIGMA] = config.min_translation_sigma
+    floats[F_MIN_ROTATION_SIGMA] = config.min_rotation_sigma
+    floats[F_LINEAR_NOISE:F_LINEAR_NOISE + 4] = (
+        config.rotation_variance_per_radian, config.rotation_variance_per_meter,
+        config.translation_variance_per_meter, config.translation_variance_per_radian)
     integers = np.zeros(NUM_I, np.int64)
     integers[I_MODE] = MODE_CODES[config.association]
     integers[I_LOCALIZATION] = config.mode == "localization"
@@ -999,6 +1008,53 @@ def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
         moved[m, 1] = mean[m, 1] + trans * sin_h
         moved[m, 2] = _wrap(heading + rot2)
     return moved, predicted
+
+
+@njit(**_JIT)
+def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
+    # ``OdometryControl.from_delta``
+    trans = math.hypot(dx, dy)
+    rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
+    if abs(rot1) > math.pi / 2.0:
+        rot1 = _wrap(rot1 - math.pi)
+        trans = -trans
+    rot2 = _wrap(dtheta - rot1)
+    # ``motion.control_variances``
+    a1, a2, a3, a4 = fp[F_ALPHAS], fp[F_ALPHAS + 1], fp[F_ALPHAS + 2], fp[F_ALPHAS + 3]
+    min_t, min_r = fp[F_MIN_TRANSLATION_SIGMA], fp[F_MIN_ROTATION_SIGMA]
+    rot1_sq, trans_sq, rot2_sq = rot1 ** 2, trans ** 2, rot2 ** 2
+    v_rot1 = a1 * rot1_sq + a2 * trans_sq + min_r ** 2
+    v_trans = a3 * trans_sq + a4 * (rot1_sq + rot2_sq) + min_t ** 2
+    v_rot2 = a1 * rot2_sq + a2 * trans_sq + min_r ** 2
+    k_rr, k_rt = fp[F_LINEAR_NOISE], fp[F_LINEAR_NOISE + 1]
+    k_tt, k_tr = fp[F_LINEAR_NOISE + 2], fp[F_LINEAR_NOISE + 3]
+    if k_rr != 0.0 or k_rt != 0.0 or k_tt != 0.0 or k_tr != 0.0:
+        v_rot1 += k_rr * abs(rot1) + 0.5 * k_rt * abs(trans)
+        v_trans += k_tt * abs(trans) + k_tr * (abs(rot1) + abs(rot2))
+        v_rot2 += k_rr * abs(rot2) + 0.5 * k_rt * abs(trans)
+    if not has_cov:
+        cov = np.zeros((mean.shape[0], 3, 3))
+    moved, predicted = _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2)
+    widest = -np.inf
+    for m in range(mean.shape[0]):
+        widest = max(widest, predicted[m, 2, 2])
+    return moved, predicted, widest
+
+
+def advance_prior(prior, poses: np.ndarray, delta: np.ndarray, settings: ReadingSettings):
+    """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
+    dtheta) decomposed (``OdometryControl.from_delta``), its variances
+    (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
+    propagated through it (``propagate_gaussian``). Returns the new prior and its largest
+    heading variance."""
+    dx, dy, dtheta = delta.tolist()
+    if prior is None:
+        moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
+                                                         settings.floats)
+    else:
+        moved, predicted, widest = _advance_prior_kernel(prior[0], prior[1], True, dx, dy,
+                                                         dtheta, settings.floats)
+    return (moved, predicted), widest
 
 
 def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u, variances: np.ndarray):
@@ -1299,6 +1355,8 @@ def warm_up() -> float:
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
+    advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
+    advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
