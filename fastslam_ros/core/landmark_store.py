@@ -263,8 +263,10 @@ class LandmarkStore(RecordViews):
     def cell_box(self, low: np.ndarray, high: np.ndarray) -> tuple[int, int, int, int]:
         """(lowest x, lowest y, highest x, highest y) cell of the axis-aligned box [low, high],
         as Python ints (the filter compares boxes on every reading)."""
-        return tuple(math.floor(v / self.cell_size) for v in (*np.asarray(low).tolist(),
-                                                                *np.asarray(high).tolist()))
+        (lx, ly), (hx, hy) = (v.tolist() if type(v) is np.ndarray else v for v in (low, high))
+        size = self.cell_size
+        return math.floor(lx / size), math.floor(ly / size), math.floor(hx / size), \
+            math.floor(hy / size)
 
     def columns_in_box(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """Columns of the known cells that intersect the axis-aligned box [low, high]."""
