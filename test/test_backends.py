@@ -11,7 +11,7 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import numba_available
-from fastslam_ros.core.landmark_store import WorkingSet
+from fastslam_ros.core.landmark_store import LandmarkStore, WorkingSet
 from fastslam_ros.core.resampling import systematic_resample
 from fastslam_ros.tools.synthetic import make_world
 
@@ -157,6 +157,87 @@ def test_compiled_gather_matches_the_store_gather():
         assert got.first_new_slot == expected.first_new_slot > 0
         for name in vars(expected):
             np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+    # One particle's stored map, read back compiled: the same records in the same order.
+    for particle in range(30):
+        rows = store.tables.row(particle, store.num_cells)
+        rows[rng.integers(0, store.num_cells, 3)] = -1
+        state, ident = kernels.block_records(rows, store.occupied, store.state, store.ident)
+        kept = rows[rows >= 0]
+        mask = store.occupied[kept]
+        assert len(state) == mask.sum()
+        np.testing.assert_array_equal(state, store.state[kept][mask])
+        np.testing.assert_array_equal(ident, store.ident[kept][mask])
+
+
+@needs_numba
+def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
+    """Random insertions (overflowing blocks), resamplings, updates and removals with known
+    labels: the compiled write-back gives the numpy store's pool, tables and counts."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(8)
+    count = 6
+    stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
+                                                                   kernels=kernels)]
+    for step in range(80):
+        points = rng.uniform(-25.0, 25.0, (3, 2))
+        particle, labels = int(rng.integers(0, count)), 10 * step + np.arange(3)
+        indices = np.sort(rng.integers(0, count, count))
+        low, change = rng.uniform(-25.0, 15.0, 2), rng.random(64)
+        for store in stores:
+            ws = store.gather(np.full((count, 0), -1, np.int64), 3)
+            ws.mean[particle], ws.cov[particle] = points, (0.1, 0.0, 0.1)
+            ws.label[particle] = labels
+            ws.valid[particle] = ws.is_new[particle] = True
+            store.scatter(ws, track_labels=True)
+            store.resample(indices)
+            columns = store.columns_in_box(low, low + 10.0)
+            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
+            live = ws.valid.nonzero()
+            pick = change[:len(live[0])] < 0.4
+            ws.mean[live[0][pick], live[1][pick]] += 0.01
+            ws.dirty[live[0][pick], live[1][pick]] = True
+            gone = pick & (change[:len(live[0])] < 0.1)
+            ws.valid[live[0][gone], live[1][gone]] = False
+            store.scatter(ws, track_labels=True)
+        for name in ("state", "ident", "occupied", "refcount", "table", "label_column"):
+            np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
+    for store in stores:
+        store.apply_resampling()
+    for name in ("table", "refcount", "label_column"):
+        np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
+
+
+@needs_numba
+def test_compiled_odometry_prior_matches_the_numpy_steps():
+    """``kernels.advance_prior`` against ``from_delta``, ``control_variances`` and
+    ``propagate_gaussian``: forward, backward, turning in place, with random-walk terms."""
+    from fastslam_ros.core import kernels
+    from fastslam_ros.core.motion import OdometryControl, control_variances, propagate_gaussian
+    from fastslam_ros.core.observation import SensorOffset
+    rng = np.random.default_rng(4)
+    config = FastSLAMConfig(alpha1=0.02, alpha2=0.001, alpha3=0.01, alpha4=0.005,
+                            rotation_variance_per_radian=1e-3, rotation_variance_per_meter=2e-4,
+                            translation_variance_per_meter=3e-3,
+                            translation_variance_per_radian=1e-4).validate()
+    settings = kernels.reading_settings(config, SensorOffset(0.0, 0.0, 0.0), -5.0, -np.inf,
+                                        10.0)
+    poses = rng.normal(0.0, 2.0, (20, 3))
+    prior = None
+    for delta in ([0.5, 0.02, 0.01], [-0.4, 0.01, -0.02], [0.0, 0.0, 0.3], [1e-12, 0.0, 0.0],
+                  [0.1, -0.3, 3.0]):
+        delta = np.array(delta)
+        control = OdometryControl.from_delta(delta)
+        variances = control_variances(control, (config.alpha1, config.alpha2, config.alpha3,
+                                                config.alpha4),
+                                      config.min_translation_sigma, config.min_rotation_sigma,
+                                      (1e-3, 2e-4, 3e-3, 1e-4))
+        mean, cov = prior if prior is not None else (poses, np.zeros((20, 3, 3)))
+        expected = propagate_gaussian(mean, cov, control, variances)
+        got, widest = kernels.advance_prior(prior, poses, delta, settings)
+        for a, b in zip(got, expected):
+            np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
+        assert widest == expected[1][:, 2, 2].max()
+        prior = got
 
 
 def test_core_runs_without_numba():

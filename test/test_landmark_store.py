@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fastslam_ros.core.landmark_store import LandmarkStore
+from fastslam_ros.core.landmark_store import LandmarkStore, ResampledTable
 from model_helpers import landmark_counts
 
 
@@ -105,3 +105,61 @@ def test_deferred_resamplings_compose_like_applied_ones():
                                           original[np.argsort(original[:, 1])])
     # Blocks are counted again from the applied tables: maps 0, 3 and 1 survive, 2 blocks each.
     assert store.rows_in_use() == 6
+
+
+def test_lazy_table_columns_match_eager_reindexing():
+    rng = np.random.default_rng(3)
+    table = ResampledTable(6, 5)
+    table.data[:] = rng.integers(-1, 50, table.data.shape)
+    eager = table.data.copy()
+    for step in range(200):
+        indices = rng.integers(0, 6, 6)
+        table.resample(indices)
+        eager = eager[indices]
+        if step % 7 == 0:
+            table.widen(3)
+            eager = np.concatenate([eager, np.full((6, 3), -1, np.int32)], axis=1)
+        columns = rng.integers(-1, table.width, 3)
+        table.refresh(columns)
+        fresh = columns[columns >= 0]
+        np.testing.assert_array_equal(table.data[:, fresh], eager[:, fresh])
+        particle = int(rng.integers(0, 6))
+        np.testing.assert_array_equal(table.row(particle, table.width), eager[particle])
+    table.refresh_all()
+    np.testing.assert_array_equal(table.data, eager)
+
+
+def test_lazy_store_keeps_the_maps_of_an_eager_one():
+    """Random resamplings, updates, removals and insertions: every particle's map and the
+    block count equal those of a store that reindexes its tables at every resampling."""
+    rng = np.random.default_rng(5)
+    count = 5
+    lazy, eager = LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3)
+    eager.tables.MAX_PENDING = eager.label_tables.MAX_PENDING = 0
+    for step in range(120):
+        if step % 3 == 0:
+            points = rng.uniform(-30.0, 30.0, (4, 2))
+            particle = int(rng.integers(0, count))
+            labels = 100 * step + np.arange(4)
+            for store in (lazy, eager):
+                insert(store, particle, points, labels)
+        indices = np.sort(rng.integers(0, count, count))
+        low = rng.uniform(-30.0, 20.0, 2)
+        change = rng.random(64)
+        for store in (lazy, eager):
+            store.resample(indices)
+            columns = store.columns_in_box(low, low + 10.0)
+            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
+            live = ws.valid.nonzero()
+            pick = change[:len(live[0])] < 0.3
+            ws.mean[live[0][pick], live[1][pick]] += 0.01
+            ws.dirty[live[0][pick], live[1][pick]] = True
+            ws.valid[live[0][pick & (change[:len(live[0])] < 0.05)],
+                     live[1][pick & (change[:len(live[0])] < 0.05)]] = False
+            store.scatter(ws, track_labels=True)
+        for particle in range(count):
+            for a, b in zip(lazy.particle_map(particle), eager.particle_map(particle)):
+                np.testing.assert_array_equal(np.sort(a, axis=0), np.sort(b, axis=0))
+        np.testing.assert_array_equal(lazy.label_columns(np.arange(0, 100 * step + 4, 37)),
+                                      eager.label_columns(np.arange(0, 100 * step + 4, 37)))
+    assert lazy.rows_in_use() == eager.rows_in_use()

@@ -155,16 +155,28 @@ def test_replay_is_invisible_to_other_processes(tmp_path):
         control.wait()
 
 
-@pytest.mark.parametrize("stamp_ns, parent, child, pose", [
-    (0, "odom", "base_link", (0.0, 0.0, 0.0)),
-    (1_700_000_000_123_456_789, "map", "odom", (-12.5, 3e5, -3.0)),
-    (5, "", "a_frame_with_a_longer_name", (1.0, 2.0, 1.5)),
+@pytest.mark.parametrize("stamp_ns, parent, child, translation, rotation", [
+    (0, "odom", "base_link", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+    (1_700_000_000_123_456_789, "map", "odom", (-12.5, 3e5, 0.0), (0.0, 0.0, -0.997, 0.0707)),
+    (5, "", "a_frame_with_a_longer_name", (1.0, 2.0, -0.25), (0.1, -0.2, 0.3, 0.927)),
 ])
-def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, pose):
-    from fastslam_ros.tools.bag_schema import tf_message_bytes, transform_message
+def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, translation, rotation):
+    from fastslam_ros.tools.bag_schema import TYPESTORE, TF_TYPE, tf_message_bytes
     from fastslam_ros.tools.replay import tf_message_cdr
-    assert tf_message_cdr(stamp_ns, parent, child, pose) == \
-        tf_message_bytes([transform_message(stamp_ns, parent, child, pose)])
+    types = TYPESTORE.types
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    transform = types["geometry_msgs/msg/TransformStamped"](
+        header=types["std_msgs/msg/Header"](
+            stamp=types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
+            frame_id=parent),
+        child_frame_id=child,
+        transform=types["geometry_msgs/msg/Transform"](
+            translation=types["geometry_msgs/msg/Vector3"](*translation),
+            rotation=types["geometry_msgs/msg/Quaternion"](*rotation)))
+    assert TF_TYPE == "tf2_msgs/msg/TFMessage"
+    for _ in range(2):  # the second time from the cached frame bytes
+        assert tf_message_cdr(sec, nanosec, parent, child, translation, rotation) == \
+            tf_message_bytes([transform])
 
 
 def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():

@@ -66,6 +66,8 @@ class LandmarkMap:
         """The landmarks at least ``min_existence`` likely to exist: the map without the
         tentative ones (a new landmark starts at sigmoid(logodds_observed)), as a user sees it
         (``map_min_existence``)."""
+        if min_existence <= 0.0:
+            return self
         keep = self.existence >= min_existence
         return LandmarkMap(self.means[keep], self.covariances[keep], self.existence[keep],
                            self.ids[keep], self.keys[keep])
@@ -208,13 +210,23 @@ class FastSLAM:
         """
         self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
         self._has_pending = True
-        if (np.hypot(self._pending[0], self._pending[1]) > self.config.max_pending_translation
-                or abs(self._pending[2]) > self.config.max_pending_rotation):
+        x, y, theta = self._pending.tolist()
+        if (math.hypot(x, y) > self.config.max_pending_translation
+                or abs(theta) > self.config.max_pending_rotation):
             self._advance_motion()
 
     def _advance_motion(self) -> None:
         """Apply the accumulated odometry: sampled (1.0) or into the Gaussian prior (2.0)."""
         if not self._has_pending:
+            return
+        if self.kernels is not None and self.config.algorithm == "fastslam2":
+            # The same steps as below, in one compiled call.
+            self._prior, widest = self.kernels.advance_prior(self._prior, self.poses,
+                                                             self._pending, self._settings)
+            self._pending = np.zeros(3)
+            self._has_pending = False
+            if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
+                self.poses = self._sample_prior()
             return
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,

@@ -55,12 +55,19 @@ def wrap_angle(angle):
     return np.minimum(turns, np.pi, out=turns)
 
 
+def pose_floats(pose) -> list[float] | None:
+    """A single pose (3,) as plain floats, or None for a stack of poses (..., 3): the scalar
+    paths below are ~10x faster than numpy on one pose (every odometry message)."""
+    if type(pose) is np.ndarray:
+        return pose.tolist() if pose.ndim == 1 else None
+    return [float(v) for v in pose] if np.ndim(pose) == 1 else None
+
+
 def relative_pose(pose_from, pose_to) -> np.ndarray:
     """Pose of ``pose_to`` expressed in the frame of ``pose_from`` (both (..., 3))."""
-    if np.ndim(pose_from) == 1 and np.ndim(pose_to) == 1:
-        # One pose each (every odometry message): plain floats are ~10x faster.
-        x0, y0, t0 = (float(v) for v in pose_from)
-        x1, y1, t1 = (float(v) for v in pose_to)
+    start, end = pose_floats(pose_from), pose_floats(pose_to)
+    if start is not None and end is not None:
+        (x0, y0, t0), (x1, y1, t1) = start, end
         c, s = math.cos(t0), math.sin(t0)
         dx, dy = x1 - x0, y1 - y0
         return np.array([c * dx + s * dy, -s * dx + c * dy, wrap_scalar(t1 - t0)])
@@ -75,9 +82,9 @@ def relative_pose(pose_from, pose_to) -> np.ndarray:
 
 def compose(pose, delta) -> np.ndarray:
     """Pose ``delta`` (given in the frame of ``pose``) composed onto ``pose`` (both (..., 3))."""
-    if np.ndim(pose) == 1 and np.ndim(delta) == 1:
-        x, y, t = (float(v) for v in pose)
-        dx, dy, dt = (float(v) for v in delta)
+    start, step = pose_floats(pose), pose_floats(delta)
+    if start is not None and step is not None:
+        (x, y, t), (dx, dy, dt) = start, step
         c, s = math.cos(t), math.sin(t)
         return np.array([x + c * dx - s * dy, y + s * dx + c * dy, wrap_scalar(t + dt)])
     pose = np.asarray(pose, dtype=float)

@@ -62,7 +62,10 @@ F_LOG_P0, F_GATE, F_NEW_GATE, F_EPS, F_LOG_OUTLIER = 6, 7, 8, 9, 10
 F_MIN_RANGE, F_MAX_RANGE, F_FOV = 11, 12, 13
 F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX = 14, 15, 16, 17
 F_REACH = 18
-NUM_F = 19
+F_ALPHAS = 19                                  # alpha1..alpha4
+F_MIN_TRANSLATION_SIGMA, F_MIN_ROTATION_SIGMA = 23, 24
+F_LINEAR_NOISE = 25                            # the four random-walk terms (``motion``)
+NUM_F = 29
 I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
 NUM_I = 7
 
@@ -891,6 +894,12 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
                                                  config.field_of_view)
     floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
         config.logodds_observed, config.logodds_missed, config.logodds_remove, logodds_max)
+    floats[F_ALPHAS:F_ALPHAS + 4] = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+    floats[F_MIN_TRANSLATION_SIGMA] = config.min_translation_sigma
+    floats[F_MIN_ROTATION_SIGMA] = config.min_rotation_sigma
+    floats[F_LINEAR_NOISE:F_LINEAR_NOISE + 4] = (
+        config.rotation_variance_per_radian, config.rotation_variance_per_meter,
+        config.translation_variance_per_meter, config.translation_variance_per_radian)
     integers = np.zeros(NUM_I, np.int64)
     integers[I_MODE] = MODE_CODES[config.association]
     integers[I_LOCALIZATION] = config.mode == "localization"
@@ -999,6 +1008,53 @@ def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
         moved[m, 1] = mean[m, 1] + trans * sin_h
         moved[m, 2] = _wrap(heading + rot2)
     return moved, predicted
+
+
+@njit(**_JIT)
+def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
+    # ``OdometryControl.from_delta``
+    trans = math.hypot(dx, dy)
+    rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
+    if abs(rot1) > math.pi / 2.0:
+        rot1 = _wrap(rot1 - math.pi)
+        trans = -trans
+    rot2 = _wrap(dtheta - rot1)
+    # ``motion.control_variances``
+    a1, a2, a3, a4 = fp[F_ALPHAS], fp[F_ALPHAS + 1], fp[F_ALPHAS + 2], fp[F_ALPHAS + 3]
+    min_t, min_r = fp[F_MIN_TRANSLATION_SIGMA], fp[F_MIN_ROTATION_SIGMA]
+    rot1_sq, trans_sq, rot2_sq = rot1 ** 2, trans ** 2, rot2 ** 2
+    v_rot1 = a1 * rot1_sq + a2 * trans_sq + min_r ** 2
+    v_trans = a3 * trans_sq + a4 * (rot1_sq + rot2_sq) + min_t ** 2
+    v_rot2 = a1 * rot2_sq + a2 * trans_sq + min_r ** 2
+    k_rr, k_rt = fp[F_LINEAR_NOISE], fp[F_LINEAR_NOISE + 1]
+    k_tt, k_tr = fp[F_LINEAR_NOISE + 2], fp[F_LINEAR_NOISE + 3]
+    if k_rr != 0.0 or k_rt != 0.0 or k_tt != 0.0 or k_tr != 0.0:
+        v_rot1 += k_rr * abs(rot1) + 0.5 * k_rt * abs(trans)
+        v_trans += k_tt * abs(trans) + k_tr * (abs(rot1) + abs(rot2))
+        v_rot2 += k_rr * abs(rot2) + 0.5 * k_rt * abs(trans)
+    if not has_cov:
+        cov = np.zeros((mean.shape[0], 3, 3))
+    moved, predicted = _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2)
+    widest = -np.inf
+    for m in range(mean.shape[0]):
+        widest = max(widest, predicted[m, 2, 2])
+    return moved, predicted, widest
+
+
+def advance_prior(prior, poses: np.ndarray, delta: np.ndarray, settings: ReadingSettings):
+    """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
+    dtheta) decomposed (``OdometryControl.from_delta``), its variances
+    (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
+    propagated through it (``propagate_gaussian``). Returns the new prior and its largest
+    heading variance."""
+    dx, dy, dtheta = delta.tolist()
+    if prior is None:
+        moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
+                                                         settings.floats)
+    else:
+        moved, predicted, widest = _advance_prior_kernel(prior[0], prior[1], True, dx, dy,
+                                                         dtheta, settings.floats)
+    return (moved, predicted), widest
 
 
 def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u, variances: np.ndarray):
@@ -1115,6 +1171,139 @@ def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> Wor
                       is_new=np.zeros(shape, bool), first_new_slot=int(width))
 
 
+@njit(**_JIT)
+def _block_records_kernel(rows, occupied, pool_state, pool_ident):
+    count = 0
+    for i in range(rows.shape[0]):
+        if rows[i] >= 0:
+            for s in range(occupied.shape[1]):
+                count += occupied[rows[i], s]
+    state = np.empty((count, pool_state.shape[2]))
+    ident = np.empty((count, pool_ident.shape[2]), pool_ident.dtype)
+    n = 0
+    for i in range(rows.shape[0]):
+        if rows[i] < 0:
+            continue
+        for s in range(occupied.shape[1]):
+            if occupied[rows[i], s]:
+                state[n] = pool_state[rows[i], s]
+                ident[n] = pool_ident[rows[i], s]
+                n += 1
+    return state, ident
+
+
+def block_records(rows: np.ndarray, occupied: np.ndarray, pool_state: np.ndarray,
+                  pool_ident: np.ndarray):
+    """The float and integer records (N, 6), (N, 2) of the occupied slots of pool ``rows``
+    (-1 skipped), in row then slot order: ``LandmarkStore.particle_map``'s, in one pass."""
+    return _block_records_kernel(np.ascontiguousarray(rows), occupied, pool_state, pool_ident)
+
+
+# ---------------------------------------------------------------------------- write-back
+@njit(**_JIT)
+def _claim_plan_kernel(table, particles, columns, distinct, refcount):
+    for c in distinct:
+        for m in range(table.shape[0]):
+            if table[m, c] >= 0:
+                refcount[table[m, c]] = 0
+    for c in distinct:
+        for m in range(table.shape[0]):
+            if table[m, c] >= 0:
+                refcount[table[m, c]] += 1
+    rows = np.empty(particles.shape[0], np.int64)
+    needed = np.empty(particles.shape[0], np.bool_)
+    for i in range(particles.shape[0]):
+        rows[i] = table[particles[i], columns[i]]
+        needed[i] = rows[i] < 0 or refcount[rows[i]] > 1
+    return rows, needed
+
+
+def claim_plan(table, particles, columns, refcount):
+    """``LandmarkStore._own_rows``'s first half: the references to the rows of ``columns``
+    counted exactly (into ``refcount``), each pair's row and whether it needs a fresh one."""
+    return _claim_plan_kernel(table, np.ascontiguousarray(particles, np.int64),
+                              np.ascontiguousarray(columns, np.int64),
+                              np.unique(columns).astype(np.int64), refcount)
+
+
+@njit(**_JIT)
+def _claim_kernel(table, particles, columns, rows, needed, fresh, refcount, state, ident,
+                  occupied):
+    j = 0
+    for i in range(particles.shape[0]):
+        if not needed[i]:
+            continue
+        new, old = fresh[j], rows[i]
+        j += 1
+        if old < 0:
+            occupied[new] = False
+        else:
+            state[new] = state[old]
+            ident[new] = ident[old]
+            occupied[new] = occupied[old]
+            refcount[old] -= 1
+        rows[i] = new
+        table[particles[i], columns[i]] = new
+    return rows
+
+
+def claim(table, particles, columns, rows, needed, fresh, refcount, state, ident, occupied):
+    """``LandmarkStore._own_rows``'s second half: the pairs that need one take the ``fresh``
+    rows in order (a copy of their shared block, or an empty one)."""
+    return _claim_kernel(table, np.ascontiguousarray(particles, np.int64),
+                         np.ascontiguousarray(columns, np.int64), rows, needed,
+                         np.ascontiguousarray(fresh, np.int64), refcount, state, ident,
+                         occupied)
+
+
+@njit(**_JIT)
+def _dirty_pairs_kernel(dirty, row, block, num_blocks):
+    num_particles, width = dirty.shape
+    marker = np.zeros((num_particles, num_blocks), np.bool_)
+    count = 0
+    for m in range(num_particles):
+        for k in range(width):
+            if dirty[m, k] and row[m, k] >= 0 and not marker[m, block[m, k]]:
+                marker[m, block[m, k]] = True
+                count += 1
+    particles = np.empty(count, np.int64)
+    blocks = np.empty(count, np.int64)
+    n = 0
+    for m in range(num_particles):
+        for b in range(num_blocks):
+            if marker[m, b]:
+                particles[n], blocks[n] = m, b
+                n += 1
+    return particles, blocks
+
+
+def dirty_pairs(ws):
+    """The distinct (particle, gathered block) pairs holding a changed gathered entry, in
+    particle then block order (``LandmarkStore._write_existing``'s)."""
+    return _dirty_pairs_kernel(ws.dirty, ws.row, ws.block, ws.columns.shape[1])
+
+
+@njit(**_JIT)
+def _write_back_kernel(dirty, row, block, slot, valid, ws_state, pair_particles, pair_blocks,
+                       pair_rows, num_blocks, pool_state, occupied):
+    target = np.full((dirty.shape[0], num_blocks), -1, np.int64)
+    for i in range(pair_particles.shape[0]):
+        target[pair_particles[i], pair_blocks[i]] = pair_rows[i]
+    for m in range(dirty.shape[0]):
+        for k in range(dirty.shape[1]):
+            if dirty[m, k] and row[m, k] >= 0:
+                destination = target[m, block[m, k]]
+                pool_state[destination, slot[m, k]] = ws_state[m, k]
+                occupied[destination, slot[m, k]] = valid[m, k]
+
+
+def write_back(ws, pair_particles, pair_blocks, pair_rows, pool_state, occupied) -> None:
+    """Every changed gathered entry into its (now private) block row and slot."""
+    _write_back_kernel(ws.dirty, ws.row, ws.block, ws.slot, ws.valid, ws.state,
+                       pair_particles, pair_blocks, pair_rows, ws.columns.shape[1], pool_state,
+                       occupied)
+
+
 # ---------------------------------------------------------------------------- warm-up
 _warm = False
 
@@ -1166,10 +1355,21 @@ def warm_up() -> float:
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
     propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
+    advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
+    advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
-    gather(LandmarkStore(m, 5.0), np.zeros((m, 1), np.int64), 2)
+    store = LandmarkStore(m, 5.0)
+    gather(store, np.zeros((m, 1), np.int64), 2)
+    block_records(store.table[0], store.occupied, store.state, store.ident)
+    pairs = np.zeros(1, np.int64)
+    rows, needed = claim_plan(store.table, pairs, pairs, store.refcount)
+    claim(store.table, pairs, pairs, rows, needed, np.zeros(1, np.int64), store.refcount,
+          store.state, store.ident, store.occupied)
+    pair_particles, pair_blocks = dirty_pairs(ws)
+    write_back(ws, pair_particles, pair_blocks, np.zeros(0, np.int64), store.state,
+               store.occupied)
     _warm = True
     return time.perf_counter() - start
 

@@ -3,11 +3,13 @@
 A *block* holds up to ``capacity`` landmarks of one spatial cell (side ``cell_size``). The pool
 arrays (``mean``, ``cov``, ``logodds``, ...) are indexed by block row and slot; ``table[m, c]``
 is the row that particle m uses for cell column c (-1: no landmark of m there). Resampling copies
-only the ``table`` (and lazily: consecutive resamplings compose into one index array, applied
-when the tables are next read, which the filter does only when the robot reaches other cells);
+only the ``table`` rows, and lazily, column by column (``ResampledTable``): it records the index
+array, and the columns the filter reads (a few per cell change: those of the working set) are
+brought up to date when read, so a cell change costs the same with 100 or 50,000 landmarks;
 particles then share rows until one of them changes a landmark, at which point that particle
 gets its own copy of the block (copy-on-write). Memory therefore grows with the number of
-distinct blocks, not with M x N.
+distinct blocks, not with M x N. Block references are counted exactly for the columns being
+written (a block belongs to one column) and in full only when the pool runs out of free rows.
 
 The filter works on a dense *working set*: ``gather`` copies the landmarks of some cells of every
 particle into (M, K) arrays, the filter updates them over as many readings as the robot stays
@@ -103,6 +105,99 @@ class WorkingSet(RecordViews):
                           self.is_new[indices], self.first_new_slot)
 
 
+class ResampledTable:
+    """An (M, C) integer table, one row per particle, whose rows follow resampling lazily and
+    per column: ``resample`` records the index array; ``refresh`` brings some columns up to
+    date (reindexing their rows by the resamplings they have not seen), ``refresh_all`` all.
+    Reading a few columns then costs O(M) per column, whatever the table's width."""
+
+    MAX_PENDING = 64
+    """Resamplings kept pending at most; then every column is brought up to date."""
+
+    def __init__(self, num_particles: int, width: int) -> None:
+        self.data = np.full((num_particles, width), -1, dtype=np.int32)
+        """The entries; a column is current once ``refresh`` has seen it."""
+        self.epoch = np.zeros(width, dtype=np.int64)
+        """Pending resamplings (of ``_steps``) already applied to each column."""
+        self._steps: list[np.ndarray] = []
+        self._lineage: np.ndarray | None = None
+
+    @property
+    def width(self) -> int:
+        return self.data.shape[1]
+
+    def resample(self, indices: np.ndarray) -> None:
+        """Row m becomes row ``indices[m]`` (for every column, when next read)."""
+        indices = np.asarray(indices, dtype=np.int64)
+        if len(indices) != self.data.shape[0]:
+            # The particle count changes: columns cannot keep rows of different counts.
+            self.refresh_all()
+            self.data = self.data[indices]
+            return
+        self._steps.append(indices)
+        self._lineage = None
+        if len(self._steps) > self.MAX_PENDING:
+            self.refresh_all()
+
+    def lineage(self) -> np.ndarray:
+        """(S + 1, M) int64, S pending resamplings: row e holds, for every particle now, the
+        row it descends from in a column that has seen the first e of them."""
+        if self._lineage is None:
+            count = len(self._steps)
+            lineage = np.empty((count + 1, self.data.shape[0]), np.int64)
+            lineage[count] = np.arange(self.data.shape[0])
+            for e in range(count - 1, -1, -1):
+                lineage[e] = self._steps[e][lineage[e + 1]]
+            self._lineage = lineage
+        return self._lineage
+
+    def refresh(self, columns: np.ndarray) -> None:
+        """Bring the ``columns`` (any shape, -1 ignored) up to date."""
+        if not self._steps:
+            return
+        columns = np.asarray(columns).reshape(-1)
+        stale = np.unique(columns[columns >= 0])
+        stale = stale[self.epoch[stale] < len(self._steps)]
+        if len(stale) == 0:
+            return
+        ancestors = self.lineage()[self.epoch[stale]].T                  # (M, len(stale))
+        self.data[:, stale] = self.data[ancestors, stale]
+        self.epoch[stale] = len(self._steps)
+
+    def refresh_all(self) -> None:
+        """Bring every column up to date and forget the pending resamplings."""
+        if not self._steps:
+            return
+        if not self.epoch.any():
+            self.data = self.data[self.lineage()[0]]
+        else:
+            ancestors = self.lineage()[self.epoch]                         # (C, M)
+            self.data = np.take_along_axis(self.data, ancestors.T, axis=0)
+        self.epoch[:] = 0
+        self._steps = []
+        self._lineage = None
+
+    def row(self, particle: int, width: int) -> np.ndarray:
+        """Particle ``particle``'s current entries of the first ``width`` columns (a copy)."""
+        if not self._steps:
+            return self.data[particle, :width].copy()
+        if self._lineage is not None:
+            chain = self._lineage[:, particle]
+        else:
+            # One particle's ancestry: O(S), not the O(S M) of the whole lineage.
+            chain = [int(particle)]
+            for step in reversed(self._steps):
+                chain.append(int(step[chain[-1]]))
+            chain = np.array(chain[::-1])
+        return self.data[chain[self.epoch[:width]], np.arange(width)]
+
+    def widen(self, extra: int) -> None:
+        """Append ``extra`` columns of -1 (current: nothing to reindex)."""
+        self.data = np.concatenate(
+            [self.data, np.full((self.data.shape[0], extra), -1, self.data.dtype)], axis=1)
+        self.epoch = np.concatenate([self.epoch, np.full(extra, len(self._steps), np.int64)])
+
+
 class LandmarkStore(RecordViews):
     """Per-particle landmark maps with structural sharing (see module docstring)."""
 
@@ -118,7 +213,11 @@ class LandmarkStore(RecordViews):
         self.ident = np.full((initial_rows, capacity, 2), -1, dtype=np.int64)
         self.occupied = np.zeros((initial_rows, capacity), dtype=bool)
         self.refcount = np.zeros(initial_rows, dtype=np.int64)
-        self.table = np.full((num_particles, 16), -1, dtype=np.int32)
+        """References to each row: exact for the rows of the columns being written; for the
+        others, 0 only where no particle references the row (resampling copies and drops
+        references without counting them; ``recount`` counts them all)."""
+        self.tables = ResampledTable(num_particles, 16)
+        """``table``, whose columns follow resampling lazily."""
         self.cell_ix = np.zeros(16, dtype=np.int64)
         self.cell_iy = np.zeros(16, dtype=np.int64)
         self.num_cells = 0
@@ -126,9 +225,18 @@ class LandmarkStore(RecordViews):
         self.next_key = 0
         # Known association: column of the landmark with a given label, per particle.
         self._label_index: dict[int, int] = {}
-        self.label_column = np.full((num_particles, 8), -1, dtype=np.int32)
-        # Resampling not yet applied to ``table``, ``label_column`` and ``refcount``.
-        self._resampled: np.ndarray | None = None
+        self.label_tables = ResampledTable(num_particles, 8)
+        """``label_column``: column of each particle's landmark of a label index."""
+
+    @property
+    def table(self) -> np.ndarray:
+        """(M, columns) row of each particle's block of each cell column (-1: none); current
+        for the columns refreshed (all of them after ``apply_resampling``)."""
+        return self.tables.data
+
+    @property
+    def label_column(self) -> np.ndarray:
+        return self.label_tables.data
 
     # ------------------------------------------------------------------ memory
     @property
@@ -155,8 +263,10 @@ class LandmarkStore(RecordViews):
     def cell_box(self, low: np.ndarray, high: np.ndarray) -> tuple[int, int, int, int]:
         """(lowest x, lowest y, highest x, highest y) cell of the axis-aligned box [low, high],
         as Python ints (the filter compares boxes on every reading)."""
-        return tuple(math.floor(v / self.cell_size) for v in (*np.asarray(low).tolist(),
-                                                                *np.asarray(high).tolist()))
+        (lx, ly), (hx, hy) = (v.tolist() if type(v) is np.ndarray else v for v in (low, high))
+        size = self.cell_size
+        return math.floor(lx / size), math.floor(ly / size), math.floor(hx / size), \
+            math.floor(hy / size)
 
     def columns_in_box(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """Columns of the known cells that intersect the axis-aligned box [low, high]."""
@@ -184,10 +294,9 @@ class LandmarkStore(RecordViews):
     def _register_cell(self, cx: int, cy: int) -> int:
         """A new column for cell (cx, cy), which becomes its insertion column."""
         column = self.num_cells
-        if column == self.table.shape[1]:
-            grow = self.table.shape[1]
-            self.table = np.concatenate(
-                [self.table, np.full((self.num_particles, grow), -1, np.int32)], axis=1)
+        if column == self.tables.width:
+            grow = self.tables.width
+            self.tables.widen(grow)
             self.cell_ix = np.concatenate([self.cell_ix, np.zeros(grow, np.int64)])
             self.cell_iy = np.concatenate([self.cell_iy, np.zeros(grow, np.int64)])
         self.cell_ix[column], self.cell_iy[column] = cx, cy
@@ -198,8 +307,8 @@ class LandmarkStore(RecordViews):
     # ------------------------------------------------------------------ labels (known ids)
     def label_columns(self, labels: np.ndarray) -> np.ndarray:
         """(M, len(labels)) column of each particle's landmark with that label, -1 if none."""
-        self.apply_resampling()
         index = self._label_indices(labels, create=False)
+        self.label_tables.refresh(index)
         columns = self.label_column[:, np.maximum(index, 0)]
         return np.where(index[None, :] >= 0, columns, -1)
 
@@ -215,18 +324,24 @@ class LandmarkStore(RecordViews):
         if index is None:
             index = len(self._label_index)
             self._label_index[label] = index
-            if index == self.label_column.shape[1]:
-                self.label_column = np.concatenate(
-                    [self.label_column, np.full_like(self.label_column, -1)], axis=1)
+            if index == self.label_tables.width:
+                self.label_tables.widen(self.label_tables.width)
         return index
 
     # ------------------------------------------------------------------ pool rows
     def _allocate_rows(self, count: int) -> np.ndarray:
-        """``count`` unused rows (refcount set to 1), growing the pool when needed."""
+        """``count`` unused rows (refcount set to 1), growing the pool when needed.
+
+        Rows that resampling left unreferenced are found by a full ``recount`` once the free
+        rows run out; the pool then doubles unless a quarter of it is free, so full counts
+        stay rare (amortised O(1) per row handed out)."""
         free = np.flatnonzero(self.refcount == 0)
         if len(free) < count:
-            self._grow_rows(max(self.num_rows, count - len(free)))
+            self.recount()
             free = np.flatnonzero(self.refcount == 0)
+            if len(free) < max(count, self.num_rows // 4):
+                self._grow_rows(max(self.num_rows, count - len(free)))
+                free = np.flatnonzero(self.refcount == 0)
         rows = free[:count]
         self.refcount[rows] = 1
         return rows
@@ -243,28 +358,56 @@ class LandmarkStore(RecordViews):
 
         Shared blocks are copied; missing blocks are created empty. Pairs must be unique.
         """
+        if self.kernels is not None:
+            self.tables.refresh(columns)
+            rows, needed = self.kernels.claim_plan(self.table, particles, columns,
+                                                   self.refcount)
+            if not needed.any():
+                return rows
+            fresh = self._allocate_rows(int(needed.sum()))
+            return self.kernels.claim(self.table, particles, columns, rows, needed, fresh,
+                                      self.refcount, self.state, self.ident, self.occupied)
+        self._count_columns(columns)
         rows = self.table[particles, columns]
         missing = rows < 0
         shared = ~missing & (self.refcount[np.maximum(rows, 0)] > 1)
-        if np.any(missing):
-            fresh = self._allocate_rows(int(missing.sum()))
-            self.occupied[fresh] = False
-            rows[missing] = fresh
-        if np.any(shared):
-            old = rows[shared]
-            copies = self._allocate_rows(len(old))
+        needed = missing | shared
+        if np.any(needed):
+            # One allocation: a full recount inside it must not see rows handed out here.
+            placed = np.empty(len(rows), np.int64)
+            placed[needed] = self._allocate_rows(int(needed.sum()))
+            self.occupied[placed[missing]] = False
+            old, copies = rows[shared], placed[shared]
             for array in (self.state, self.ident, self.occupied):
                 array[copies] = array[old]
             np.subtract.at(self.refcount, old, 1)
-            rows[shared] = copies
+            rows[needed] = placed[needed]
         self.table[particles, columns] = rows
         return rows
+
+    def _count_columns(self, columns: np.ndarray) -> None:
+        """Bring these cell columns up to date and count the references to their rows exactly
+        (a row belongs to one column, so these columns hold all of its references)."""
+        self.tables.refresh(columns)
+        referenced = self.table[:, np.unique(columns)].ravel()
+        referenced = referenced[referenced >= 0]
+        if len(referenced):
+            counts = np.bincount(referenced, minlength=self.num_rows)
+            rows = np.unique(referenced)
+            self.refcount[rows] = counts[rows]
+
+    def recount(self) -> None:
+        """Bring every column up to date and count every row's references."""
+        self.tables.refresh_all()
+        # Shifted by one, so that -1 (no block) lands in bin 0: cheaper than masking it out.
+        shifted = self.table[:, :self.num_cells] + 1
+        self.refcount = np.bincount(shifted.ravel(), minlength=self.num_rows + 1)[1:]
 
     # ------------------------------------------------------------------ working set
     def gather(self, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
         """Copy the landmarks of cell ``columns`` ((M, C), -1 ignored) into a working set with
         ``num_new_slots`` empty columns for new landmarks."""
-        self.apply_resampling()
+        self.tables.refresh(columns)
         if self.kernels is not None:
             return self.kernels.gather(self, columns, num_new_slots)
         num_particles = self.num_particles
@@ -301,11 +444,20 @@ class LandmarkStore(RecordViews):
 
     def scatter(self, ws: WorkingSet, track_labels: bool) -> None:
         """Write changed and new working-set entries back, copying shared blocks first."""
-        self.apply_resampling()
         self._write_existing(ws, track_labels)
         self._insert_new(ws, track_labels)
 
     def _write_existing(self, ws: WorkingSet, track_labels: bool) -> None:
+        if self.kernels is not None:
+            pair_particle, pair_block = self.kernels.dirty_pairs(ws)
+            if len(pair_particle) == 0:
+                return
+            rows = self._own_rows(pair_particle, ws.columns[pair_particle, pair_block])
+            self.kernels.write_back(ws, pair_particle, pair_block, rows, self.state,
+                                    self.occupied)
+            if track_labels:
+                self._forget_labels(ws, *np.nonzero(ws.dirty & (ws.row >= 0) & ~ws.valid))
+            return
         owner, entry = np.nonzero(ws.dirty & (ws.row >= 0))
         if len(owner) == 0:
             return
@@ -323,11 +475,16 @@ class LandmarkStore(RecordViews):
         self.state.reshape(-1, STATE_WIDTH)[target] = ws.state[owner, entry]
         self.occupied.flat[target] = keep
         if track_labels and not np.all(keep):
-            gone = ~keep
-            labels = ws.label[owner[gone], entry[gone]]
-            index = self._label_indices(labels, create=False)
-            known = index >= 0
-            self.label_column[owner[gone][known], index[known]] = -1
+            self._forget_labels(ws, owner[~keep], entry[~keep])
+
+    def _forget_labels(self, ws: WorkingSet, owner: np.ndarray, entry: np.ndarray) -> None:
+        """Known ids: removed working-set entries (owner, entry) no longer hold their label."""
+        if len(owner) == 0:
+            return
+        index = self._label_indices(ws.label[owner, entry], create=False)
+        known = index >= 0
+        self.label_tables.refresh(index[known])
+        self.label_column[owner[known], index[known]] = -1
 
     def _insert_new(self, ws: WorkingSet, track_labels: bool) -> None:
         """Put new landmarks in their cell's block, opening another column when it is full."""
@@ -369,6 +526,7 @@ class LandmarkStore(RecordViews):
         if track_labels:
             labels = ws.label[owner, entry]
             index = self._label_indices(labels, create=True)
+            self.label_tables.refresh(index)
             self.label_column[owner, index] = columns
 
     def new_keys(self, count: int) -> np.ndarray:
@@ -381,32 +539,30 @@ class LandmarkStore(RecordViews):
     def resample(self, indices: np.ndarray) -> None:
         """Particle m takes the map of particle ``indices[m]``: tables only, blocks shared.
 
-        Deferred: the index arrays of consecutive resamplings compose (O(M)), and the tables,
-        whose size grows with the map, are reindexed once when next read.
+        Deferred: the tables, whose size grows with the map, are reindexed column by column
+        when read (``ResampledTable``).
         """
-        self._resampled = indices if self._resampled is None else self._resampled[indices]
+        self.tables.resample(indices)
+        self.label_tables.resample(indices)
 
     def apply_resampling(self) -> None:
-        """Reindex the tables by the resampling deferred so far and recount block references."""
-        if self._resampled is None:
-            return
-        indices, self._resampled = self._resampled, None
-        self.table = self.table[indices]
-        self.label_column = self.label_column[indices]
-        # Shifted by one, so that -1 (no block) lands in bin 0: cheaper than masking it out.
-        shifted = self.table[:, :self.num_cells] + 1
-        self.refcount = np.bincount(shifted.ravel(), minlength=self.num_rows + 1)[1:]
+        """Reindex the whole tables by the resampling deferred so far and recount all block
+        references (the filter itself only ever reads the columns it needs)."""
+        self.label_tables.refresh_all()
+        self.recount()
 
     def particle_map(self, particle: int, skip_columns: np.ndarray | None = None):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle,
         leaving out the cell ``skip_columns`` (-1 ignored)."""
-        if self._resampled is not None:
-            particle = int(self._resampled[particle])
-        rows = self.table[particle, :self.num_cells].copy()
+        rows = self.tables.row(particle, self.num_cells)
         if skip_columns is not None:
             rows[skip_columns[skip_columns >= 0]] = -1
-        rows = rows[rows >= 0]
-        mask = self.occupied[rows]
-        state, ident = self.state[rows][mask], self.ident[rows][mask]
+        if self.kernels is not None:
+            state, ident = self.kernels.block_records(rows, self.occupied, self.state,
+                                                      self.ident)
+        else:
+            rows = rows[rows >= 0]
+            mask = self.occupied[rows]
+            state, ident = self.state[rows][mask], self.ident[rows][mask]
         return (state[:, MEAN], state[:, COV], state[:, LOGODDS], ident[:, LABEL],
                 ident[:, KEY])

@@ -68,6 +68,10 @@ class PathHistory:
         for generation in range(len(self._stamps) - 1, -1, -1):
             parents = self._parents[generation][alive]
             self._poses[generation] = self._poses[generation][alive]
+            if len(parents) == 1:
+                # One node (the particles have coalesced): nothing to sort or look up.
+                alive, self._parents[generation] = parents, np.zeros(1, np.int64)
+                continue
             alive = np.unique(parents)
             self._parents[generation] = np.searchsorted(alive, parents)
         single = [len(p) == 1 for p in self._poses]

@@ -44,7 +44,6 @@ from rosbags.rosbag2 import Writer
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.tools import cli
@@ -195,19 +194,28 @@ def _cdr_string(buffer: bytearray, text: str) -> None:
     buffer += struct.pack("<I", len(encoded)) + encoded
 
 
-def tf_message_cdr(stamp_ns: int, parent: str, child: str, pose) -> bytes:
-    """The serialized ``tf2_msgs/TFMessage`` holding one planar transform parent -> child (x, y,
-    yaw), byte for byte what rosbags' serializer writes, written directly: a replay records one
-    per odometry message, where a message object and the generic serializer cost more than
-    the filter's prediction."""
-    seconds, nanoseconds = divmod(stamp_ns, 1_000_000_000)
-    payload = bytearray(struct.pack("<Iii", 1, seconds, nanoseconds))
-    _cdr_string(payload, parent)
-    _cdr_string(payload, child)
-    payload += bytes(-len(payload) % 8)
-    payload += struct.pack("<7d", float(pose[0]), float(pose[1]), 0.0,
-                           *yaw_to_quaternion(float(pose[2])))
-    return b"\x00\x01\x00\x00" + bytes(payload)
+_TF_HEAD = struct.Struct("<4sIii")
+_TF_VALUES = struct.Struct("<7d")
+_tf_frames: dict[tuple[str, str], bytes] = {}
+
+
+def tf_message_cdr(sec: int, nanosec: int, parent: str, child: str, translation,
+                   rotation) -> bytes:
+    """The serialized ``tf2_msgs/TFMessage`` holding one transform parent -> child at stamp
+    (sec, nanosec), translation (x, y, z), rotation quaternion (x, y, z, w), all written as
+    given: byte for byte what rosbags' serializer writes, written directly (a replay records
+    one per odometry message, where a message object and the generic serializer cost more
+    than the filter's prediction)."""
+    frames = _tf_frames.get((parent, child))
+    if frames is None:
+        # After the 12 bytes of count and stamp: both strings, then padding to the doubles.
+        buffer = bytearray(12)
+        _cdr_string(buffer, parent)
+        _cdr_string(buffer, child)
+        buffer += bytes(-len(buffer) % 8)
+        frames = _tf_frames[(parent, child)] = bytes(buffer[12:])
+    return b"".join((_TF_HEAD.pack(b"\x00\x01\x00\x00", 1, sec, nanosec), frames,
+                     _TF_VALUES.pack(*translation, *rotation)))
 
 
 class MarkerArrayCdr:
@@ -276,11 +284,11 @@ class OutputRecorder:
         self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns, raw)
         if isinstance(msg, TransformStamped):
             translation, rotation = msg.transform.translation, msg.transform.rotation
-            yaw = quaternion_to_yaw(rotation.x, rotation.y, rotation.z, rotation.w)
             stamp = msg.header.stamp
             self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
-                stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id,
-                msg.child_frame_id, (translation.x, translation.y, yaw)))
+                stamp.sec, stamp.nanosec, msg.header.frame_id, msg.child_frame_id,
+                (translation.x, translation.y, translation.z),
+                (rotation.x, rotation.y, rotation.z, rotation.w)))
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
@@ -293,11 +301,10 @@ class OutputRecorder:
     def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
         """``/tf`` odom -> base_link of an odometry message the node used (so valid)."""
         pose, stamp = msg.pose.pose, msg.header.stamp
-        q = pose.orientation
-        planar = (pose.position.x, pose.position.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+        p, q = pose.position, pose.orientation
         self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
-            stamp.sec * 1_000_000_000 + stamp.nanosec, msg.header.frame_id or odom_frame,
-            msg.child_frame_id or base_frame, planar))
+            stamp.sec, stamp.nanosec, msg.header.frame_id or odom_frame,
+            msg.child_frame_id or base_frame, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)))
 
 
 @dataclass(frozen=True)
