@@ -309,10 +309,16 @@ class PeopleTracker:
         self.log_weights = np.full(count, -math.log(count))
 
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
-        """Mean (M, N, 2) and covariance (M, N, 2, 2) of every person's particles."""
-        mean = self.people.mean(axis=2)
-        centred = self.people - mean[:, :, None, :]
-        cov = np.einsum("mnpi,mnpj->mnij", centred, centred) / self.people.shape[2]
+        """Mean (M, N, 2) and covariance (M, N, 2, 2) of every live person's particles (a
+        free slot: mean 0, identity covariance; its particles are not read)."""
+        count, slots = self.alive.shape
+        mean = np.zeros((count, slots, 2))
+        cov = np.broadcast_to(np.eye(2), (count, slots, 2, 2)).copy()
+        m, n = np.nonzero(self.alive)
+        particles = self.people[m, n]                                  # (K, M_p, 2)
+        mean[m, n] = particles.mean(axis=1)
+        centred = particles - mean[m, n][:, None, :]
+        cov[m, n] = np.einsum("kpi,kpj->kij", centred, centred) / particles.shape[1]
         return mean, cov
 
     def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
@@ -428,17 +434,22 @@ class PeopleTracker:
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
         self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
-        mean = self.people.mean(axis=2)
+        m, n = np.nonzero(self.alive)                   # live people only: free slots are many
+        particles = self.people[m, n]                                  # (K, M_p, 2)
+        mean = np.zeros(self.alive.shape + (2,))
+        mean[m, n] = particles.mean(axis=1)
+        lost = np.zeros_like(self.alive)
         # Variance of x plus variance of y, from the mean just taken (``var`` would take it again).
-        spread = np.square(self.people - mean[:, :, None]).mean(axis=2).sum(axis=2)
+        lost[m, n] = (np.square(particles - mean[m, n][:, None]).mean(axis=1).sum(axis=1)
+                      > 2.0 * s.lost_spread ** 2)
         apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
         confirmed = self.alive & self.confirmed
         duplicate = ~self.confirmed & np.any(confirmed[:, None, :] & (apart < DUPLICATE_GATE),
                                              axis=2)
-        gone = self.alive & (removed(self.logodds, s.logodds_remove)
-                             | (spread > 2.0 * s.lost_spread ** 2) | duplicate)
+        gone = self.alive & (removed(self.logodds, s.logodds_remove) | lost | duplicate)
         self.alive &= ~gone
         self.keys[gone] = -1
+        self.confirmed &= self.alive
         return gone.sum(axis=1)
 
     def _finish(self, report: UpdateReport) -> None:
