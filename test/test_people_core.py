@@ -363,3 +363,48 @@ def test_a_removed_person_leaves_its_slot_unconfirmed():
     run(tracker, grid, pose, [], 6, t)                         # left: in view, unseen
     assert not tracker.alive.any()
     assert not tracker.confirmed.any()
+
+
+def see_then_hide(**settings) -> tuple[PeopleTracker, OccupancyMap, np.ndarray, float]:
+    """A person at (7, 6) seen from (2, 9.2), past the end of a wall, then hidden behind the
+    wall from (2, 5), where the robot stays."""
+    grid = room([(5.0, 5.2, 3.0, 7.0)])
+    seen_from = np.array([2.0, 9.2, 0.0])
+    tracker = tracker_at(grid, seen_from, **settings)
+    t = run(tracker, grid, seen_from, [(7.0, 6.0)], 8)
+    assert len(tracker.people_of().keys) == 1
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker.poses[:] = pose
+    return tracker, grid, pose, t
+
+
+def test_a_person_back_in_view_elsewhere_keeps_its_id():
+    """Hidden behind a wall for 3 s, a person comes out 4.6 m from where it was last seen
+    (within max_person_speed x 3 s + 0.5 m): it is re-identified, keeps its id, and its old
+    track behind the wall is gone (not a second track)."""
+    tracker, grid, pose, t = see_then_hide()
+    key = tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 30, t)         # behind the wall
+    assert tracker.people_of().keys.tolist() == key           # kept, unseen
+    t = run(tracker, grid, pose, [(6.0, 1.5)], 3, t)          # out below the wall's end
+    people = tracker.people_of()
+    assert people.keys.tolist() == key
+    assert np.linalg.norm(people.means[0] - (6.0, 1.5)) < 0.3
+    for m in range(tracker.num_particles):
+        assert tracker.keys[m][tracker.alive[m]].tolist() == key
+
+
+def test_a_lost_person_back_within_reach_keeps_its_id_and_a_newcomer_gets_a_new_one():
+    """Removed as lost after 12 s behind a wall, a person coming out within reach of where it
+    was last seen takes its id back; a person appearing where no one could have walked in
+    that time gets a new id."""
+    tracker, grid, pose, t = see_then_hide(max_person_speed=0.5)
+    key = tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 120, t)        # 12 s hidden: lost
+    assert not tracker.alive.any()
+    t = run(tracker, grid, pose, [(6.0, 1.5)], 3, t)          # 4.6 m in 12 s: within reach
+    assert tracker.people_of().keys.tolist() == key
+    run(tracker, grid, pose, [(6.0, 1.5), (1.0, 1.0)], 3, t)  # 7.8 m away: out of reach
+    keys = tracker.people_of().keys.tolist()
+    assert len(keys) == 2 and key[0] in keys
+
