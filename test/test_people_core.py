@@ -408,3 +408,26 @@ def test_a_lost_person_back_within_reach_keeps_its_id_and_a_newcomer_gets_a_new_
     keys = tracker.people_of().keys.tolist()
     assert len(keys) == 2 and key[0] in keys
 
+
+
+def test_ids_are_voted_across_robot_particles():
+    """A robot particle that gave a person another id than most of the weight takes the
+    majority's id; a person of its own elsewhere keeps its id."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose, num_particles=3, resample_threshold=0.0)
+    tracker.alive[:, 0] = tracker.confirmed[:, 0] = True
+    tracker.keys[:, 0] = (5, 5, 9)
+    tracker.logodds[:, 0] = 3.0
+    tracker.people[:, 0] = (6.0, 5.5)
+    tracker.alive[2, 1] = tracker.confirmed[2, 1] = True       # missed once: still there
+    tracker.keys[2, 1] = 11
+    tracker.logodds[2, 1] = 3.0
+    tracker.people[2, 1] = (1.0, 5.0)
+    tracker.next_key = 12
+    tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+    for m in range(3):
+        people = tracker.people_of(m)
+        near = np.linalg.norm(people.means - (6.0, 5.5), axis=1) < 0.3
+        assert people.keys[near].tolist() == [5]
+    assert 11 in tracker.people_of(2).keys.tolist()

@@ -26,7 +26,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    half the map and catch anyone's detection); a new person is tentative, not published,
    until its log-odds reach ``logodds_confirm``, and removed as a duplicate within
    DUPLICATE_GATE of a confirmed one;
-7. resample the robot particles when N_eff is low: one index array gathers the poses and the
+7. vote the ids across the robot particles: a person near the weighted centroid of an id more
+   weight holds than its own takes that id (the published ids survive a change of the best
+   particle);
+8. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
 Without an initial pose the robot particles start uniform over the free space
@@ -70,6 +73,9 @@ localization (2 s at 10 Hz)."""
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
+VOTE_GATE = 0.3
+"""A person takes the id that most of the robot particles' weight gives a person within this
+distance (m) of it (the weighted centroid of that id's people)."""
 REID_MIN_UNSEEN = 1.0
 """A person unseen for at least this long (s) may be re-identified in a new detection."""
 REID_MARGIN = 0.5
@@ -528,10 +534,36 @@ class PeopleTracker:
         s = self.settings
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
+        self._vote_keys(weights)
         report.effective_sample_size = effective_sample_size(weights)
         if report.effective_sample_size < s.resample_threshold * self.num_particles:
             self._gather(systematic_resample(weights, self.rng))
             report.resampled = True
+
+    def _vote_keys(self, weights: np.ndarray) -> None:
+        """Ids voted across the robot particles: a person whose position is within VOTE_GATE
+        of the weighted centroid of an id that more weight holds than its own takes that id
+        (unless its particle holds it already), so that the robot particles agree on the ids
+        and a change of the best particle does not change them."""
+        m, n = np.nonzero(self.alive)
+        if len(m) == 0:
+            return
+        means = self.people[m, n].mean(axis=1)
+        unique, own = np.unique(self.keys[m, n], return_inverse=True)
+        total = np.bincount(own, weights[m], len(unique))
+        centroid = np.stack([np.bincount(own, weights[m] * means[:, i], len(unique))
+                             for i in range(2)], axis=1) / np.maximum(total, 1e-300)[:, None]
+        near = np.linalg.norm(means[:, None] - centroid[None], axis=2) < VOTE_GATE
+        choice = np.argmax(np.where(near, total, -1.0), axis=1)
+        rows = np.arange(len(m))
+        take = near[rows, choice] & (total[choice] > total[own])
+        take &= ~np.any(self.alive[m] & (self.keys[m] == unique[choice][:, None]), axis=1)
+        _, first, count = np.unique(m * len(unique) + choice, return_index=True,
+                                    return_counts=True)
+        single = np.zeros(len(m), dtype=bool)
+        single[first[count == 1]] = True
+        take &= single
+        self.keys[m[take], n[take]] = unique[choice[take]]
 
     def _gather(self, index: np.ndarray) -> None:
         """Keep the robot particles ``index`` with their people, at equal weights."""
