@@ -207,26 +207,29 @@ def test_a_person_found_again_by_one_particle_takes_the_others_key():
     assert keys == [{7}, {7}, {7}]
 
 
-def test_ids_agree_across_robot_particles_for_people_crossing():
-    """Two people walking past each other: every robot particle has the same two keys, each
-    on the same person (the best particle changing does not change the ids)."""
+def test_ids_do_not_swap_when_people_cross():
+    """Two people walking past each other 0.6 m apart (their outlines 0.2 m apart): from their
+    confirmation through the crossing to the end, in every robot particle, each person keeps
+    the key it had when confirmed (no swap), and every particle has the same two keys (the
+    best particle changing does not change the ids)."""
     grid = room()
     pose = (1.0, 5.0, 0.0)
     tracker = tracker_at(grid, pose, num_particles=30)
-    t = 0.0
+    keys = None
     for k in range(40):
-        a, b = (3.0 + 0.1 * k, 4.4), (7.0 - 0.1 * k, 5.6)
-        tracker.update(t, scan_at(grid, pose, [a, b]))
-        t += 0.1
-    for m in range(tracker.num_particles):
-        people = tracker.people_of(m)
-        assert len(people.keys) == 2
-        lower = int(np.argmin(people.means[:, 1]))
-        assert np.linalg.norm(people.means[lower] - a) < 0.3
-        assert np.linalg.norm(people.means[1 - lower] - b) < 0.3
-        if m == 0:
-            keys = (people.keys[lower], people.keys[1 - lower])
-        assert (people.keys[lower], people.keys[1 - lower]) == keys
+        a, b = (3.0 + 0.1 * k, 4.7), (7.0 - 0.1 * k, 5.3)      # side by side at k = 20
+        tracker.update(0.1 * k, scan_at(grid, pose, [a, b]))
+        if k == 0:
+            continue                                         # tentative after one detection
+        for m in range(tracker.num_particles):
+            people = tracker.people_of(m)
+            assert len(people.keys) == 2
+            near_a = np.linalg.norm(people.means - a, axis=1)
+            near_b = np.linalg.norm(people.means - b, axis=1)
+            assert near_a.min() < 0.3 and near_b.min() < 0.3
+            on_people = (int(people.keys[np.argmin(near_a)]), int(people.keys[np.argmin(near_b)]))
+            keys = on_people if keys is None else keys
+            assert on_people == keys, f"step {k}, particle {m}: ids {on_people}, were {keys}"
 
 
 def test_a_person_hidden_for_a_while_keeps_its_id_and_one_lost_is_removed():
@@ -329,3 +332,102 @@ def test_a_tentative_person_on_a_confirmed_one_is_removed():
     tracker.next_key = 3
     tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
     np.testing.assert_array_equal(tracker.alive[:, :3], np.tile([True, False, True], (4, 1)))
+
+
+def test_free_person_slots_are_never_read():
+    """The per-scan summaries and spreads cover the live people only: free slots filled with
+    huge values (which would overflow when squared) change nothing, and raise nothing."""
+    grid = room()
+    pose = (2.0, 5.0, 0.0)
+    clean, dirty = tracker_at(grid, pose), tracker_at(grid, pose)
+    walk = [[(6.0, 5.5), (4.0, 3.0)]] * 6 + [[(6.1, 5.6)]] * 6 + [[]] * 4
+    with np.errstate(all="raise"):
+        for k, people in enumerate(walk):
+            dirty.people[~dirty.alive] = 1e300
+            scan = scan_at(grid, pose, people)
+            clean.update(0.1 * k, scan)
+            dirty.update(0.1 * k, scan)
+            np.testing.assert_array_equal(dirty.alive, clean.alive)
+            np.testing.assert_array_equal(dirty.keys, clean.keys)
+            np.testing.assert_array_equal(dirty.people[dirty.alive], clean.people[clean.alive])
+            np.testing.assert_array_equal(dirty.log_weights, clean.log_weights)
+
+
+def test_a_removed_person_leaves_its_slot_unconfirmed():
+    """Removal frees the slot entirely: no dead slot stays confirmed."""
+    grid = room()
+    pose = (2.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 5.5)], 5)
+    assert (tracker.alive & tracker.confirmed).any(axis=1).all()
+    run(tracker, grid, pose, [], 6, t)                         # left: in view, unseen
+    assert not tracker.alive.any()
+    assert not tracker.confirmed.any()
+
+
+def see_then_hide(**settings) -> tuple[PeopleTracker, OccupancyMap, np.ndarray, float]:
+    """A person at (7, 6) seen from (2, 9.2), past the end of a wall, then hidden behind the
+    wall from (2, 5), where the robot stays."""
+    grid = room([(5.0, 5.2, 3.0, 7.0)])
+    seen_from = np.array([2.0, 9.2, 0.0])
+    tracker = tracker_at(grid, seen_from, **settings)
+    t = run(tracker, grid, seen_from, [(7.0, 6.0)], 8)
+    assert len(tracker.people_of().keys) == 1
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker.poses[:] = pose
+    return tracker, grid, pose, t
+
+
+def test_a_person_back_in_view_elsewhere_keeps_its_id():
+    """Hidden behind a wall for 3 s, a person comes out 4.6 m from where it was last seen
+    (within max_person_speed x 3 s + 0.5 m): it is re-identified, keeps its id, and its old
+    track behind the wall is gone (not a second track)."""
+    tracker, grid, pose, t = see_then_hide()
+    key = tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 30, t)         # behind the wall
+    assert tracker.people_of().keys.tolist() == key           # kept, unseen
+    t = run(tracker, grid, pose, [(6.0, 1.5)], 3, t)          # out below the wall's end
+    people = tracker.people_of()
+    assert people.keys.tolist() == key
+    assert np.linalg.norm(people.means[0] - (6.0, 1.5)) < 0.3
+    for m in range(tracker.num_particles):
+        assert tracker.keys[m][tracker.alive[m]].tolist() == key
+
+
+def test_a_lost_person_back_within_reach_keeps_its_id_and_a_newcomer_gets_a_new_one():
+    """Removed as lost after 12 s behind a wall, a person coming out within reach of where it
+    was last seen takes its id back; a person appearing where no one could have walked in
+    that time gets a new id."""
+    tracker, grid, pose, t = see_then_hide(max_person_speed=0.5)
+    key = tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 120, t)        # 12 s hidden: lost
+    assert not tracker.alive.any()
+    t = run(tracker, grid, pose, [(6.0, 1.5)], 3, t)          # 4.6 m in 12 s: within reach
+    assert tracker.people_of().keys.tolist() == key
+    run(tracker, grid, pose, [(6.0, 1.5), (1.0, 1.0)], 3, t)  # 7.8 m away: out of reach
+    keys = tracker.people_of().keys.tolist()
+    assert len(keys) == 2 and key[0] in keys
+
+
+
+def test_ids_are_voted_across_robot_particles():
+    """A robot particle that gave a person another id than most of the weight takes the
+    majority's id; a person of its own elsewhere keeps its id."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose, num_particles=3, resample_threshold=0.0)
+    tracker.alive[:, 0] = tracker.confirmed[:, 0] = True
+    tracker.keys[:, 0] = (5, 5, 9)
+    tracker.logodds[:, 0] = 3.0
+    tracker.people[:, 0] = (6.0, 5.5)
+    tracker.alive[2, 1] = tracker.confirmed[2, 1] = True       # missed once: still there
+    tracker.keys[2, 1] = 11
+    tracker.logodds[2, 1] = 3.0
+    tracker.people[2, 1] = (1.0, 5.0)
+    tracker.next_key = 12
+    tracker.update(0.0, scan_at(grid, pose, [(6.0, 5.5)]))
+    for m in range(3):
+        people = tracker.people_of(m)
+        near = np.linalg.norm(people.means - (6.0, 5.5), axis=1) < 0.3
+        assert people.keys[near].tolist() == [5]
+    assert 11 in tracker.people_of(2).keys.tolist()

@@ -353,5 +353,9 @@ def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
         fixed = node.set_parameters([Parameter("num_particles", value=50)])[0]
         assert not fixed.successful and "restart" in fixed.reason
         assert node.tracker_settings.num_particles == 20
+        # Read once at start (file or subscription): refused, not accepted and ignored.
+        fixed = node.set_parameters([Parameter("map_file", value="/tmp/other_map.yaml")])[0]
+        assert not fixed.successful and "map_file" in fixed.reason and "start" in fixed.reason
+        assert node.get_parameter("map_file").value == ""
     finally:
         node.destroy_node()

@@ -14,9 +14,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    detection starts a new person (its key is shared by every robot particle that starts one for
    that detection, and it takes the key most of the particles' weight associated that
    detection to, so a person one particle lost and found again keeps its id and ids stay
-   stable when another particle becomes the best); no new person within DUPLICATE_GATE of a
-   person of that robot particle; the robot particle's weight is multiplied by
-   max(likelihood, p0);
+   stable when another particle becomes the best, or else the id of a hidden or removed person
+   of that particle who could have walked there since last seen: re-identification); no new
+   person within DUPLICATE_GATE of a person of that robot particle; the robot particle's
+   weight is multiplied by max(likelihood, p0);
 5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
 6. existence (core.existence): + tau+ when detected; + tau- when in view, not occluded (the
    beams toward it passed beyond it: a person behind a wall or another person is no evidence)
@@ -25,7 +26,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    half the map and catch anyone's detection); a new person is tentative, not published,
    until its log-odds reach ``logodds_confirm``, and removed as a duplicate within
    DUPLICATE_GATE of a confirmed one;
-7. resample the robot particles when N_eff is low: one index array gathers the poses and the
+7. vote the ids across the robot particles: a person near the weighted centroid of an id more
+   weight holds than its own takes that id (the published ids survive a change of the best
+   particle);
+8. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
 Without an initial pose the robot particles start uniform over the free space
@@ -69,6 +73,15 @@ localization (2 s at 10 Hz)."""
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
+VOTE_GATE = 0.3
+"""A person takes the id that most of the robot particles' weight gives a person within this
+distance (m) of it (the weighted centroid of that id's people)."""
+REID_MIN_UNSEEN = 1.0
+"""A person unseen for at least this long (s) may be re-identified in a new detection."""
+REID_MARGIN = 0.5
+"""Re-identification reach beyond walking: max_person_speed x time unseen + this (m)."""
+REID_MEMORY = 60.0
+"""A removed person's id is kept this long (s) after it was last detected, for re-identification."""
 DUPLICATE_GATE = 0.5
 """A detection no person explains starts no new person within this distance (m) of a person
 of its robot particle (tentative or confirmed, already detected in this scan or not): it is
@@ -149,6 +162,12 @@ class PeopleTracker:
         self.logodds = np.zeros((count, slots))
         self.keys = np.full((count, slots), -1, dtype=np.int64)
         self.confirmed = np.zeros((count, slots), dtype=bool)
+        self.last_seen = np.zeros((count, slots))
+        # removed confirmed people, kept for re-identification: key (-1: empty), position at
+        # removal, stamp of their last detection
+        self.lost_keys = np.full((count, slots), -1, dtype=np.int64)
+        self.lost_positions = np.zeros((count, slots, 2))
+        self.lost_seen = np.zeros((count, slots))
 
     @property
     def num_particles(self) -> int:
@@ -309,10 +328,16 @@ class PeopleTracker:
         self.log_weights = np.full(count, -math.log(count))
 
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
-        """Mean (M, N, 2) and covariance (M, N, 2, 2) of every person's particles."""
-        mean = self.people.mean(axis=2)
-        centred = self.people - mean[:, :, None, :]
-        cov = np.einsum("mnpi,mnpj->mnij", centred, centred) / self.people.shape[2]
+        """Mean (M, N, 2) and covariance (M, N, 2, 2) of every live person's particles (a
+        free slot: mean 0, identity covariance; its particles are not read)."""
+        count, slots = self.alive.shape
+        mean = np.zeros((count, slots, 2))
+        cov = np.broadcast_to(np.eye(2), (count, slots, 2, 2)).copy()
+        m, n = np.nonzero(self.alive)
+        particles = self.people[m, n]                                  # (K, M_p, 2)
+        mean[m, n] = particles.mean(axis=1)
+        centred = particles - mean[m, n][:, None, :]
+        cov[m, n] = np.einsum("kpi,kpj->kij", centred, centred) / particles.shape[1]
         return mean, cov
 
     def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
@@ -365,12 +390,18 @@ class PeopleTracker:
             if len(m) == 0:
                 continue
             slot = np.argmax(free[m], axis=1)
-            key = key_of_detection.setdefault(j, self.next_key + len(key_of_detection))
+            fresh = key_of_detection.setdefault(j, self.next_key + len(key_of_detection))
+            key = np.full(len(m), fresh)
             if associate.any():  # the key the other particles' weight gave this detection
                 voted, inverse = np.unique(self.keys[rows, best][associate], return_inverse=True)
                 consensus = voted[np.argmax(np.bincount(inverse, weights[associate]))]
                 has_it = np.any(self.alive[m] & (self.keys[m] == consensus), axis=1)
                 key = np.where(has_it, key, consensus)
+            unknown = np.flatnonzero(key == fresh)
+            found, found_slot = self._reidentify(m[unknown], points[m[unknown], j], mean,
+                                                 observed)
+            key[unknown] = np.where(found >= 0, found, fresh)
+            slot[unknown] = np.where(found_slot >= 0, found_slot, slot[unknown])
             self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
                 0.0, s.detection_sigma, (len(m), s.people_particles, 2))
             self.alive[m, slot] = True
@@ -378,6 +409,7 @@ class PeopleTracker:
             self.logodds[m, slot] = 0.0
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
+            self.last_seen[m, slot] = self.last_stamp
             observed[m, slot] = True
             created[m] += 1
         self.next_key += len(key_of_detection)
@@ -392,7 +424,42 @@ class PeopleTracker:
             w /= w.sum(axis=1, keepdims=True)
             index = batched_systematic_resample(w, self.rng)
             self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
+            self.last_seen[m, n] = self.last_stamp
         return observed, created, unexplained
+
+    def _reidentify(self, m: np.ndarray, points: np.ndarray, mean: np.ndarray,
+                    observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Re-identification of the new people at ``points`` (K, 2) of robot particles ``m``
+        (K,): the nearest confirmed person of the particle unseen for at least
+        REID_MIN_UNSEEN (hidden, its cloud left behind where it was last seen) or removed at
+        most REID_MEMORY ago (lost), that could have walked there since its last detection
+        (``max_person_speed`` x time unseen + REID_MARGIN). Returns the keys (K,) (-1: none)
+        and the slot of an unseen person to reuse (K,) (-1: a free one)."""
+        s = self.settings
+        if len(m) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.intp)
+        now = self.last_stamp
+        unseen = now - self.last_seen[m]
+        hidden = (self.alive[m] & self.confirmed[m] & ~observed[m] & (unseen >= REID_MIN_UNSEEN)
+                  & (np.linalg.norm(mean[m] - points[:, None], axis=2)
+                     <= s.max_person_speed * unseen + REID_MARGIN))
+        gone = now - self.lost_seen[m]
+        alive_keys = np.where(self.alive[m], self.keys[m], -1)
+        lost = ((self.lost_keys[m] >= 0) & (gone <= REID_MEMORY)
+                & ~np.any(self.lost_keys[m][:, :, None] == alive_keys[:, None, :], axis=2)
+                & (np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2)
+                   <= s.max_person_speed * gone + REID_MARGIN))
+        distance = np.concatenate([
+            np.where(hidden, np.linalg.norm(mean[m] - points[:, None], axis=2), np.inf),
+            np.where(lost, np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2),
+                     np.inf)], axis=1)
+        choice = np.argmin(distance, axis=1)
+        found = np.isfinite(distance[np.arange(len(m)), choice])
+        slots = self.alive.shape[1]
+        from_slot = found & (choice < slots)
+        keys = np.where(from_slot, self.keys[m, np.minimum(choice, slots - 1)],
+                        self.lost_keys[m, np.maximum(choice - slots, 0)])
+        return np.where(found, keys, -1), np.where(from_slot, choice, -1)
 
     def _missed_evidence(self, sensors: np.ndarray, scan: Scan, observed: np.ndarray,
                          max_range: float) -> np.ndarray:
@@ -428,28 +495,75 @@ class PeopleTracker:
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
         self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
-        mean = self.people.mean(axis=2)
+        m, n = np.nonzero(self.alive)                   # live people only: free slots are many
+        particles = self.people[m, n]                                  # (K, M_p, 2)
+        mean = np.zeros(self.alive.shape + (2,))
+        mean[m, n] = particles.mean(axis=1)
+        lost = np.zeros_like(self.alive)
         # Variance of x plus variance of y, from the mean just taken (``var`` would take it again).
-        spread = np.square(self.people - mean[:, :, None]).mean(axis=2).sum(axis=2)
+        lost[m, n] = (np.square(particles - mean[m, n][:, None]).mean(axis=1).sum(axis=1)
+                      > 2.0 * s.lost_spread ** 2)
         apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
         confirmed = self.alive & self.confirmed
         duplicate = ~self.confirmed & np.any(confirmed[:, None, :] & (apart < DUPLICATE_GATE),
                                              axis=2)
-        gone = self.alive & (removed(self.logodds, s.logodds_remove)
-                             | (spread > 2.0 * s.lost_spread ** 2) | duplicate)
+        gone = self.alive & (removed(self.logodds, s.logodds_remove) | lost | duplicate)
+        self._remember(gone & self.confirmed, mean)
         self.alive &= ~gone
         self.keys[gone] = -1
+        self.confirmed &= self.alive
         return gone.sum(axis=1)
+
+    def _remember(self, gone: np.ndarray, mean: np.ndarray) -> None:
+        """Keep the removed confirmed people ``gone`` (M, N) for re-identification: each
+        replaces its own key's entry, else an empty or the oldest one (one slot per round,
+        a round per slot holding a removal)."""
+        rows = np.arange(self.num_particles)
+        for n in np.flatnonzero(gone.any(axis=0)):
+            m = rows[gone[:, n]]
+            same = self.lost_keys[m] == self.keys[m, n, None]
+            oldest = np.argmin(np.where(self.lost_keys[m] < 0, -np.inf, self.lost_seen[m]),
+                               axis=1)
+            entry = np.where(same.any(axis=1), np.argmax(same, axis=1), oldest)
+            self.lost_keys[m, entry] = self.keys[m, n]
+            self.lost_positions[m, entry] = mean[m, n]
+            self.lost_seen[m, entry] = self.last_seen[m, n]
 
     def _finish(self, report: UpdateReport) -> None:
         """Normalise, resample when N_eff is low, end global localization when converged."""
         s = self.settings
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
+        self._vote_keys(weights)
         report.effective_sample_size = effective_sample_size(weights)
         if report.effective_sample_size < s.resample_threshold * self.num_particles:
             self._gather(systematic_resample(weights, self.rng))
             report.resampled = True
+
+    def _vote_keys(self, weights: np.ndarray) -> None:
+        """Ids voted across the robot particles: a person whose position is within VOTE_GATE
+        of the weighted centroid of an id that more weight holds than its own takes that id
+        (unless its particle holds it already), so that the robot particles agree on the ids
+        and a change of the best particle does not change them."""
+        m, n = np.nonzero(self.alive)
+        if len(m) == 0:
+            return
+        means = self.people[m, n].mean(axis=1)
+        unique, own = np.unique(self.keys[m, n], return_inverse=True)
+        total = np.bincount(own, weights[m], len(unique))
+        centroid = np.stack([np.bincount(own, weights[m] * means[:, i], len(unique))
+                             for i in range(2)], axis=1) / np.maximum(total, 1e-300)[:, None]
+        near = np.linalg.norm(means[:, None] - centroid[None], axis=2) < VOTE_GATE
+        choice = np.argmax(np.where(near, total, -1.0), axis=1)
+        rows = np.arange(len(m))
+        take = near[rows, choice] & (total[choice] > total[own])
+        take &= ~np.any(self.alive[m] & (self.keys[m] == unique[choice][:, None]), axis=1)
+        _, first, count = np.unique(m * len(unique) + choice, return_index=True,
+                                    return_counts=True)
+        single = np.zeros(len(m), dtype=bool)
+        single[first[count == 1]] = True
+        take &= single
+        self.keys[m[take], n[take]] = unique[choice[take]]
 
     def _gather(self, index: np.ndarray) -> None:
         """Keep the robot particles ``index`` with their people, at equal weights."""
@@ -459,6 +573,10 @@ class PeopleTracker:
         self.logodds = self.logodds[index]
         self.keys = self.keys[index]
         self.confirmed = self.confirmed[index]
+        self.last_seen = self.last_seen[index]
+        self.lost_keys = self.lost_keys[index]
+        self.lost_positions = self.lost_positions[index]
+        self.lost_seen = self.lost_seen[index]
         self.log_weights = np.full(len(index), -math.log(len(index)))
 
     # --- estimates ----------------------------------------------------------------------------

@@ -99,6 +99,10 @@ class TrackerSettings:
         1.5, "A new person is tentative (not published) until its log-odds reach this: 1.5 "
              "is two detections at the default tau+ (log-odds saturate at 3).",
         high=LOGODDS_MAX)
+    max_person_speed: float = parameter(
+        1.5, "Re-identification: a new person within this speed (m/s) times the time unseen "
+             "(plus 0.5 m) of a hidden or removed person's last position takes its id.",
+        low=0.0)
     lost_spread: float = parameter(
         1.0, "A person whose particles' position standard deviation (m, per axis) exceeds "
              "this is lost and removed (unseen for long, its Brownian cloud would catch "
