@@ -271,21 +271,25 @@ class FilterNode(Node):
             raise ParameterError(f"parameter '{name}': {error}") from None
 
     def _declare_parameters(self, core_specs: Specs, build_core: Callable[..., Any],
-                            node_specs: Specs, node_settings: Callable[..., Any]) -> Any:
+                            node_specs: Specs, node_settings: Callable[..., Any],
+                            start_only: tuple[str, ...] = ()) -> Any:
         """Declare every parameter; return the core settings ``build_core(**values)``.
 
         Core parameters are fixed at start; the ROS-side ones (``node_settings``, a dataclass
-        with ``validate()``) land in ``self.settings`` and may change at runtime. A bad value,
-        a broken rule between values or an unknown parameter name raises ParameterError."""
+        with ``validate()``) land in ``self.settings`` and may change at runtime, but for
+        ``start_only`` ones, read once at start. A bad value, a broken rule between values or
+        an unknown parameter name raises ParameterError."""
         self._core_specs, self._node_specs, self._node_settings = (core_specs, node_specs,
                                                                    node_settings)
+        self._start_only = frozenset(start_only)
         values = {name: self._declare(name, default, spec, FIXED_NOTE)
                   for name, (default, spec) in core_specs.items()}
         try:
             core = build_core(**values)
         except ValueError as error:
             raise parameter_error(error) from None
-        values = {name: self._declare(name, default, spec)
+        values = {name: self._declare(name, default, spec,
+                                      FIXED_NOTE if name in self._start_only else "")
                   for name, (default, spec) in node_specs.items()}
         try:
             node_settings(**values).validate()
@@ -316,6 +320,9 @@ class FilterNode(Node):
                 return SetParametersResult(successful=False, reason=(
                     f"{changed.name}: core parameters are fixed while the filter runs; restart "
                     "the node with the new value"))
+            if changed.name in self._start_only:
+                return SetParametersResult(successful=False, reason=(
+                    f"{changed.name}: read at start only; restart the node with the new value"))
             if changed.name in self._node_specs:
                 changes[changed.name] = changed.value
         current = {name: self.settings.get(name, default)

@@ -19,8 +19,6 @@ import numpy as np
 from diagnostic_msgs.msg import KeyValue
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
-from rcl_interfaces.msg import SetParametersResult
-from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan, PointCloud2
 from visualization_msgs.msg import MarkerArray
 
@@ -62,8 +60,7 @@ class NodeSettings:
     base_frame: str = parameter("base_link", "Robot frame: odometry's child_frame_id; '' "
                                              "accepts any.")
     scan_frame: str = parameter("", "Frame the scans must be in; '' accepts any.")
-    map_file: str = parameter("", "nav2 map YAML to load at start (fixed while the node runs); "
-                                  "'': subscribe to 'map'.")
+    map_file: str = parameter("", "nav2 map YAML to load at start; '': subscribe to 'map'.")
     pose_estimate: str = parameter("mean", "~/pose is the weighted 'mean' of the robot "
                                            "particles or the 'best' one.", choices=POSE_ESTIMATES)
     particles_rate: float = parameter(2.0, "Maximum rate of ~/particles (Hz; 0: never).",
@@ -117,8 +114,7 @@ class PeopleTrackerNode(FilterNode):
         self._start_inputs(COUNTERS, "scan", "scan", "stale_scans", THROTTLED_OUTPUTS, DIAGNOSED)
         self.tracker_settings = self._declare_parameters(
             CORE_PARAMETERS, lambda **values: TrackerSettings(**values).validate(),
-            NODE_PARAMETERS, NodeSettings)
-        self.add_on_set_parameters_callback(self._refuse_start_only_change)
+            NODE_PARAMETERS, NodeSettings, START_ONLY_PARAMETERS)
         self.tracker = PeopleTracker(self.tracker_settings)
         self._initial: tuple[np.ndarray, np.ndarray] | None = None
         self._published_keys: set[int] = set()
@@ -147,15 +143,6 @@ class PeopleTrackerNode(FilterNode):
             f"people tracker: {s.num_particles} robot particles ({s.global_particles} while "
             f"localizing globally) x {s.max_people} people x {s.people_particles}; map "
             f"{'file ' + map_file if map_file else 'topic'}")
-
-    def _refuse_start_only_change(self, parameters: list[Parameter]) -> SetParametersResult:
-        """``map_file`` is read once at start (it decides between the file and the ``map``
-        subscription): a runtime change would be accepted and ignored, so it is refused."""
-        for changed in parameters:
-            if changed.name in START_ONLY_PARAMETERS:
-                return SetParametersResult(successful=False, reason=(
-                    f"{changed.name}: read at start only; restart the node with the new value"))
-        return SetParametersResult(successful=True)
 
     # --- inputs --------------------------------------------------------------------------------
 

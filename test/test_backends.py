@@ -238,6 +238,12 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
             np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
         assert widest == expected[1][:, 2, 2].max()
         prior = got
+    # A NaN heading variance makes the widest NaN, as numpy's max does (the filter then
+    # neither samples the prior nor draws: both backends keep one random stream).
+    cov = np.zeros((20, 3, 3))
+    cov[7, 2, 2] = np.nan
+    _, widest = kernels.advance_prior((poses, cov), poses, np.array([0.1, 0.0, 0.0]), settings)
+    assert np.isnan(widest)
 
 
 def test_core_runs_without_numba():

@@ -97,8 +97,10 @@ def test_mrclam_bag_round_trip(dataset_dir, tmp_path):
 
 
 def test_mrclam_calibration_is_fastslam_calibrates_on_the_converted_bag(dataset_dir, tmp_path):
-    """``fastslam-convert mrclam --calibrate`` prints the noise fastslam-calibrate fits on the
-    converted bag (one fit), with the command correction on top."""
+    """``fastslam-convert mrclam --calibrate`` fits the robots it converts in memory with
+    fastslam-calibrate's fit: the same figures as fastslam-calibrate on the bag written to
+    disk (so the written bag holds what was fitted), and a command correction that lowers the
+    heading residual."""
     from fastslam_ros.core.observation import SensorOffset
     from fastslam_ros.tools.bag_schema import read_schema_bag
     from fastslam_ros.tools.calibrate import calibrate_bags

@@ -66,7 +66,7 @@ class LandmarkMap:
         """The landmarks at least ``min_existence`` likely to exist: the map without the
         tentative ones (a new landmark starts at sigmoid(logodds_observed)), as a user sees it
         (``map_min_existence``)."""
-        if min_existence <= 0.0:
+        if min_existence <= 0.0 and not np.isnan(self.existence).any():
             return self
         keep = self.existence >= min_existence
         return LandmarkMap(self.means[keep], self.covariances[keep], self.existence[keep],
@@ -240,8 +240,7 @@ class FastSLAM:
             return
         mean, cov = self._prior if self._prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
-        propagate = propagate_gaussian if self.kernels is None else self.kernels.propagate_gaussian
-        self._prior = propagate(mean, cov, control, variances)
+        self._prior = propagate_gaussian(mean, cov, control, variances)
         if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()

@@ -1035,9 +1035,12 @@ def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
     if not has_cov:
         cov = np.zeros((mean.shape[0], 3, 3))
     moved, predicted = _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2)
+    # As numpy's max: a NaN variance makes the widest NaN (numba's max would skip it).
     widest = -np.inf
     for m in range(mean.shape[0]):
-        widest = max(widest, predicted[m, 2, 2])
+        variance = predicted[m, 2, 2]
+        if np.isnan(variance) or variance > widest:
+            widest = variance
     return moved, predicted, widest
 
 
@@ -1055,14 +1058,6 @@ def advance_prior(prior, poses: np.ndarray, delta: np.ndarray, settings: Reading
         moved, predicted, widest = _advance_prior_kernel(prior[0], prior[1], True, dx, dy,
                                                          dtheta, settings.floats)
     return (moved, predicted), widest
-
-
-def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u, variances: np.ndarray):
-    """``motion.propagate_gaussian``."""
-    v_rot1, v_trans, v_rot2 = (float(v) for v in variances)
-    return _propagate_kernel(np.ascontiguousarray(mean), np.ascontiguousarray(cov),
-                             float(u.rot1), float(u.trans), float(u.rot2), v_rot1, v_trans,
-                             v_rot2)
 
 
 # ---------------------------------------------------------------------------- resampling
@@ -1160,8 +1155,8 @@ def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slo
 
 
 def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
-    """``LandmarkStore.gather`` (which applies its resampling first): the same working set, in
-    one compiled pass over the cells."""
+    """``LandmarkStore.gather`` (which brings the gathered columns up to date first): the same
+    working set, in one compiled pass over the cells."""
     row, slot, block, state, ident, valid, width = _gather_kernel(
         store.table, np.require(columns, np.int64, ("C", "W")), store.occupied, store.state,
         store.ident, num_new_slots)
@@ -1354,7 +1349,6 @@ def warm_up() -> float:
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
-    propagate_gaussian(poses, cov, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01))
     advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
     advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))

@@ -5,7 +5,8 @@ arrays (``mean``, ``cov``, ``logodds``, ...) are indexed by block row and slot; 
 is the row that particle m uses for cell column c (-1: no landmark of m there). Resampling copies
 only the ``table`` rows, and lazily, column by column (``ResampledTable``): it records the index
 array, and the columns the filter reads (a few per cell change: those of the working set) are
-brought up to date when read, so a cell change costs the same with 100 or 50,000 landmarks;
+brought up to date when read (all of them once every ``ResampledTable.MAX_PENDING``
+resamplings), so a cell change costs about the same with 100 or 50,000 landmarks;
 particles then share rows until one of them changes a landmark, at which point that particle
 gets its own copy of the block (copy-on-write). Memory therefore grows with the number of
 distinct blocks, not with M x N. Block references are counted exactly for the columns being
@@ -128,13 +129,7 @@ class ResampledTable:
 
     def resample(self, indices: np.ndarray) -> None:
         """Row m becomes row ``indices[m]`` (for every column, when next read)."""
-        indices = np.asarray(indices, dtype=np.int64)
-        if len(indices) != self.data.shape[0]:
-            # The particle count changes: columns cannot keep rows of different counts.
-            self.refresh_all()
-            self.data = self.data[indices]
-            return
-        self._steps.append(indices)
+        self._steps.append(np.asarray(indices, dtype=np.int64))
         self._lineage = None
         if len(self._steps) > self.MAX_PENDING:
             self.refresh_all()
@@ -205,8 +200,8 @@ class LandmarkStore(RecordViews):
                  initial_rows: int = 64, kernels=None) -> None:
         self.num_particles = num_particles
         self.kernels = kernels
-        """The compiled backend (``core.kernels``) that gathers working sets (and the cache
-        reindexes them with), or None: numpy."""
+        """The compiled backend (``core.kernels``) that gathers working sets, writes them back
+        and reads one particle's map (the cache reindexes with it too), or None: numpy."""
         self.cell_size = float(cell_size)
         self.capacity = capacity
         self.state = np.zeros((initial_rows, capacity, STATE_WIDTH))

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import wrap_angle, wrap_scalar
+from .geometry import pose_floats, wrap_angle, wrap_scalar
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class OdometryControl:
         Backward motion keeps a small rot1 with a negative translation instead of turning by pi,
         so reversing does not look like a half turn to the noise model.
         """
-        dx, dy, dtheta = delta.tolist() if type(delta) is np.ndarray else map(float, delta)
+        dx, dy, dtheta = pose_floats(delta)
         trans = math.hypot(dx, dy)
         rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
         if abs(rot1) > math.pi / 2.0:

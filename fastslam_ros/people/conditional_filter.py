@@ -333,12 +333,18 @@ class PeopleTracker:
         count, slots = self.alive.shape
         mean = np.zeros((count, slots, 2))
         cov = np.broadcast_to(np.eye(2), (count, slots, 2, 2)).copy()
-        m, n = np.nonzero(self.alive)
-        particles = self.people[m, n]                                  # (K, M_p, 2)
-        mean[m, n] = particles.mean(axis=1)
-        centred = particles - mean[m, n][:, None, :]
+        m, n, particles, live_mean = self._live_people()
+        mean[m, n] = live_mean
+        centred = particles - live_mean[:, None, :]
         cov[m, n] = np.einsum("kpi,kpj->kij", centred, centred) / particles.shape[1]
         return mean, cov
+
+    def _live_people(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(robot particle (K,), slot (K,), particles (K, M_p, 2), mean (K, 2)) of the K live
+        people: free slots are many and their particles are not read."""
+        m, n = np.nonzero(self.alive)
+        particles = self.people[m, n]
+        return m, n, particles, particles.mean(axis=1)
 
     def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
                                                                    np.ndarray]:
@@ -495,13 +501,12 @@ class PeopleTracker:
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
                                       s.logodds_missed)
         self.confirmed |= self.alive & (self.logodds >= s.logodds_confirm)
-        m, n = np.nonzero(self.alive)                   # live people only: free slots are many
-        particles = self.people[m, n]                                  # (K, M_p, 2)
+        m, n, particles, live_mean = self._live_people()
         mean = np.zeros(self.alive.shape + (2,))
-        mean[m, n] = particles.mean(axis=1)
+        mean[m, n] = live_mean
         lost = np.zeros_like(self.alive)
         # Variance of x plus variance of y, from the mean just taken (``var`` would take it again).
-        lost[m, n] = (np.square(particles - mean[m, n][:, None]).mean(axis=1).sum(axis=1)
+        lost[m, n] = (np.square(particles - live_mean[:, None]).mean(axis=1).sum(axis=1)
                       > 2.0 * s.lost_spread ** 2)
         apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
         confirmed = self.alive & self.confirmed
@@ -545,10 +550,9 @@ class PeopleTracker:
         of the weighted centroid of an id that more weight holds than its own takes that id
         (unless its particle holds it already), so that the robot particles agree on the ids
         and a change of the best particle does not change them."""
-        m, n = np.nonzero(self.alive)
+        m, n, _, means = self._live_people()
         if len(m) == 0:
             return
-        means = self.people[m, n].mean(axis=1)
         unique, own = np.unique(self.keys[m, n], return_inverse=True)
         total = np.bincount(own, weights[m], len(unique))
         centroid = np.stack([np.bincount(own, weights[m] * means[:, i], len(unique))

@@ -101,7 +101,7 @@ class TrackerSettings:
         high=LOGODDS_MAX)
     max_person_speed: float = parameter(
         1.5, "Re-identification: a new person within this speed (m/s) times the time unseen "
-             "(plus 0.5 m) of a hidden or removed person's last position takes its id.",
+             "(plus a margin) of a hidden or removed person's last position takes its id.",
         low=0.0)
     lost_spread: float = parameter(
         1.0, "A person whose particles' position standard deviation (m, per axis) exceeds "
