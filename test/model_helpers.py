@@ -52,3 +52,35 @@ def landmark_counts(store: LandmarkStore) -> np.ndarray:
     rows = store.table[:, :store.num_cells]
     counts = np.where(rows >= 0, store.occupied.sum(axis=1)[np.maximum(rows, 0)], 0)
     return counts.sum(axis=1)
+
+
+def insert(store: LandmarkStore, particle: int, points: np.ndarray, labels=None) -> None:
+    """Create landmarks for one particle through the working-set path the filter uses."""
+    ws = store.gather(np.full((store.num_particles, 0), -1, np.int64), len(points))
+    ws.mean[particle] = points
+    ws.cov[particle] = (0.1, 0.0, 0.1)
+    ws.valid[particle] = ws.is_new[particle] = True
+    if labels is not None:
+        ws.label[particle] = labels
+    store.scatter(ws, track_labels=labels is not None)
+
+
+def edit_box(store: LandmarkStore, low: np.ndarray, change: np.ndarray, move_share: float,
+             remove_share: float) -> list[tuple[int, int, bool]]:
+    """Gather the cells of the 10 m box at ``low``, move the live entries whose ``change``
+    draw is below ``move_share`` by 0.01 m, remove those below ``remove_share`` (of the moved),
+    and write back. Returns (particle, label, removed) of every entry touched."""
+    count = store.num_particles
+    columns = store.columns_in_box(low, low + 10.0)
+    ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
+    particle, slot = ws.valid.nonzero()
+    draw = change[:len(particle)]
+    pick = draw < move_share
+    gone = pick & (draw < remove_share)
+    ws.mean[particle[pick], slot[pick]] += 0.01
+    ws.dirty[particle[pick], slot[pick]] = True
+    ws.valid[particle[gone], slot[gone]] = False
+    touched = [(int(m), int(ws.label[m, s]), bool(g))
+               for m, s, g in zip(particle[pick], slot[pick], gone[pick])]
+    store.scatter(ws, track_labels=True)
+    return touched

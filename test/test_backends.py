@@ -14,6 +14,7 @@ from fastslam_ros.core.config import numba_available
 from fastslam_ros.core.landmark_store import LandmarkStore, WorkingSet
 from fastslam_ros.core.resampling import systematic_resample
 from fastslam_ros.tools.synthetic import make_world
+from model_helpers import edit_box
 
 from conftest import REPO_ROOT
 
@@ -190,15 +191,7 @@ def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
             ws.valid[particle] = ws.is_new[particle] = True
             store.scatter(ws, track_labels=True)
             store.resample(indices)
-            columns = store.columns_in_box(low, low + 10.0)
-            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
-            live = ws.valid.nonzero()
-            pick = change[:len(live[0])] < 0.4
-            ws.mean[live[0][pick], live[1][pick]] += 0.01
-            ws.dirty[live[0][pick], live[1][pick]] = True
-            gone = pick & (change[:len(live[0])] < 0.1)
-            ws.valid[live[0][gone], live[1][gone]] = False
-            store.scatter(ws, track_labels=True)
+            edit_box(store, low, change, 0.4, 0.1)
         for name in ("state", "ident", "occupied", "refcount", "table", "label_column"):
             np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
     for store in stores:

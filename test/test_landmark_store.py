@@ -4,18 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from fastslam_ros.core.landmark_store import LandmarkStore, ResampledTable
-from model_helpers import landmark_counts
-
-
-def insert(store, particle, points, labels=None):
-    """Create landmarks for one particle through the working-set path the filter uses."""
-    ws = store.gather(np.full((store.num_particles, 0), -1, np.int64), len(points))
-    ws.mean[particle] = points
-    ws.cov[particle] = (0.1, 0.0, 0.1)
-    ws.valid[particle] = ws.is_new[particle] = True
-    if labels is not None:
-        ws.label[particle] = labels
-    store.scatter(ws, track_labels=labels is not None)
+from model_helpers import edit_box, insert, landmark_counts
 
 
 def test_resampled_particles_share_blocks_until_one_writes():
@@ -130,12 +119,14 @@ def test_lazy_table_columns_match_eager_reindexing():
 
 
 def test_lazy_store_keeps_the_maps_of_an_eager_one():
-    """Random resamplings, updates, removals and insertions: every particle's map and the
-    block count equal those of a store that reindexes its tables at every resampling."""
+    """Random resamplings, updates, removals and insertions: every particle's map equals a
+    plain {label: position} dict per particle kept by hand, and the store equals one that
+    reindexes its tables at every resampling (same maps, labels and block count)."""
     rng = np.random.default_rng(5)
     count = 5
     lazy, eager = LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3)
     eager.tables.MAX_PENDING = eager.label_tables.MAX_PENDING = 0
+    expected: list[dict[int, np.ndarray]] = [{} for _ in range(count)]
     for step in range(120):
         if step % 3 == 0:
             points = rng.uniform(-30.0, 30.0, (4, 2))
@@ -143,23 +134,27 @@ def test_lazy_store_keeps_the_maps_of_an_eager_one():
             labels = 100 * step + np.arange(4)
             for store in (lazy, eager):
                 insert(store, particle, points, labels)
+            expected[particle].update(zip(labels.tolist(), points))
         indices = np.sort(rng.integers(0, count, count))
         low = rng.uniform(-30.0, 20.0, 2)
         change = rng.random(64)
+        expected = [dict(expected[i]) for i in indices]
         for store in (lazy, eager):
             store.resample(indices)
-            columns = store.columns_in_box(low, low + 10.0)
-            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 0)
-            live = ws.valid.nonzero()
-            pick = change[:len(live[0])] < 0.3
-            ws.mean[live[0][pick], live[1][pick]] += 0.01
-            ws.dirty[live[0][pick], live[1][pick]] = True
-            ws.valid[live[0][pick & (change[:len(live[0])] < 0.05)],
-                     live[1][pick & (change[:len(live[0])] < 0.05)]] = False
-            store.scatter(ws, track_labels=True)
+            touched = edit_box(store, low, change, 0.3, 0.05)
+        for particle, label, removed in touched:
+            if removed:
+                del expected[particle][label]
+            else:
+                expected[particle][label] = expected[particle][label] + 0.01
         for particle in range(count):
-            for a, b in zip(lazy.particle_map(particle), eager.particle_map(particle)):
-                np.testing.assert_array_equal(np.sort(a, axis=0), np.sort(b, axis=0))
+            mean, _, _, label, _ = lazy.particle_map(particle)
+            assert sorted(label.tolist()) == sorted(expected[particle])
+            for position, one in zip(mean, label.tolist()):
+                np.testing.assert_allclose(position, expected[particle][one], atol=1e-12)
+            ours, theirs = lazy.particle_map(particle), eager.particle_map(particle)
+            for a, b in zip(ours, theirs):  # labels are unique: the same order by label
+                np.testing.assert_array_equal(a[np.argsort(ours[3])], b[np.argsort(theirs[3])])
         np.testing.assert_array_equal(lazy.label_columns(np.arange(0, 100 * step + 4, 37)),
                                       eager.label_columns(np.arange(0, 100 * step + 4, 37)))
     assert lazy.rows_in_use() == eager.rows_in_use()
