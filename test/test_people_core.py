@@ -394,6 +394,23 @@ def test_a_person_back_in_view_elsewhere_keeps_its_id():
         assert tracker.keys[m][tracker.alive[m]].tolist() == key
 
 
+def test_a_hidden_person_is_found_again_when_no_slot_is_free():
+    """With every slot taken (max_people 1, by the hidden person itself) the person coming out
+    from behind the wall is still re-identified: its track moves to the detection, counted as
+    associated, not created and not unexplained."""
+    tracker, grid, pose, t = see_then_hide(max_people=1)
+    key = tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 30, t)         # behind the wall
+    assert tracker.alive.all()                                # no free slot in any particle
+    report = tracker.update(t, scan_at(grid, pose, [(6.0, 1.5)]))
+    assert (report.created, report.unexplained) == (0, 0)
+    assert report.associated >= 1
+    run(tracker, grid, pose, [(6.0, 1.5)], 3, t + 0.1)
+    people = tracker.people_of()
+    assert people.keys.tolist() == key
+    assert np.linalg.norm(people.means[0] - (6.0, 1.5)) < 0.3
+
+
 def test_a_lost_person_back_within_reach_keeps_its_id_and_a_newcomer_gets_a_new_one():
     """Removed as lost after 12 s behind a wall, a person coming out within reach of where it
     was last seen takes its id back; a person appearing where no one could have walked in

@@ -390,12 +390,10 @@ class PeopleTracker:
             duplicate = np.any(self.alive & (np.hypot(dx, dy) < DUPLICATE_GATE), axis=1)
             new = valid & ~associate & ~duplicate
             free = ~self.alive
-            has_slot = free.any(axis=1)
-            unexplained += new & ~has_slot
-            m = np.flatnonzero(new & has_slot)
+            m = np.flatnonzero(new)
             if len(m) == 0:
                 continue
-            slot = np.argmax(free[m], axis=1)
+            slot = np.where(free[m].any(axis=1), np.argmax(free[m], axis=1), -1)  # -1: full
             fresh = key_of_detection.setdefault(j, self.next_key + len(key_of_detection))
             key = np.full(len(m), fresh)
             if associate.any():  # the key the other particles' weight gave this detection
@@ -408,6 +406,14 @@ class PeopleTracker:
                                                  observed)
             key[unknown] = np.where(found >= 0, found, fresh)
             slot[unknown] = np.where(found_slot >= 0, found_slot, slot[unknown])
+            # A hidden person found again is associated, not created; with no free slot and
+            # no one found again, the detection stays unexplained.
+            moved = np.zeros(len(m), dtype=bool)
+            moved[unknown] = found_slot >= 0
+            placed = slot >= 0
+            unexplained[m[~placed]] += 1
+            created[m[placed & ~moved]] += 1
+            m, slot, key = m[placed], slot[placed], key[placed]
             self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
                 0.0, s.detection_sigma, (len(m), s.people_particles, 2))
             self.alive[m, slot] = True
@@ -417,7 +423,6 @@ class PeopleTracker:
             self.confirmed[m, slot] = False
             self.last_seen[m, slot] = self.last_stamp
             observed[m, slot] = True
-            created[m] += 1
         self.next_key += len(key_of_detection)
         m = np.concatenate([u[0] for u in updates]) if updates else np.zeros(0, np.intp)
         if len(m):
