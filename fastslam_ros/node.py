@@ -48,6 +48,7 @@ COUNTERS = (
     "associations_checked", "associations_correct",  # clouds with ids, association != known
     "odometry_jumps",         # confirmed odometry discontinuities, bridged with zero motion
     "filter_recoveries",      # updates after which the filter repaired a non-finite state
+    "relocalizations",        # localization: particles redrawn at a pose found from a reading
     "odom_missing", "landmarks_missing",  # messages estimated lost from gaps in the stamps
     # points dropped from a cloud:
     "dropped_nan", "dropped_too_close", "dropped_out_of_range", "dropped_missing_id",
@@ -304,7 +305,7 @@ class FastSLAMNode(FilterNode):
         check_ids = observation.ids is not None and self.config.association != "known"
         labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
                          else None)
-        recoveries = self.slam.num_recoveries
+        recoveries, relocalizations = self.slam.num_recoveries, self.slam.num_relocalizations
         try:
             report = self.slam.update(observation.ranges, observation.bearings,
                                        ids=observation.ids, stamp=observation.stamp)
@@ -318,6 +319,7 @@ class FastSLAMNode(FilterNode):
             self.stats["filter_recoveries"] += 1
             self._warn("filter_recoveries", "the filter's state was not finite after an update: "
                        "repaired from the finite particles (or reset) [filter_recoveries]")
+        self.stats["relocalizations"] += self.slam.num_relocalizations - relocalizations
         self._note_lag(observation.stamp)
         if check_ids:
             checked, correct = association_score(observation.ids, report.is_new,

@@ -16,6 +16,7 @@ from std_srvs.srv import Trigger
 
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
+from fastslam_ros.core.relocalization import MIN_PAIR_DISTANCE, find_pose
 from fastslam_ros.node import FastSLAMNode, ParameterError
 from fastslam_ros.tools.synthetic import make_world
 
@@ -101,6 +102,59 @@ def test_localization_from_a_wrong_pose_converges_with_its_covariance():
     assert np.hypot(*(slam.particle_poses()[:, :2].mean(axis=0) - start[:2])) > 1.5
     errors = feed(slam, scene.steps)
     assert errors[-60:].max() < 0.3
+
+
+def test_find_pose_recovers_the_pose_from_one_reading_among_clutter():
+    rng = np.random.default_rng(3)
+    landmarks = rng.uniform(-30.0, 30.0, (40, 2))
+    pose = np.array([12.3, -4.1, 2.0])
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    visible = landmarks[np.hypot(*(landmarks - pose[:2]).T) < 15.0]
+    # Robot frame: R(-theta) (m - p), with 5 cm noise; two clutter points.
+    points = (visible - pose[:2]) @ np.array([[c, -s], [s, c]]) + rng.normal(0, 0.05,
+                                                                              visible.shape)
+    points = np.vstack([points, [[3.0, 7.0], [-9.0, 1.5]]])
+    found, inliers = find_pose(points, landmarks, 0.5)
+    assert inliers == len(visible) >= 4
+    assert np.hypot(*(found[:2] - pose[:2])) < 0.1
+    assert abs(np.angle(np.exp(1j * (found[2] - pose[2])))) < 0.01
+    close = np.array([[1.0, 0.0], [1.0, 0.5 * MIN_PAIR_DISTANCE]])
+    assert find_pose(close, landmarks, 0.5)[1] == 0
+
+
+def kidnapped_errors(config: FastSLAMConfig) -> np.ndarray:
+    """Localize on the true map; after 40 readings (0.2 s apart) the filter is made certain
+    of a pose 5 m and 0.6 rad off; the best particle's position errors after that."""
+    scene = world()
+    slam = FastSLAM(config.replace(mode="localization"), initial_pose=scene.steps[0].truth)
+    slam.seed_map(*truth_map(scene.landmarks))
+    previous, errors = scene.steps[0].odometry, []
+    for index, step in enumerate(scene.steps[1:], start=1):
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        if index == 40:
+            slam.initialize_pose(step.truth + [4.0, -3.0, 0.6], np.diag([1e-4, 1e-4, 1e-6]))
+        slam.update(step.ranges, step.bearings, stamp=0.2 * index)
+        if index > 40:
+            errors.append(np.hypot(*(slam.best_pose()[:2] - step.truth[:2])))
+    return np.array(errors), slam.num_relocalizations
+
+
+def test_localization_finds_its_pose_again_after_a_kidnap():
+    config = CONFIG.replace(relocalization_delay=1.0)
+    errors, relocalizations = kidnapped_errors(config)
+    # Lost for the delay (five readings), then found from a reading: tracking again.
+    assert relocalizations >= 1
+    assert errors[-40:].max() < 0.3
+    stuck, never = kidnapped_errors(config.replace(relocalization_fraction=0.0))
+    assert never == 0
+    assert stuck[-40:].min() > 1.0
+
+
+def test_a_short_loss_is_waited_out():
+    """Lost for less than relocalization_delay: no pose search (the kidnap lasts 16 s)."""
+    _, relocalizations = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0))
+    assert relocalizations == 0
 
 
 # --- the map a user sees ------------------------------------------------------------------

@@ -58,6 +58,19 @@ class FastSLAMConfig:
         25.0, "two_gate: squared Mahalanobis distance beyond which (from every landmark) an "
         "observation starts a new landmark; between the gates it is ignored. "
         ">= association_gate.", low=0.0, low_exclusive=True, high=1e4)
+    relocalization_fraction: float = parameter(
+        0.5, "localization: fraction of the particles redrawn at the pose found from a reading "
+        "when at most half of its observations lie near a landmark seen from the best particle "
+        "and that pose puts more than half (and at least 3) near one (0: never).",
+        low=0.0, high=1.0)
+    relocalization_gate: float = parameter(
+        1.0, "localization: distance (m) from a landmark within which an observed point counts "
+        "as explained, for the lost test and the pose search; the redrawn particles spread "
+        "half of it.", low=0.0, low_exclusive=True, high=100.0)
+    relocalization_delay: float = parameter(
+        15.0, "localization: seconds the best particle must have been lost (at most half of "
+        "each reading's observations near a landmark) before a pose is searched from the "
+        "readings; shorter losses pass by themselves.", low=0.0, high=1e6)
     alpha1: float = parameter(0.05, "Odometry noise: rotation from rotation (rad^2/rad^2).",
                               low=0.0, high=10.0)
     alpha2: float = parameter(0.001, "Odometry noise: rotation from translation (rad^2/m^2).",

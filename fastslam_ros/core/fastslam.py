@@ -34,6 +34,7 @@ from .motion import OdometryControl, control_variances, propagate_gaussian, samp
 from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
 from .path_history import PathHistory
 from .proposal import observation_proposal, sample_pose
+from .relocalization import explained, find_pose, world_points
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
 REACH_MARGIN = 2.0
@@ -44,6 +45,11 @@ MAX_PRIOR_HEADING_SIGMA = 0.3
 """FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so the
 proposal sees all of its uncertainty; once its heading standard deviation exceeds this (rad)
 the particles are sampled from it, before the proposal's linearisation fails."""
+RELOCALIZATION_RADIUS = 10.0
+"""Metres beyond the sensor's reach around the best particle within which the map's landmarks
+are matched to a reading when the filter is lost (``FastSLAM._relocalize``)."""
+MIN_RELOCALIZATION_INLIERS = 3
+"""Observations a pose found from one reading must put near landmarks (two pin any pair)."""
 _NO_DRAWS = np.zeros(0)
 _NO_NORMALS = np.zeros((0, 3))
 
@@ -110,6 +116,9 @@ class FastSLAM:
         self._seed: tuple[np.ndarray, ...] | None = None
         self.num_recoveries = 0
         """Updates after which ``check_state`` found a non-finite state and repaired it."""
+        self.num_relocalizations = 0
+        """Readings after which ``localization`` mode redrew particles at a pose found from
+        the reading (``relocalization_fraction``)."""
         self.kernels = self._load_kernels()
         """The compiled backend (``core.kernels``) when it runs, else None (numpy)."""
         self.backend = "numpy" if self.kernels is None else "numba"
@@ -143,6 +152,7 @@ class FastSLAM:
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
+        self._lost_since: float | None = None
         self.num_updates = 0
         self.num_underflows = 0
 
@@ -198,6 +208,7 @@ class FastSLAM:
         self._prior = None
         self._pending = np.zeros(3)
         self._has_pending = False
+        self._lost_since: float | None = None
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -271,8 +282,18 @@ class FastSLAM:
             raise ValueError("ranges, bearings and ids must have the same length")
         known = self.config.association == "known"
         if self.kernels is not None:
-            return self._update_compiled(*self.kernels.usable_observations(
+            report = self._update_compiled(*self.kernels.usable_observations(
                 ranges, bearings, labels, known, MIN_OBSERVATION_RANGE), stamp)
+        else:
+            report = self._update_numpy(ranges, bearings, labels, stamp)
+        if self._localization and self.config.relocalization_fraction > 0.0:
+            self._relocalize(ranges, bearings, stamp)
+        return report
+
+    def _update_numpy(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
+                      stamp: float) -> UpdateReport:
+        """``update`` on the numpy path (the reference)."""
+        known = self.config.association == "known"
         usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
         if known:
             usable &= labels >= 0
@@ -345,6 +366,49 @@ class FastSLAM:
         if not finite:
             self.check_state()
         return report
+
+    def _relocalize(self, ranges: np.ndarray, bearings: np.ndarray, stamp: float) -> None:
+        """Localization on a fixed map: when at most half of the reading's observations lie
+        within ``relocalization_gate`` of a landmark seen from the best particle, look for the
+        pose that explains more of them (``relocalization.find_pose``, over the landmarks within
+        the sensor's reach plus ``RELOCALIZATION_RADIUS``); if it explains more than half and
+        at least ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest
+        particles are redrawn around it (weights uniform, as after resampling)."""
+        usable = (np.isfinite(ranges) & np.isfinite(bearings)
+                  & (ranges >= MIN_OBSERVATION_RANGE))
+        count = int(usable.sum())
+        if count < MIN_RELOCALIZATION_INLIERS or self._seed is None:
+            return
+        ranges, bearings = ranges[usable], bearings[usable]
+        angle = bearings + self.offset.yaw
+        points = np.column_stack([self.offset.x + ranges * np.cos(angle),
+                                  self.offset.y + ranges * np.sin(angle)])
+        pose = self.poses[self._best]
+        means = self._seed[0]
+        reach = self._reach(ranges) + RELOCALIZATION_RADIUS
+        near = means[((means - pose[:2]) ** 2).sum(axis=1) <= reach * reach]
+        gate = self.config.relocalization_gate
+        hits = int(explained(world_points(pose, points), near, gate).sum())
+        if 2 * hits > count:
+            self._lost_since = None
+            return
+        if self._lost_since is None:
+            self._lost_since = stamp
+        if stamp - self._lost_since < self.config.relocalization_delay:
+            return
+        found, inliers = find_pose(points, near, gate)
+        if 2 * inliers <= count or inliers < max(MIN_RELOCALIZATION_INLIERS, hits + 1):
+            return
+        redrawn = np.argsort(self.log_weights, kind="stable")[
+            :max(1, round(self.config.relocalization_fraction * self.num_particles))]
+        spread = np.array([0.5 * gate, 0.5 * gate, gate / max(float(ranges.max()), gate)])
+        poses = found + spread * self.rng.standard_normal((len(redrawn), 3))
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        self.poses[redrawn] = poses
+        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
+        self._best = int(redrawn[0])
+        self._lost_since = None
+        self.num_relocalizations += 1
 
     def _noise(self, ranges):
         """(range variance, bearing variance) of observations with these ranges: the range

@@ -1,0 +1,95 @@
+"""Localization on a fixed map: find the pose again from one reading when the filter is lost.
+
+A particle filter whose particles all sit away from the true pose cannot come back by itself:
+observations that match no landmark only weigh p0. Sensor resetting (Lenser and Veloso, 2000)
+draws particles at poses computed from the current reading instead. Here a pose is found by
+matching the reading's geometry to the map: every pair of observed points (robot frame) is
+matched to the pairs of map landmarks at the same distance, each match gives one rigid pose,
+and the pose under which most observations lie near a landmark wins (refined by least squares
+over those). All pairs and candidates are scored at once, as arrays.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import wrap_angle
+
+MIN_PAIR_DISTANCE = 2.0
+"""Observed pairs closer than this (m) give too uncertain a heading to propose a pose."""
+MAX_CANDIDATES = 4000
+"""Candidate poses scored per reading at most (the closest distance matches first)."""
+
+
+def world_points(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(K, 2) robot-frame points in the world frame from ``pose`` (3,)."""
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    return points @ np.array([[c, s], [-s, c]]) + pose[:2]
+
+
+def explained(points: np.ndarray, landmarks: np.ndarray, gate: float) -> np.ndarray:
+    """(..., K) which world points (..., K, 2) lie within ``gate`` (m) of some landmark (N, 2)."""
+    if len(landmarks) == 0:
+        return np.zeros(points.shape[:-1], bool)
+    offsets = points[..., None, :] - landmarks
+    return (np.einsum("...i,...i->...", offsets, offsets) <= gate * gate).any(axis=-1)
+
+
+def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
+              ) -> tuple[np.ndarray, int]:
+    """The pose (3,) that puts most of ``points`` (K, 2, robot frame) within ``tolerance`` (m)
+    of ``landmarks`` (N, 2), and how many it puts there (0 and a zero pose: no candidate).
+
+    Candidates come from observed pairs (a, b) and landmark pairs (i, j), i != j, whose
+    distances agree within ``tolerance``: the rotation takes b - a onto j - i and the
+    translation a onto i. Ties in the count go to the smaller sum of squared distances. The
+    winner is refined by least squares over its matched points."""
+    count = len(points)
+    if count < 2 or len(landmarks) < 2:
+        return np.zeros(3), 0
+    a, b = np.triu_indices(count, 1)
+    observed = points[b] - points[a]
+    observed_length = np.hypot(observed[:, 0], observed[:, 1])
+    keep = observed_length >= MIN_PAIR_DISTANCE
+    a, b, observed, observed_length = a[keep], b[keep], observed[keep], observed_length[keep]
+    mapped = landmarks[None, :] - landmarks[:, None]                        # (N, N, 2): j - i
+    mapped_length = np.hypot(mapped[..., 0], mapped[..., 1])
+    mismatch = np.abs(observed_length[:, None, None] - mapped_length)      # (P, N, N)
+    pair, i, j = (mismatch <= tolerance).nonzero()
+    if len(pair) == 0:
+        return np.zeros(3), 0
+    if len(pair) > MAX_CANDIDATES:
+        order = np.argsort(mismatch[pair, i, j], kind="stable")[:MAX_CANDIDATES]
+        pair, i, j = pair[order], i[order], j[order]
+    yaw = wrap_angle(np.arctan2(mapped[i, j, 1], mapped[i, j, 0])
+                     - np.arctan2(observed[pair, 1], observed[pair, 0]))
+    c, s = np.cos(yaw), np.sin(yaw)
+    first = points[a[pair]]
+    x = landmarks[i, 0] - (c * first[:, 0] - s * first[:, 1])
+    y = landmarks[i, 1] - (s * first[:, 0] + c * first[:, 1])
+    # Every observed point under every candidate pose, against every landmark: (C, K, N).
+    px = c[:, None] * points[:, 0] - s[:, None] * points[:, 1] + x[:, None]
+    py = s[:, None] * points[:, 0] + c[:, None] * points[:, 1] + y[:, None]
+    squared = ((px[..., None] - landmarks[:, 0]) ** 2
+               + (py[..., None] - landmarks[:, 1]) ** 2).min(axis=2)        # (C, K)
+    inside = squared <= tolerance * tolerance
+    inliers = inside.sum(axis=1)
+    cost = np.where(inside, squared, 0.0).sum(axis=1)
+    best = int(np.lexsort((cost, -inliers))[0])
+    pose = np.array([x[best], y[best], yaw[best]])
+    matched = inside[best]
+    world = world_points(pose, points[matched])
+    nearest = landmarks[np.argmin(((world[:, None] - landmarks) ** 2).sum(axis=2), axis=1)]
+    return _fit(points[matched], nearest, pose), int(inliers[best])
+
+
+def _fit(points: np.ndarray, targets: np.ndarray, guess: np.ndarray) -> np.ndarray:
+    """The rigid pose taking ``points`` (robot frame) onto ``targets`` (world) in least
+    squares (closed form); ``guess`` when fewer than two points."""
+    if len(points) < 2:
+        return guess
+    point_mean, target_mean = points.mean(axis=0), targets.mean(axis=0)
+    h = (points - point_mean).T @ (targets - target_mean)
+    yaw = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    c, s = np.cos(yaw), np.sin(yaw)
+    translation = target_mean - np.array([[c, -s], [s, c]]) @ point_mean
+    return np.array([translation[0], translation[1], yaw])
