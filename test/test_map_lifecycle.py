@@ -303,3 +303,28 @@ def test_a_saved_map_localizes_a_second_run_of_the_same_world(tmp_path):
     result = run_seed(2, tmp_path, args)
     assert result.localization_ate < result.mapping_ate
     assert result.convergence_time < 10.0
+
+
+def test_node_counts_relocalizations(context, tmp_path):
+    from fastslam_ros.node import Observation
+    node = node_with(context, map_file=str(saved_map(tmp_path)), mode="localization",
+                     relocalization_delay=0.0)
+    try:
+        # The map's landmarks (0..4, 1) seen from the origin; the particles sure of (20, 20).
+        # The robot stands still.
+        from nav_msgs.msg import Odometry
+        node.on_initial_pose(initial_pose("map", (20.0, 20.0, 0.0), 0.01))
+        for stamp in (0.5, 1.5):
+            odometry = Odometry(header=Header(frame_id="odom", stamp=ros_io.seconds_to_stamp(
+                stamp)), child_frame_id="base_link")
+            odometry.pose.pose.orientation.w = 1.0
+            node.on_odometry(odometry)
+        offsets = np.column_stack([np.arange(5.0), np.ones(5)])
+        node._update(Observation(1.0, np.hypot(*offsets.T), np.arctan2(offsets[:, 1],
+                                                                       offsets[:, 0]), None, 0.0))
+        assert node.slam.num_relocalizations == node.stats["relocalizations"] == 1
+        # Redrawn at the landmarks (0.5 m spread; a line of landmarks also fits the pose
+        # mirrored across it, 2 m away), not 28 m off.
+        assert np.hypot(*node.slam.best_pose()[:2]) < 3.0
+    finally:
+        node.destroy_node()
