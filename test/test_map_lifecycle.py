@@ -157,6 +157,26 @@ def test_a_short_loss_is_waited_out():
     assert relocalizations == 0
 
 
+def test_a_pose_search_that_finds_nothing_waits_before_the_next(monkeypatch):
+    from fastslam_ros.core import fastslam
+    searches = []
+
+    def counted(*args):
+        searches.append(args)
+        return find_pose(*args)
+    monkeypatch.setattr(fastslam, "find_pose", counted)
+    scene = world()
+    slam = FastSLAM(CONFIG.replace(mode="localization", relocalization_delay=0.0),
+                    initial_pose=scene.steps[0].truth)
+    # A map with nothing where the robot is: every reading is lost, no pose is found.
+    slam.seed_map(*truth_map(scene.landmarks + 500.0))
+    for index, step in enumerate(scene.steps[1:51], start=1):
+        slam.update(step.ranges, step.bearings, stamp=0.2 * index)
+    # 50 lost readings over 10 s: one search per RELOCALIZATION_RETRY s, not one per reading.
+    assert slam.num_relocalizations == 0
+    assert len(searches) == 10
+
+
 # --- the map a user sees ------------------------------------------------------------------
 
 def test_confirmed_keeps_the_landmarks_at_least_that_likely_to_exist():

@@ -48,6 +48,9 @@ the particles are sampled from it, before the proposal's linearisation fails."""
 RELOCALIZATION_RADIUS = 10.0
 """Metres beyond the sensor's reach around the best particle within which the map's landmarks
 are matched to a reading when the filter is lost (``FastSLAM._relocalize``)."""
+RELOCALIZATION_RETRY = 1.0
+"""Seconds after a pose search that found nothing before the next one (a search over a
+reading costs tens of milliseconds)."""
 MIN_RELOCALIZATION_INLIERS = 3
 """Observations a pose found from one reading must put near landmarks (two pin any pair)."""
 _NO_DRAWS = np.zeros(0)
@@ -398,6 +401,9 @@ class FastSLAM:
             return
         found, inliers = find_pose(points, near, gate)
         if 2 * inliers <= count or inliers < max(MIN_RELOCALIZATION_INLIERS, hits + 1):
+            # Nothing found (e.g. where the map has no landmarks): search again a little later,
+            # not at every reading.
+            self._lost_since = stamp - self.config.relocalization_delay + RELOCALIZATION_RETRY
             return
         redrawn = np.argsort(self.log_weights, kind="stable")[
             :max(1, round(self.config.relocalization_fraction * self.num_particles))]

@@ -16,7 +16,7 @@ from .geometry import wrap_angle
 
 MIN_PAIR_DISTANCE = 2.0
 """Observed pairs closer than this (m) give too uncertain a heading to propose a pose."""
-MAX_CANDIDATES = 4000
+MAX_CANDIDATES = 2000
 """Candidate poses scored per reading at most (the closest distance matches first)."""
 
 
