@@ -59,9 +59,10 @@ class FastSLAMConfig:
         "observation starts a new landmark; between the gates it is ignored. "
         ">= association_gate.", low=0.0, low_exclusive=True, high=1e4)
     relocalization_fraction: float = parameter(
-        0.5, "localization: fraction of the particles redrawn at the pose found from a reading "
-        "when at most half of its observations lie near a landmark seen from the best particle "
-        "and that pose puts more than half (and at least 3) near one (0: never).",
+        0.5, "localization: fraction of the particles (the lightest) redrawn at the pose "
+        "found from a reading once the filter has been lost for relocalization_delay, when that "
+        "pose puts more than half of the reading's observations (and at least 3) near a "
+        "landmark (0: never).",
         low=0.0, high=1.0)
     relocalization_gate: float = parameter(
         1.0, "localization: distance (m) from a landmark within which an observed point counts "

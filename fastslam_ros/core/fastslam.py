@@ -211,7 +211,7 @@ class FastSLAM:
         self._prior = None
         self._pending = np.zeros(3)
         self._has_pending = False
-        self._lost_since: float | None = None
+        self._lost_since = None
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -371,12 +371,14 @@ class FastSLAM:
         return report
 
     def _relocalize(self, ranges: np.ndarray, bearings: np.ndarray, stamp: float) -> None:
-        """Localization on a fixed map: when at most half of the reading's observations lie
-        within ``relocalization_gate`` of a landmark seen from the best particle, look for the
-        pose that explains more of them (``relocalization.find_pose``, over the landmarks within
-        the sensor's reach plus ``RELOCALIZATION_RADIUS``); if it explains more than half and
-        at least ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest
-        particles are redrawn around it (weights uniform, as after resampling)."""
+        """Localization on a fixed map (sensor resetting). The best particle is lost while at
+        most half of each reading's observations lie within ``relocalization_gate`` of a
+        landmark seen from it; once lost for ``relocalization_delay`` s, the pose that explains
+        more of them is searched (``relocalization.find_pose``, over the landmarks within the
+        sensor's reach plus ``RELOCALIZATION_RADIUS``). If it explains more than half and at
+        least ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest particles
+        are redrawn around it (weights uniform, as after resampling); otherwise the next search
+        waits ``RELOCALIZATION_RETRY`` s."""
         usable = (np.isfinite(ranges) & np.isfinite(bearings)
                   & (ranges >= MIN_OBSERVATION_RANGE))
         count = int(usable.sum())
