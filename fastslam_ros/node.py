@@ -301,7 +301,10 @@ class FastSLAMNode(FilterNode):
     def _update(self, observation: Observation) -> None:
         """Predict to the observation's stamp, update, publish the per-observation outputs."""
         self._predict_to(observation.stamp, "late_observations")
-        check_ids = observation.ids is not None and self.config.association != "known"
+        # Only labelled observations are scored: a cloud whose ids are all -1 (unknown) scores
+        # nothing, and reading the best particle's map for it would cost more than the update.
+        check_ids = (observation.ids is not None and self.config.association != "known"
+                     and bool((observation.ids >= 0).any()))
         labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
                          else None)
         recoveries = self.slam.num_recoveries

@@ -31,7 +31,7 @@ from typing import Any, Callable, Iterator, TextIO
 
 import rclpy
 import yaml
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
 from rclpy.clock import ClockType
 from rclpy.context import Context
 from rclpy.parameter import Parameter
@@ -47,6 +47,8 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.tools import cli
+from fastslam_ros.tools.cdr import (pose_with_covariance_stamped_cdr, read_odometry,
+                                    read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, ODOM_TOPIC,
                                            REPLAY_INFO_TOPIC,
@@ -62,10 +64,17 @@ STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
+DIRECT_READERS = {"nav_msgs/msg/Odometry": read_odometry,
+                  "sensor_msgs/msg/PointCloud2": read_point_cloud}
+"""Input types read straight from their CDR bytes into look-alike objects (plain attributes,
+which the node's readers accept as they accept rclpy messages): a bag holds about ten odometry
+messages per reading, and a generic deserializer costs more than the filter's prediction. A
+message they do not read (None) takes the generic path."""
 PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
-"""Input types handed to the node as rosbags messages (plain attributes, which the node's
-readers accept as they accept rclpy messages): reading one costs a quarter of an rclpy
-message, and a bag holds about ten odometry messages per reading."""
+"""Input types whose generic path is a rosbags message (a quarter of an rclpy message's cost)."""
+DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
+                  PoseWithCovarianceStamped: pose_with_covariance_stamped_cdr}
+"""Output types serialized directly (one of each per reading)."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
 
@@ -187,37 +196,6 @@ class ProgressBar:
 # ---------------------------------------------------------------- recording
 
 
-def _cdr_string(buffer: bytearray, text: str) -> None:
-    """Append a CDR string (uint32 length with the NUL, the bytes, the NUL), 4-aligned."""
-    buffer += bytes(-len(buffer) % 4)
-    encoded = text.encode() + b"\0"
-    buffer += struct.pack("<I", len(encoded)) + encoded
-
-
-_TF_HEAD = struct.Struct("<4sIii")
-_TF_VALUES = struct.Struct("<7d")
-_tf_frames: dict[tuple[str, str], bytes] = {}
-
-
-def tf_message_cdr(sec: int, nanosec: int, parent: str, child: str, translation,
-                   rotation) -> bytes:
-    """The serialized ``tf2_msgs/TFMessage`` holding one transform parent -> child at stamp
-    (sec, nanosec), translation (x, y, z), rotation quaternion (x, y, z, w), all written as
-    given: byte for byte what rosbags' serializer writes, written directly (a replay records
-    one per odometry message, where a message object and the generic serializer cost more
-    than the filter's prediction)."""
-    frames = _tf_frames.get((parent, child))
-    if frames is None:
-        # After the 12 bytes of count and stamp: both strings, then padding to the doubles.
-        buffer = bytearray(12)
-        _cdr_string(buffer, parent)
-        _cdr_string(buffer, child)
-        buffer += bytes(-len(buffer) % 8)
-        frames = _tf_frames[(parent, child)] = bytes(buffer[12:])
-    return b"".join((_TF_HEAD.pack(b"\x00\x01\x00\x00", 1, sec, nanosec), frames,
-                     _TF_VALUES.pack(*translation, *rotation)))
-
-
 class MarkerArrayCdr:
     """Serializes ``visualization_msgs/MarkerArray`` messages whose markers are mostly those of
     the previous one (``ros_io.MarkerBuilder`` reuses the markers of unchanged landmarks).
@@ -277,7 +255,10 @@ class OutputRecorder:
     def record(self, topic: str, msg: Any) -> None:
         """Output listener of the node: serialize the rclpy message and write it; the node's
         map -> odom transform also goes to ``/tf``."""
-        if isinstance(msg, MarkerArray):
+        direct = DIRECT_WRITERS.get(type(msg))
+        if direct is not None:
+            raw = direct(msg)
+        elif isinstance(msg, MarkerArray):
             raw = self._marker_arrays.setdefault(topic, MarkerArrayCdr()).serialize(msg)
         else:
             raw = serialize_message(msg)
@@ -540,10 +521,13 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
         clock.set_ros_time_override(Time(nanoseconds=stamp_ns, clock_type=ClockType.ROS_TIME))
-        if connection.msgtype in PLAIN_TYPES:
-            msg = reader.deserialize(raw, connection.msgtype)
-        else:
-            msg = deserialize_message(bytes(raw), classes[topic])
+        direct = DIRECT_READERS.get(connection.msgtype)
+        msg = direct(raw) if direct is not None else None
+        if msg is None:
+            if connection.msgtype in PLAIN_TYPES:
+                msg = reader.deserialize(raw, connection.msgtype)
+            else:
+                msg = deserialize_message(bytes(raw), classes[topic])
         used_odometry = node.stats["used_odom"]
         callbacks[topic](msg)
         if recorder is not None and node.stats["used_odom"] > used_odometry:
