@@ -452,7 +452,8 @@ class FilterNode(Node):
         pose = self._pose_input(msg, "odometry")
         if pose is None:
             return
-        if not np.all(np.abs(pose[:2]) <= MAX_ODOMETRY_COORDINATE):
+        if not (abs(pose[0]) <= MAX_ODOMETRY_COORDINATE
+                and abs(pose[1]) <= MAX_ODOMETRY_COORDINATE):
             return self._drop("implausible_odometry", f"odometry position {pose[:2]} is beyond "
                                                       f"{MAX_ODOMETRY_COORDINATE:g} m")
         stamp = self._stamp(msg.header.stamp, "odometry")

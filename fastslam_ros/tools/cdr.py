@@ -232,3 +232,130 @@ def pose_with_covariance_stamped_cdr(msg: Any) -> bytes:
                      _frames(8, (msg.header.frame_id,)),
                      _DOUBLES7.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w),
                      np.asarray(msg.pose.covariance, dtype="<f8").tobytes()))
+
+
+class _Buffer:
+    """CDR bytes being written; alignment counts from ``origin`` (the payload's start)."""
+
+    def __init__(self, start: bytes, origin: int) -> None:
+        self.data = bytearray(start)
+        self.origin = origin
+
+    def align(self, size: int) -> None:
+        self.data += bytes(-(len(self.data) - self.origin) % size)
+
+    def u32(self, value: int) -> None:
+        self.align(4)
+        self.data += _U32.pack(value)
+
+    def string(self, text: str) -> None:
+        encoded = text.encode() + b"\0"
+        self.u32(len(encoded))
+        self.data += encoded
+
+    def header(self, header: Any) -> None:
+        self.align(4)
+        self.data += _STAMP.pack(header.stamp.sec, header.stamp.nanosec)
+        self.string(header.frame_id)
+
+    def pose(self, pose: Any) -> None:
+        p, q = pose.position, pose.orientation
+        self.align(8)
+        self.data += _DOUBLES7.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+
+
+def pose_array_cdr(msg: Any) -> bytes:
+    """A serialized ``geometry_msgs/PoseArray`` (rclpy or look-alike)."""
+    buffer = _Buffer(CDR_LE, 4)
+    buffer.header(msg.header)
+    buffer.u32(len(msg.poses))
+    for pose in msg.poses:
+        buffer.pose(pose)
+    return bytes(buffer.data)
+
+
+def point_cloud2_cdr(msg: Any) -> bytes:
+    """A serialized ``sensor_msgs/PointCloud2`` (rclpy or look-alike)."""
+    buffer = _Buffer(CDR_LE, 4)
+    buffer.header(msg.header)
+    buffer.u32(msg.height)
+    buffer.u32(msg.width)
+    buffer.u32(len(msg.fields))
+    for point_field in msg.fields:
+        buffer.string(point_field.name)
+        buffer.align(4)
+        buffer.data += _FIELD_TAIL.pack(point_field.offset, point_field.datatype,
+                                        point_field.count)
+    buffer.data.append(1 if msg.is_bigendian else 0)
+    buffer.u32(msg.point_step)
+    buffer.u32(msg.row_step)
+    buffer.u32(len(msg.data))
+    buffer.data += memoryview(msg.data).cast("B")
+    buffer.data.append(1 if msg.is_dense else 0)
+    return bytes(buffer.data)
+
+
+def diagnostic_array_cdr(msg: Any) -> bytes:
+    """A serialized ``diagnostic_msgs/DiagnosticArray`` (rclpy, whose ``level`` is one byte, or
+    look-alike)."""
+    buffer = _Buffer(CDR_LE, 4)
+    buffer.header(msg.header)
+    buffer.u32(len(msg.status))
+    for status in msg.status:
+        level = status.level
+        buffer.data += level if isinstance(level, bytes) else bytes((level,))
+        buffer.string(status.name)
+        buffer.string(status.message)
+        buffer.string(status.hardware_id)
+        buffer.u32(len(status.values))
+        for value in status.values:
+            buffer.string(value.key)
+            buffer.string(value.value)
+    return bytes(buffer.data)
+
+
+def pose_stamped_piece(msg: Any, alignment: int) -> bytes:
+    """The bytes of a ``geometry_msgs/PoseStamped`` inside a message, starting at a payload
+    offset that is ``alignment`` (0 or 4) modulo 8."""
+    buffer = _Buffer(bytes(alignment), 0)
+    buffer.header(msg.header)
+    buffer.pose(msg.pose)
+    return bytes(buffer.data[alignment:])
+
+
+class SequenceCdr:
+    """Serializes messages made of an optional header and one sequence of sub-messages, most of
+    them those of the previous message (``ros_io.MarkerBuilder`` and ``ros_io.PathBuilder``
+    reuse the sub-messages of what did not change).
+
+    Each element starts 4-aligned and its bytes depend only on whether it starts 8-aligned
+    (its float64 fields' padding): each is serialized once per alignment it is met at and the
+    message joined from the pieces (a map of a few hundred landmarks costs a fraction of a
+    millisecond instead of ten). ``piece(element, alignment)`` serializes one element."""
+
+    def __init__(self, field: str, piece: Any, has_header: bool) -> None:
+        self._field, self._piece, self._has_header = field, piece, has_header
+        self._pieces: dict[int, tuple[Any, dict[int, bytes]]] = {}
+
+    def serialize(self, msg: Any) -> bytes:
+        elements = getattr(msg, self._field)
+        buffer = _Buffer(CDR_LE, 4)
+        if self._has_header:
+            buffer.header(msg.header)
+        buffer.u32(len(elements))
+        parts = [bytes(buffer.data)]
+        offset, pieces, kept = len(buffer.data) - 4, self._pieces, {}
+        for element in elements:
+            padding = -offset % 4
+            if padding:
+                parts.append(bytes(padding))
+                offset += padding
+            entry = kept.get(id(element)) or pieces.get(id(element)) or (element, {})
+            kept[id(element)] = entry  # the element is held, so its id is not reused meanwhile
+            piece = entry[1].get(offset % 8)
+            if piece is None:
+                piece = entry[1][offset % 8] = self._piece(element, offset % 8)
+            parts.append(piece)
+            offset += len(piece)
+        self._pieces = kept
+        return b"".join(parts)
