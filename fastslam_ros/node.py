@@ -267,7 +267,9 @@ class FastSLAMNode(FilterNode):
                                                     "(at the sensor origin, or byte-swapped data)")
         self._count_points("out_of_range", in_range, f"range beyond max_range "
                                                      f"({self.config.max_range} m)")
-        self._check_reach(ranges[finite], np.arctan2(cloud.y[finite], cloud.x[finite]))
+        bearings = np.arctan2(cloud.y, cloud.x)
+        if self._reach_check.problems is None:  # still sampling the sensor's reach
+            self._check_reach(ranges[finite], bearings[finite])
         ids = cloud.ids
         if self.config.association == "known":
             labelled = (np.zeros_like(keep) if ids is None else ids >= 0) | ~keep
@@ -276,8 +278,7 @@ class FastSLAMNode(FilterNode):
             keep &= labelled
         if keep.size and not keep.any():
             return None
-        return Observation(stamp=stamp, ranges=ranges[keep],
-                           bearings=np.arctan2(cloud.y[keep], cloud.x[keep]),
+        return Observation(stamp=stamp, ranges=ranges[keep], bearings=bearings[keep],
                            ids=None if ids is None else ids[keep], arrival=arrival)
 
     def _check_reach(self, ranges: np.ndarray, bearings: np.ndarray) -> None:
@@ -289,7 +290,7 @@ class FastSLAMNode(FilterNode):
         return [f"sensor reach: {problem}" for problem in self._reach_check.problems or []]
 
     def _count_points(self, reason: str, valid: np.ndarray, what: str) -> None:
-        dropped = int(np.count_nonzero(~valid))
+        dropped = valid.size - int(np.count_nonzero(valid))
         if dropped:
             self._drop(reason, f"{dropped} landmark point(s) dropped: {what}", dropped)
 

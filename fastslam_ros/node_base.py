@@ -229,6 +229,8 @@ class FilterNode(Node):
                    if name not in counters]
         assert not missing, f"counters missing: {missing}"
         self.output_listeners: list[Callable[[str, object], None]] = []
+        self._topic_names: dict[Any, str] = {}
+        self._last_header: tuple[Any, Header | None] = (None, None)
         self.publish_to_dds = True
         """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
@@ -576,11 +578,21 @@ class FilterNode(Node):
         """Publish and hand the message to every output listener (replay records them)."""
         if self.publish_to_dds:
             publisher.publish(msg)
-        for listener in self.output_listeners:
-            listener(publisher.topic_name, msg)
+        if self.output_listeners:
+            topic = self._topic_names.get(publisher)
+            if topic is None:  # asking rcl costs more than recording the message
+                topic = self._topic_names[publisher] = publisher.topic_name
+            for listener in self.output_listeners:
+                listener(topic, msg)
 
     def _map_header(self, stamp: float) -> Header:
-        return Header(stamp=ros_io.seconds_to_stamp(stamp), frame_id=self.settings["map_frame"])
+        """The map-frame header at ``stamp``: one object for every output of that stamp (the
+        pose, the transform and the throttled outputs of a reading), which no output changes."""
+        key = (stamp, self.settings["map_frame"])
+        if self._last_header[0] != key:
+            self._last_header = (key, Header(stamp=ros_io.seconds_to_stamp(stamp),
+                                             frame_id=key[1]))
+        return self._last_header[1]
 
     def _publish_map_to_odom(self, header: Header, pose: np.ndarray) -> None:
         """~/map_to_odom (and /tf when publish_tf) for the robot at ``pose`` in the map at the

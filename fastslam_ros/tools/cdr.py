@@ -289,8 +289,7 @@ def point_cloud2_cdr(msg: Any) -> bytes:
     buffer.data.append(1 if msg.is_bigendian else 0)
     buffer.u32(msg.point_step)
     buffer.u32(msg.row_step)
-    buffer.u32(len(msg.data))
-    buffer.data += memoryview(msg.data).cast("B")
+    _bytes_sequence(buffer, msg.data)
     buffer.data.append(1 if msg.is_dense else 0)
     return bytes(buffer.data)
 
@@ -359,3 +358,8 @@ class SequenceCdr:
             offset += len(piece)
         self._pieces = kept
         return b"".join(parts)
+
+
+def _bytes_sequence(buffer: _Buffer, data: Any) -> None:
+    buffer.u32(len(data))
+    buffer.data += memoryview(data).cast("B") if len(data) else b""

@@ -241,11 +241,12 @@ class OutputRecorder:
         self._sequences: dict[str, SequenceCdr] = {}
 
     def _connection(self, topic: str, msgtype: str) -> Any:
-        if topic not in self.connections:
+        connection = self.connections.get(topic)
+        if connection is None:
             qos = STATIC_QOS if topic == TF_STATIC_TOPIC else ()
-            self.connections[topic] = self.writer.add_connection(
+            connection = self.connections[topic] = self.writer.add_connection(
                 topic, msgtype, typestore=TYPESTORE, offered_qos_profiles=qos)
-        return self.connections[topic]
+        return connection
 
     def record(self, topic: str, msg: Any) -> None:
         """Output listener of the node: serialize the rclpy message and write it; the node's
@@ -258,8 +259,9 @@ class OutputRecorder:
             raw = writer.serialize(msg)
         else:
             raw = serialize_message(msg)
-        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns, raw)
-        if isinstance(msg, TransformStamped):
+        connection = self.connections.get(topic) or self._connection(topic, ros_msgtype(msg))
+        self.writer.write(connection, self.stamp_ns, raw)
+        if type(msg) is TransformStamped:
             translation, rotation = msg.transform.translation, msg.transform.rotation
             stamp = msg.header.stamp
             self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
