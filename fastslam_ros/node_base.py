@@ -231,6 +231,7 @@ class FilterNode(Node):
         self.output_listeners: list[Callable[[str, object], None]] = []
         self._topic_names: dict[Any, str] = {}
         self._last_header: tuple[Any, Header | None] = (None, None)
+        self._counter_values: dict[str, tuple[int, KeyValue]] = {}
         self.publish_to_dds = True
         """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
@@ -651,11 +652,19 @@ class FilterNode(Node):
             level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
             name=f"{self.get_name()}: {component}", hardware_id=self.get_fully_qualified_name(),
             message="; ".join(problems) or "running",
-            values=[KeyValue(key=k, value=str(v)) for k, v in self.stats.items()]
+            values=[self._counter_value(k, v) for k, v in self.stats.items()]
             + self._diagnostic_state() + rates + timing)
         self._publish(self._diagnostics_pub,
                       DiagnosticArray(header=Header(stamp=self.get_clock().now().to_msg()),
                                       status=[status]))
+
+    def _counter_value(self, key: str, count: int) -> KeyValue:
+        """The KeyValue of a counter: the one of the last report while the count is the same
+        (most counters stay put; no report changes a KeyValue)."""
+        cached = self._counter_values.get(key)
+        if cached is None or cached[0] != count:
+            cached = self._counter_values[key] = (count, KeyValue(key=key, value=str(count)))
+        return cached[1]
 
     def _on_timer(self) -> None:
         """Once a second: run readings that waited too long even if no input arrives any more."""

@@ -17,7 +17,7 @@ from typing import Protocol, Sequence
 import numpy as np
 import yaml
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
+from geometry_msgs.msg import (Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
                                Quaternion, TransformStamped)
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import PointCloud2, PointField
@@ -404,22 +404,37 @@ def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float
                    minor: float, color: ColorRGBA) -> Marker:
     """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
     heading (namespace ``ELLIPSE_NAMESPACE``)."""
-    ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
-                     action=Marker.ADD, pose=pose_msg(pose), color=color)
-    ellipse.scale.x, ellipse.scale.y = major, minor
-    ellipse.scale.z = ELLIPSE_HEIGHT
+    ellipse = _marker(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER)
+    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
+    position, orientation = ellipse.pose.position, ellipse.pose.orientation
+    position.x, position.y = float(pose[0]), float(pose[1])
+    orientation.z, orientation.w = qz, qw
+    ellipse.color = color
+    scale = ellipse.scale
+    scale.x, scale.y, scale.z = major, minor, ELLIPSE_HEIGHT
     return ellipse
 
 
 def label_marker(header: Header, key: int, position: Sequence[float], text: str) -> Marker:
     """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
-    label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
-                   action=Marker.ADD, text=text, color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-    label.pose.position = Point(x=float(position[0]), y=float(position[1]),
-                                z=float(position[2]))
+    label = _marker(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING)
+    label.text = text
+    color = label.color
+    color.r, color.g, color.b, color.a = 1.0, 1.0, 1.0, 1.0
+    point = label.pose.position
+    point.x, point.y, point.z = float(position[0]), float(position[1]), float(position[2])
     label.pose.orientation.w = 1.0
     label.scale.z = LABEL_HEIGHT
     return label
+
+
+def _marker(header: Header, namespace: str, key: int, marker_type: int) -> Marker:
+    """An ADD marker; its default sub-messages are filled in place by the callers (passing
+    new ones to the constructor would build the defaults as well)."""
+    marker = Marker()
+    marker.header, marker.ns, marker.id = header, namespace, key
+    marker.type, marker.action = marker_type, Marker.ADD
+    return marker
 
 
 def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str]

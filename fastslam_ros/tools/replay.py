@@ -1,9 +1,10 @@
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
-Every ``/landmarks`` (and ``/initialpose``) message of the bag is deserialized straight into its
-rclpy message class, every ``/odom`` one into a rosbags message (the same attributes, cheaper),
-and handed, in bag-time order, to the node's subscription callbacks; before each
-one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
+Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into
+a look-alike object (``tools/cdr.py``: the attributes the node's readers use), any other input
+(``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
+subscription callbacks; before each one the node's clock (``use_sim_time``) is set to the
+message's bag time. Nothing goes through
 DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
 a replay runs as fast as the filter allows and gives the same outputs as a live run at the
 same times. Every message the node publishes is recorded into
@@ -13,7 +14,9 @@ OUT (MCAP) at the bag time of the input being processed, together with copies of
 the parameters used), so OUT alone is enough for ``fastslam-eval``. OUT also holds ``/tf``
 (map -> odom from the node, odom -> base_link from each odometry message) and ``/tf_static``
 (base_link -> the sensor frame, plus the input bag's static transforms), so RViz and Foxglove
-show it as they would a live robot.
+show it as they would a live robot. The outputs a replay writes most often (pose, transform,
+particles, path, map cloud, diagnostics) are serialized directly, byte for byte as rosbags
+writes them.
 """
 from __future__ import annotations
 
