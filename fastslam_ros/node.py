@@ -268,7 +268,9 @@ class FastSLAMNode(FilterNode):
                                                     "(at the sensor origin, or byte-swapped data)")
         self._count_points("out_of_range", in_range, f"range beyond max_range "
                                                      f"({self.config.max_range} m)")
-        self._check_reach(ranges[finite], np.arctan2(cloud.y[finite], cloud.x[finite]))
+        bearings = np.arctan2(cloud.y, cloud.x)
+        if self._reach_check.problems is None:  # still sampling the sensor's reach
+            self._check_reach(ranges[finite], bearings[finite])
         ids = cloud.ids
         if self.config.association == "known":
             labelled = (np.zeros_like(keep) if ids is None else ids >= 0) | ~keep
@@ -277,8 +279,7 @@ class FastSLAMNode(FilterNode):
             keep &= labelled
         if keep.size and not keep.any():
             return None
-        return Observation(stamp=stamp, ranges=ranges[keep],
-                           bearings=np.arctan2(cloud.y[keep], cloud.x[keep]),
+        return Observation(stamp=stamp, ranges=ranges[keep], bearings=bearings[keep],
                            ids=None if ids is None else ids[keep], arrival=arrival)
 
     def _check_reach(self, ranges: np.ndarray, bearings: np.ndarray) -> None:
@@ -290,7 +291,7 @@ class FastSLAMNode(FilterNode):
         return [f"sensor reach: {problem}" for problem in self._reach_check.problems or []]
 
     def _count_points(self, reason: str, valid: np.ndarray, what: str) -> None:
-        dropped = int(np.count_nonzero(~valid))
+        dropped = valid.size - int(np.count_nonzero(valid))
         if dropped:
             self._drop(reason, f"{dropped} landmark point(s) dropped: {what}", dropped)
 
@@ -302,7 +303,10 @@ class FastSLAMNode(FilterNode):
     def _update(self, observation: Observation) -> None:
         """Predict to the observation's stamp, update, publish the per-observation outputs."""
         self._predict_to(observation.stamp, "late_observations")
-        check_ids = observation.ids is not None and self.config.association != "known"
+        # Only labelled observations are scored: a cloud whose ids are all -1 (unknown) scores
+        # nothing, and reading the best particle's map for it would cost more than the update.
+        check_ids = (observation.ids is not None and self.config.association != "known"
+                     and bool((observation.ids >= 0).any()))
         labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
                          else None)
         recoveries, relocalizations = self.slam.num_recoveries, self.slam.num_relocalizations

@@ -229,6 +229,9 @@ class FilterNode(Node):
                    if name not in counters]
         assert not missing, f"counters missing: {missing}"
         self.output_listeners: list[Callable[[str, object], None]] = []
+        self._topic_names: dict[Any, str] = {}
+        self._last_header: tuple[Any, Header | None] = (None, None)
+        self._counter_values: dict[str, tuple[int, KeyValue]] = {}
         self.publish_to_dds = True
         """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
@@ -452,7 +455,8 @@ class FilterNode(Node):
         pose = self._pose_input(msg, "odometry")
         if pose is None:
             return
-        if not np.all(np.abs(pose[:2]) <= MAX_ODOMETRY_COORDINATE):
+        if not (abs(pose[0]) <= MAX_ODOMETRY_COORDINATE
+                and abs(pose[1]) <= MAX_ODOMETRY_COORDINATE):
             return self._drop("implausible_odometry", f"odometry position {pose[:2]} is beyond "
                                                       f"{MAX_ODOMETRY_COORDINATE:g} m")
         stamp = self._stamp(msg.header.stamp, "odometry")
@@ -575,11 +579,21 @@ class FilterNode(Node):
         """Publish and hand the message to every output listener (replay records them)."""
         if self.publish_to_dds:
             publisher.publish(msg)
-        for listener in self.output_listeners:
-            listener(publisher.topic_name, msg)
+        if self.output_listeners:
+            topic = self._topic_names.get(publisher)
+            if topic is None:  # asking rcl costs more than recording the message
+                topic = self._topic_names[publisher] = publisher.topic_name
+            for listener in self.output_listeners:
+                listener(topic, msg)
 
     def _map_header(self, stamp: float) -> Header:
-        return Header(stamp=ros_io.seconds_to_stamp(stamp), frame_id=self.settings["map_frame"])
+        """The map-frame header at ``stamp``: one object for every output of that stamp (the
+        pose, the transform and the throttled outputs of a reading), which no output changes."""
+        key = (stamp, self.settings["map_frame"])
+        if self._last_header[0] != key:
+            self._last_header = (key, Header(stamp=ros_io.seconds_to_stamp(stamp),
+                                             frame_id=key[1]))
+        return self._last_header[1]
 
     def _publish_map_to_odom(self, header: Header, pose: np.ndarray) -> None:
         """~/map_to_odom (and /tf when publish_tf) for the robot at ``pose`` in the map at the
@@ -638,11 +652,19 @@ class FilterNode(Node):
             level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
             name=f"{self.get_name()}: {component}", hardware_id=self.get_fully_qualified_name(),
             message="; ".join(problems) or "running",
-            values=[KeyValue(key=k, value=str(v)) for k, v in self.stats.items()]
+            values=[self._counter_value(k, v) for k, v in self.stats.items()]
             + self._diagnostic_state() + rates + timing)
         self._publish(self._diagnostics_pub,
                       DiagnosticArray(header=Header(stamp=self.get_clock().now().to_msg()),
                                       status=[status]))
+
+    def _counter_value(self, key: str, count: int) -> KeyValue:
+        """The KeyValue of a counter: the one of the last report while the count is the same
+        (most counters stay put; no report changes a KeyValue)."""
+        cached = self._counter_values.get(key)
+        if cached is None or cached[0] != count:
+            cached = self._counter_values[key] = (count, KeyValue(key=key, value=str(count)))
+        return cached[1]
 
     def _on_timer(self) -> None:
         """Once a second: run readings that waited too long even if no input arrives any more."""

@@ -8,6 +8,7 @@ Planar poses are ``(x, y, theta)`` arrays: metres and radians, theta wrapped to 
 from __future__ import annotations
 
 import csv
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +17,7 @@ from typing import Protocol, Sequence
 import numpy as np
 import yaml
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import (Point, Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
+from geometry_msgs.msg import (Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
                                Quaternion, TransformStamped)
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import PointCloud2, PointField
@@ -154,9 +155,14 @@ def pose_msg(pose: Sequence[float]) -> Pose:
 
 
 def _planar_pose(x: float, y: float, yaw: float) -> Pose:
-    """``pose_msg`` of floats (a PoseArray builds one per particle)."""
+    """``pose_msg`` of floats (a PoseArray builds one per particle). The default sub-messages
+    are filled in place: passing new ones would build the defaults as well."""
     _, _, qz, qw = geometry.yaw_to_quaternion(yaw)
-    return Pose(position=Point(x=x, y=y), orientation=Quaternion(z=qz, w=qw))
+    pose = Pose()
+    position, orientation = pose.position, pose.orientation
+    position.x, position.y = x, y
+    orientation.z, orientation.w = qz, qw
+    return pose
 
 
 # --- point clouds ------------------------------------------------------------------------------
@@ -188,12 +194,9 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
             raise MalformedCloudError("field 'id' is not an integer type")
         names.append("id")
     point_step, row_step = msg.point_step, msg.row_step
-    byte_order = ">" if msg.is_bigendian else "<"
-    formats = [np.dtype(POINT_FIELD_DTYPES[fields[n].datatype]).newbyteorder(byte_order)
-               for n in names]
-    offsets = [fields[n].offset for n in names]
-    if any(offset < 0 or offset + fmt.itemsize > point_step
-           for offset, fmt in zip(offsets, formats)):
+    dtype = _point_dtype(tuple((n, fields[n].datatype, fields[n].offset) for n in names),
+                         bool(msg.is_bigendian), point_step)
+    if dtype is None:
         raise MalformedCloudError(f"point_step {point_step} does not hold fields {names}")
     if row_step < msg.width * point_step:
         raise MalformedCloudError(f"row_step {row_step} < width {msg.width} * "
@@ -203,11 +206,25 @@ def read_landmark_cloud(msg) -> LandmarkCloud:
         raise MalformedCloudError(f"data has {data.size} bytes, expected row_step * height = "
                                   f"{row_step * msg.height}")
     rows = data.reshape(msg.height, row_step)[:, :msg.width * point_step]
-    dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets,
-                      "itemsize": point_step})
     points = np.ascontiguousarray(rows).view(dtype).reshape(-1)
     ids = points["id"].astype(np.int64) if "id" in names else None
     return LandmarkCloud(points["x"].astype(np.float64), points["y"].astype(np.float64), ids)
+
+
+@functools.lru_cache(maxsize=64)
+def _point_dtype(layout: tuple[tuple[str, int, int], ...], big_endian: bool,
+                 point_step: int) -> np.dtype | None:
+    """The structured dtype of points whose fields are ``layout`` (name, datatype, offset), or
+    None when a field does not fit in ``point_step`` (a stream has one layout: cached)."""
+    byte_order = ">" if big_endian else "<"
+    formats = [np.dtype(POINT_FIELD_DTYPES[datatype]).newbyteorder(byte_order)
+               for _, datatype, _ in layout]
+    offsets = [offset for _, _, offset in layout]
+    if any(offset < 0 or offset + fmt.itemsize > point_step
+           for offset, fmt in zip(offsets, formats)):
+        return None
+    return np.dtype({"names": [name for name, _, _ in layout], "formats": formats,
+                     "offsets": offsets, "itemsize": point_step})
 
 
 def cloud_size(msg) -> int:
@@ -268,11 +285,15 @@ def pose_with_covariance(header: Header, pose: Sequence[float],
     """Planar pose with its (3, 3) covariance over (x, y, theta) placed in the 6x6 ROS layout."""
     msg = PoseWithCovarianceStamped(header=header)
     msg.pose.pose = pose_msg(pose)
-    full = np.zeros((6, 6))
-    planar = [0, 1, 5]  # x, y and rotation about z in (x, y, z, rot x, rot y, rot z)
-    full[np.ix_(planar, planar)] = covariance
-    msg.pose.covariance = full.ravel()  # float64 (36,): taken as it is, not checked per item
+    full = np.zeros(36)
+    full[_PLANAR_COVARIANCE] = np.ravel(covariance)
+    msg.pose.covariance = full  # float64 (36,): taken as it is, not checked per item
     return msg
+
+
+_PLANAR = (0, 1, 5)  # x, y and rotation about z in (x, y, z, rot x, rot y, rot z)
+_PLANAR_COVARIANCE = np.array([6 * row + column for row in _PLANAR for column in _PLANAR])
+"""Where the (3, 3) planar covariance goes in the row-major 6x6 one."""
 
 
 def pose_array(header: Header, poses: np.ndarray) -> PoseArray:
@@ -313,8 +334,9 @@ class PathBuilder:
 def transform(header: Header, child_frame_id: str, pose: Sequence[float]) -> TransformStamped:
     """Planar pose of ``child_frame_id`` in ``header.frame_id`` -> ``TransformStamped``."""
     msg = TransformStamped(header=header, child_frame_id=child_frame_id)
-    msg.transform.translation.x, msg.transform.translation.y = float(pose[0]), float(pose[1])
-    msg.transform.rotation = yaw_to_quaternion(float(pose[2]))
+    translation, rotation = msg.transform.translation, msg.transform.rotation
+    translation.x, translation.y = float(pose[0]), float(pose[1])
+    _, _, rotation.z, rotation.w = geometry.yaw_to_quaternion(float(pose[2]))
     return msg
 
 
@@ -382,22 +404,37 @@ def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float
                    minor: float, color: ColorRGBA) -> Marker:
     """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
     heading (namespace ``ELLIPSE_NAMESPACE``)."""
-    ellipse = Marker(header=header, ns=ELLIPSE_NAMESPACE, id=key, type=Marker.CYLINDER,
-                     action=Marker.ADD, pose=pose_msg(pose), color=color)
-    ellipse.scale.x, ellipse.scale.y = major, minor
-    ellipse.scale.z = ELLIPSE_HEIGHT
+    ellipse = _marker(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER)
+    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
+    position, orientation = ellipse.pose.position, ellipse.pose.orientation
+    position.x, position.y = float(pose[0]), float(pose[1])
+    orientation.z, orientation.w = qz, qw
+    ellipse.color = color
+    scale = ellipse.scale
+    scale.x, scale.y, scale.z = major, minor, ELLIPSE_HEIGHT
     return ellipse
 
 
 def label_marker(header: Header, key: int, position: Sequence[float], text: str) -> Marker:
     """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
-    label = Marker(header=header, ns=LABEL_NAMESPACE, id=key, type=Marker.TEXT_VIEW_FACING,
-                   action=Marker.ADD, text=text, color=ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0))
-    label.pose.position = Point(x=float(position[0]), y=float(position[1]),
-                                z=float(position[2]))
+    label = _marker(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING)
+    label.text = text
+    color = label.color
+    color.r, color.g, color.b, color.a = 1.0, 1.0, 1.0, 1.0
+    point = label.pose.position
+    point.x, point.y, point.z = float(position[0]), float(position[1]), float(position[2])
     label.pose.orientation.w = 1.0
     label.scale.z = LABEL_HEIGHT
     return label
+
+
+def _marker(header: Header, namespace: str, key: int, marker_type: int) -> Marker:
+    """An ADD marker; its default sub-messages are filled in place by the callers (passing
+    new ones to the constructor would build the defaults as well)."""
+    marker = Marker()
+    marker.header, marker.ns, marker.id = header, namespace, key
+    marker.type, marker.action = marker_type, Marker.ADD
+    return marker
 
 
 def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str]

@@ -1,9 +1,10 @@
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
-Every ``/landmarks`` (and ``/initialpose``) message of the bag is deserialized straight into its
-rclpy message class, every ``/odom`` one into a rosbags message (the same attributes, cheaper),
-and handed, in bag-time order, to the node's subscription callbacks; before each
-one the node's clock (``use_sim_time``) is set to the message's bag time. Nothing goes through
+Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into
+a look-alike object (``tools/cdr.py``: the attributes the node's readers use), any other input
+(``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
+subscription callbacks; before each one the node's clock (``use_sim_time``) is set to the
+message's bag time. Nothing goes through
 DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
 a replay runs as fast as the filter allows and gives the same outputs as a live run at the
 same times. Every message the node publishes is recorded into
@@ -13,7 +14,9 @@ OUT (MCAP) at the bag time of the input being processed, together with copies of
 the parameters used), so OUT alone is enough for ``fastslam-eval``. OUT also holds ``/tf``
 (map -> odom from the node, odom -> base_link from each odometry message) and ``/tf_static``
 (base_link -> the sensor frame, plus the input bag's static transforms), so RViz and Foxglove
-show it as they would a live robot.
+show it as they would a live robot. The outputs a replay writes most often (pose, transform,
+particles, path, map cloud, diagnostics) are serialized directly, byte for byte as rosbags
+writes them.
 """
 from __future__ import annotations
 
@@ -31,7 +34,9 @@ from typing import Any, Callable, Iterator, TextIO
 
 import rclpy
 import yaml
-from geometry_msgs.msg import TransformStamped
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
+from nav_msgs.msg import Path as PathMsg
 from rclpy.clock import ClockType
 from rclpy.context import Context
 from rclpy.parameter import Parameter
@@ -40,13 +45,19 @@ from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
-from rosbags.rosbag2 import Writer
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import McapWriter
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.tools import cli
+from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, point_cloud2_cdr,
+                                    pose_array_cdr, pose_stamped_piece,
+                                    pose_with_covariance_stamped_cdr, read_odometry,
+                                    read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, ODOM_TOPIC,
                                            REPLAY_INFO_TOPIC,
@@ -62,10 +73,19 @@ STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurabilit
 INPUT_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC)
 COPIED_TOPICS = (ODOM_TOPIC, LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                  GROUND_TRUTH_LANDMARKS_TOPIC)
+DIRECT_READERS = {"nav_msgs/msg/Odometry": read_odometry,
+                  "sensor_msgs/msg/PointCloud2": read_point_cloud}
+"""Input types read straight from their CDR bytes into look-alike objects (plain attributes,
+which the node's readers accept as they accept rclpy messages): a bag holds about ten odometry
+messages per reading, and a generic deserializer costs more than the filter's prediction. A
+message they do not read (None) takes the generic path."""
 PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
-"""Input types handed to the node as rosbags messages (plain attributes, which the node's
-readers accept as they accept rclpy messages): reading one costs a quarter of an rclpy
-message, and a bag holds about ten odometry messages per reading."""
+"""Input types whose generic path is a rosbags message (a quarter of an rclpy message's cost)."""
+DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
+                  PoseWithCovarianceStamped: pose_with_covariance_stamped_cdr,
+                  PoseArray: pose_array_cdr, PointCloud2: point_cloud2_cdr,
+                  DiagnosticArray: diagnostic_array_cdr}
+"""Output types serialized directly (rclpy's serializer costs about 6 us per pose)."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
 
@@ -187,72 +207,68 @@ class ProgressBar:
 # ---------------------------------------------------------------- recording
 
 
-def _cdr_string(buffer: bytearray, text: str) -> None:
-    """Append a CDR string (uint32 length with the NUL, the bytes, the NUL), 4-aligned."""
-    buffer += bytes(-len(buffer) % 4)
-    encoded = text.encode() + b"\0"
-    buffer += struct.pack("<I", len(encoded)) + encoded
+def marker_piece(marker: Any, alignment: int) -> bytes:
+    """The bytes of one ``visualization_msgs/Marker`` inside a MarkerArray at a payload offset
+    that is ``alignment`` (0 or 4) modulo 8 (rclpy's serializer)."""
+    if alignment == 0:
+        return serialize_message(marker)[4:]
+    return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
 
 
-_TF_HEAD = struct.Struct("<4sIii")
-_TF_VALUES = struct.Struct("<7d")
-_tf_frames: dict[tuple[str, str], bytes] = {}
-
-
-def tf_message_cdr(sec: int, nanosec: int, parent: str, child: str, translation,
-                   rotation) -> bytes:
-    """The serialized ``tf2_msgs/TFMessage`` holding one transform parent -> child at stamp
-    (sec, nanosec), translation (x, y, z), rotation quaternion (x, y, z, w), all written as
-    given: byte for byte what rosbags' serializer writes, written directly (a replay records
-    one per odometry message, where a message object and the generic serializer cost more
-    than the filter's prediction)."""
-    frames = _tf_frames.get((parent, child))
-    if frames is None:
-        # After the 12 bytes of count and stamp: both strings, then padding to the doubles.
-        buffer = bytearray(12)
-        _cdr_string(buffer, parent)
-        _cdr_string(buffer, child)
-        buffer += bytes(-len(buffer) % 8)
-        frames = _tf_frames[(parent, child)] = bytes(buffer[12:])
-    return b"".join((_TF_HEAD.pack(b"\x00\x01\x00\x00", 1, sec, nanosec), frames,
-                     _TF_VALUES.pack(*translation, *rotation)))
-
-
-class MarkerArrayCdr:
-    """Serializes ``visualization_msgs/MarkerArray`` messages whose markers are mostly those of
-    the previous one (``ros_io.MarkerBuilder`` reuses the markers of unchanged landmarks).
-
-    A MarkerArray is a uint32 count and its markers, each starting 4-aligned; a marker's bytes
-    depend only on whether it starts 8-aligned (its float64 fields' padding). Each marker is
-    serialized once per alignment it is met at and the array joined from the pieces: a map of
-    a few hundred landmarks costs a fraction of a millisecond instead of ten."""
+class MarkerArrayCdr(SequenceCdr):
+    """``visualization_msgs/MarkerArray`` from pieces (``SequenceCdr``)."""
 
     def __init__(self) -> None:
-        self._pieces: dict[int, tuple[Any, dict[int, bytes]]] = {}
+        super().__init__("markers", marker_piece, has_header=False)
 
-    @staticmethod
-    def _piece(marker: Any, alignment: int) -> bytes:
-        if alignment == 0:
-            return serialize_message(marker)[4:]
-        return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
 
-    def serialize(self, msg: Any) -> bytes:
-        parts = [b"\x00\x01\x00\x00", struct.pack("<I", len(msg.markers))]
-        offset, pieces, kept = 4, self._pieces, {}
-        for marker in msg.markers:
-            padding = -offset % 4
-            if padding:
-                parts.append(bytes(padding))
-                offset += padding
-            entry = kept.get(id(marker)) or pieces.get(id(marker)) or (marker, {})
-            kept[id(marker)] = entry  # the marker is held, so its id is not reused meanwhile
-            piece = entry[1].get(offset % 8)
-            if piece is None:
-                piece = entry[1][offset % 8] = self._piece(marker, offset % 8)
-            parts.append(piece)
-            offset += len(piece)
-        self._pieces = kept
-        return b"".join(parts)
+class PathCdr(SequenceCdr):
+    """``nav_msgs/Path`` from pieces (``SequenceCdr``)."""
+
+    def __init__(self) -> None:
+        super().__init__("poses", pose_stamped_piece, has_header=True)
+
+
+SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, PathMsg: PathCdr}
+"""Output types serialized from the pieces of their reused sub-messages, one writer a topic."""
+
+
+class LeanMcapWriter(McapWriter):
+    """rosbags' MCAP storage writer with a message record written in one piece.
+
+    A replay writes about 160,000 small messages; rosbags builds each record from a buffer of
+    its own and six small writes. The bytes, the chunking and the indexes are rosbags' own
+    (``test_replay`` compares the files)."""
+
+    _RECORD = struct.Struct("<BQHIQQ")
+    """Message record: opcode 0x05, length, channel id, sequence 0, log and publish time."""
+
+    def write(self, connection: Any, timestamp: int, data: bytes | memoryview) -> None:
+        if timestamp < self.message_start_time:
+            self.message_start_time = timestamp
+        if timestamp > self.message_end_time:
+            self.message_end_time = timestamp
+        self.channel_stats[connection.id] += 1
+        chunk = self.chunk
+        if timestamp < chunk.message_start_time:
+            chunk.message_start_time = timestamp
+        if timestamp > chunk.message_end_time:
+            chunk.message_end_time = timestamp
+        stream = chunk.bio
+        chunk.msgs[connection.id].append((timestamp, stream.tell()))
+        stream.write(self._RECORD.pack(0x05, 22 + len(data), connection.id, 0, timestamp,
+                                       timestamp))
+        stream.write(data)
+        if stream.tell() > 2**20:
+            self.close_chunk()
+
+
+def lean_writer(writer: Writer) -> Writer:
+    """``writer`` (not yet open) with ``LeanMcapWriter`` as its MCAP storage, when rosbags'
+    storage is the one it derives from."""
+    if Writer.STORAGE_PLUGINS.get(StoragePlugin.MCAP) is McapWriter:
+        writer.STORAGE_PLUGINS = {**Writer.STORAGE_PLUGINS, StoragePlugin.MCAP: LeanMcapWriter}
+    return writer
 
 
 # ---------------------------------------------------------------- replay
@@ -265,24 +281,30 @@ class OutputRecorder:
         self.writer = writer
         self.connections: dict[str, Any] = {}
         self.stamp_ns = 0
-        self._marker_arrays: dict[str, MarkerArrayCdr] = {}
+        self._sequences: dict[str, SequenceCdr] = {}
 
     def _connection(self, topic: str, msgtype: str) -> Any:
-        if topic not in self.connections:
+        connection = self.connections.get(topic)
+        if connection is None:
             qos = STATIC_QOS if topic == TF_STATIC_TOPIC else ()
-            self.connections[topic] = self.writer.add_connection(
+            connection = self.connections[topic] = self.writer.add_connection(
                 topic, msgtype, typestore=TYPESTORE, offered_qos_profiles=qos)
-        return self.connections[topic]
+        return connection
 
     def record(self, topic: str, msg: Any) -> None:
         """Output listener of the node: serialize the rclpy message and write it; the node's
         map -> odom transform also goes to ``/tf``."""
-        if isinstance(msg, MarkerArray):
-            raw = self._marker_arrays.setdefault(topic, MarkerArrayCdr()).serialize(msg)
+        direct, sequence = DIRECT_WRITERS.get(type(msg)), SEQUENCE_WRITERS.get(type(msg))
+        if direct is not None:
+            raw = direct(msg)
+        elif sequence is not None:
+            writer = self._sequences.get(topic) or self._sequences.setdefault(topic, sequence())
+            raw = writer.serialize(msg)
         else:
             raw = serialize_message(msg)
-        self.writer.write(self._connection(topic, ros_msgtype(msg)), self.stamp_ns, raw)
-        if isinstance(msg, TransformStamped):
+        connection = self.connections.get(topic) or self._connection(topic, ros_msgtype(msg))
+        self.writer.write(connection, self.stamp_ns, raw)
+        if type(msg) is TransformStamped:
             translation, rotation = msg.transform.translation, msg.transform.rotation
             stamp = msg.header.stamp
             self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
@@ -400,7 +422,7 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                        for name in sorted(set(merged) | set(target.recorded_params))}
         recorder = None
         if out_path is not None:
-            writer = open_writer(out_path, "mcap", overwrite, inputs)
+            writer = lean_writer(open_writer(out_path, "mcap", overwrite, inputs))
             writer.open()
             cleanup.callback(writer.close)
             recorder = OutputRecorder(writer)
@@ -540,10 +562,13 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
         clock.set_ros_time_override(Time(nanoseconds=stamp_ns, clock_type=ClockType.ROS_TIME))
-        if connection.msgtype in PLAIN_TYPES:
-            msg = reader.deserialize(raw, connection.msgtype)
-        else:
-            msg = deserialize_message(bytes(raw), classes[topic])
+        direct = DIRECT_READERS.get(connection.msgtype)
+        msg = direct(raw) if direct is not None else None
+        if msg is None:
+            if connection.msgtype in PLAIN_TYPES:
+                msg = reader.deserialize(raw, connection.msgtype)
+            else:
+                msg = deserialize_message(bytes(raw), classes[topic])
         used_odometry = node.stats["used_odom"]
         callbacks[topic](msg)
         if recorder is not None and node.stats["used_odom"] > used_odometry:
