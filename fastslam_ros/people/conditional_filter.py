@@ -606,6 +606,17 @@ class PeopleTracker:
         centred[:, 2] = wrap_angle(centred[:, 2])
         return mean, (centred * weights[:, None]).T @ centred
 
+    def published_people(self) -> PeopleEstimate:
+        """The people to publish: the best robot particle's confirmed people but those whose
+        particles' position standard deviation exceeds ``publish_spread``. Unseen for a while
+        (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
+        stale track would be a false positive, and catch whoever walks by."""
+        people = self.people_of()
+        keep = (np.trace(people.covariances, axis1=1, axis2=2)
+                <= 2.0 * self.settings.publish_spread ** 2)
+        return PeopleEstimate(people.keys[keep], people.means[keep], people.covariances[keep],
+                              people.existence[keep])
+
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
         (log-odds not yet at ``logodds_confirm``) are left out."""
