@@ -450,7 +450,6 @@ def test_ids_are_voted_across_robot_particles():
     assert 11 in tracker.people_of(2).keys.tolist()
 
 
-
 def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_published():
     """Hidden behind a wall, a person's Brownian cloud grows: published while its position
     standard deviation is below publish_spread, kept (not published) beyond it, and published

@@ -32,6 +32,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
 8. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
+Published (``published_people``) are the best robot particle's confirmed people whose
+particles' position standard deviation is at most ``publish_spread``: a person unseen for a
+while is still tracked, but where it is has become too uncertain to report.
+
 Without an initial pose the robot particles start uniform over the free space
 (``global_particles`` of them) and are reduced to ``num_particles`` once their spread is below
 ``converged_spread``.
