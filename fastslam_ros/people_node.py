@@ -248,7 +248,8 @@ class PeopleTrackerNode(FilterNode):
         mean, covariance = self.tracker.mean_pose_and_covariance()
         pose = mean if self.settings["pose_estimate"] == "mean" else self.tracker.best_pose()
         self._publish(self._pose_pub, ros_io.pose_with_covariance(header, pose, covariance))
-        self._publish(self._people_pub, people_io.people_cloud(header, self.tracker.people_of()))
+        self._publish(self._people_pub,
+                      people_io.people_cloud(header, self.tracker.published_people()))
         self._publish_map_to_odom(header, pose)
 
     def _publish_throttled(self, now: float) -> None:
@@ -265,7 +266,7 @@ class PeopleTrackerNode(FilterNode):
                       ros_io.pose_array(self._map_header(stamp), self.tracker.poses))
 
     def _publish_markers(self, stamp: float) -> None:
-        people = self.tracker.people_of()
+        people = self.tracker.published_people()
         keys = set(people.keys.tolist())
         removed = sorted(self._published_keys - keys)
         self._publish(self._markers_pub,
@@ -279,7 +280,7 @@ class PeopleTrackerNode(FilterNode):
                  KeyValue(key="localizing_globally", value=str(tracker.globally_localizing)),
                  KeyValue(key="map_received", value=str(tracker.grid is not None))]
         if tracker.ready:
-            state.append(KeyValue(key="people", value=str(len(tracker.people_of().keys))))
+            state.append(KeyValue(key="people", value=str(len(tracker.published_people().keys))))
         return state
 
     def _standing_problems(self) -> list[str]:

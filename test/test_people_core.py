@@ -448,3 +448,19 @@ def test_ids_are_voted_across_robot_particles():
         near = np.linalg.norm(people.means - (6.0, 5.5), axis=1) < 0.3
         assert people.keys[near].tolist() == [5]
     assert 11 in tracker.people_of(2).keys.tolist()
+
+
+def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_published():
+    """Hidden behind a wall, a person's Brownian cloud grows: published while its position
+    standard deviation is below publish_spread, kept (not published) beyond it, and published
+    again once seen."""
+    tracker, grid, pose, t = see_then_hide(publish_spread=0.5, lost_spread=1.0)
+    key = tracker.published_people().keys.tolist()
+    assert key == tracker.people_of().keys.tolist()
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 5, t)          # 0.5 s hidden: sd about 0.3 m
+    assert tracker.published_people().keys.tolist() == key
+    t = run(tracker, grid, pose, [(7.0, 6.0)], 25, t)         # 3 s hidden: sd about 0.7 m
+    assert tracker.people_of().keys.tolist() == key           # tracked
+    assert tracker.published_people().keys.tolist() == []     # not published
+    run(tracker, grid, pose, [(6.0, 1.5)], 3, t)              # back in view
+    assert tracker.published_people().keys.tolist() == key

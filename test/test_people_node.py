@@ -202,6 +202,26 @@ def test_yaml_and_docs_follow_the_parameter_specs():
         assert f"| `{name}` | {default!r} |" in docs, name
 
 
+
+def test_node_publishes_only_people_within_publish_spread(context):
+    """~/people and /diagnostics hold the tracker's published people: with publish_spread
+    below a tracked person's spread, the person is tracked but not on ~/people."""
+    grid = room()
+    node = make_node(context, publish_spread=0.01)
+    outputs = []
+    node.output_listeners.append(lambda topic, msg: outputs.append((topic, msg)))
+    try:
+        node.on_map(map_message(grid))
+        node.on_initial_pose(initial_pose_message(POSE))
+        drive(node, grid, 10)
+        node.flush()
+        assert len(node.tracker.people_of().keys) == 1
+        clouds = [msg for topic, msg in outputs if topic.endswith("/people")]
+        assert len(clouds) == 10
+        assert all(len(cloud_to_arrays(cloud)["x"]) == 0 for cloud in clouds)
+    finally:
+        node.destroy_node()
+
 # --- bad-input gates (the SLAM node's, test_faults.py): dropped, counted, estimate unchanged ----
 
 INJECT_AT = 10

@@ -32,6 +32,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
 8. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
+Published (``published_people``) are the best robot particle's confirmed people whose
+particles' position standard deviation is at most ``publish_spread``: a person unseen for a
+while is still tracked, but where it is has become too uncertain to report.
+
 Without an initial pose the robot particles start uniform over the free space
 (``global_particles`` of them) and are reduced to ``num_particles`` once their spread is below
 ``converged_spread``.
@@ -605,6 +609,17 @@ class PeopleTracker:
         centred = self.poses - mean
         centred[:, 2] = wrap_angle(centred[:, 2])
         return mean, (centred * weights[:, None]).T @ centred
+
+    def published_people(self) -> PeopleEstimate:
+        """The people to publish: the best robot particle's confirmed people but those whose
+        particles' position standard deviation exceeds ``publish_spread``. Unseen for a while
+        (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
+        stale track would be a false positive, and catch whoever walks by."""
+        people = self.people_of()
+        keep = (np.trace(people.covariances, axis1=1, axis2=2)
+                <= 2.0 * self.settings.publish_spread ** 2)
+        return PeopleEstimate(people.keys[keep], people.means[keep], people.covariances[keep],
+                              people.existence[keep])
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones

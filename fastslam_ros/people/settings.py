@@ -107,6 +107,10 @@ class TrackerSettings:
         1.0, "A person whose particles' position standard deviation (m, per axis) exceeds "
              "this is lost and removed (unseen for long, its Brownian cloud would catch "
              "other people's detections).", low=0.0, low_exclusive=True)
+    publish_spread: float = parameter(
+        0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
+             "exceeds this is tracked but not published (unseen for a while, its position is "
+             "too uncertain to report).", low=0.0, low_exclusive=True)
 
     def validate(self) -> "TrackerSettings":
         """Self when every field is in range (``ValueError`` naming the field otherwise)."""
