@@ -29,6 +29,7 @@ import sys
 import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any, Callable, Iterator, TextIO
 
@@ -263,10 +264,16 @@ class LeanMcapWriter(McapWriter):
             self.close_chunk()
 
 
+LEAN_WRITER_ROSBAGS = ("0.11.",)
+"""rosbags releases whose MCAP writer internals ``LeanMcapWriter`` was checked against; with
+any other the replay records through rosbags' own writer."""
+
+
 def lean_writer(writer: Writer) -> Writer:
     """``writer`` (not yet open) with ``LeanMcapWriter`` as its MCAP storage, when rosbags'
-    storage is the one it derives from."""
-    if Writer.STORAGE_PLUGINS.get(StoragePlugin.MCAP) is McapWriter:
+    storage is the one it derives from, in a release it was checked against."""
+    if (Writer.STORAGE_PLUGINS.get(StoragePlugin.MCAP) is McapWriter
+            and version("rosbags").startswith(LEAN_WRITER_ROSBAGS)):
         writer.STORAGE_PLUGINS = {**Writer.STORAGE_PLUGINS, StoragePlugin.MCAP: LeanMcapWriter}
     return writer
 
