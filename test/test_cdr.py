@@ -118,6 +118,17 @@ def test_what_the_readers_do_not_read_exactly_goes_the_generic_way():
     not_utf8 = bytearray(odometry)
     not_utf8[16] = 0xff
     assert cdr.read_odometry(bytes(not_utf8)) is None
+    inner_nul = bytearray(odometry)
+    inner_nul[16 + 3] = 0  # "odom\0" -> "odo\0\0": rclpy reads "odo"
+    assert cdr.read_odometry(bytes(inner_nul)) is None
+
+
+def test_every_truncation_of_a_message_goes_the_generic_way():
+    """No prefix of a serialized odometry or cloud message raises: the readers return None."""
+    odometry = serialize_message(Odometry(header=Header(frame_id="odom"), child_frame_id="base"))
+    cloud = serialize_message(ros_io.landmark_cloud(Header(frame_id="laser"), [[1.0, 2.0]]))
+    for raw, read in ((odometry, cdr.read_odometry), (cloud, cdr.read_point_cloud)):
+        assert all(read(raw[:size]) is None for size in range(len(raw)))
 
 
 # --- writers -----------------------------------------------------------------------------------

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from std_srvs.srv import Trigger
 
 from fastslam_ros import ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
+from fastslam_ros.core.config import numba_available
 from fastslam_ros.core.relocalization import MIN_PAIR_DISTANCE, find_pose
 from fastslam_ros.node import FastSLAMNode, ParameterError
 from fastslam_ros.tools.synthetic import make_world
@@ -122,9 +124,10 @@ def test_find_pose_recovers_the_pose_from_one_reading_among_clutter():
     assert find_pose(close, landmarks, 0.5)[1] == 0
 
 
-def kidnapped_errors(config: FastSLAMConfig) -> np.ndarray:
+def kidnapped_errors(config: FastSLAMConfig) -> tuple[np.ndarray, int]:
     """Localize on the true map; after 40 readings (0.2 s apart) the filter is made certain
-    of a pose 5 m and 0.6 rad off; the best particle's position errors after that."""
+    of a pose 5 m and 0.6 rad off; the best particle's position errors after that and the
+    number of relocalizations."""
     scene = world()
     slam = FastSLAM(config.replace(mode="localization"), initial_pose=scene.steps[0].truth)
     slam.seed_map(*truth_map(scene.landmarks))
@@ -149,6 +152,34 @@ def test_localization_finds_its_pose_again_after_a_kidnap():
     stuck, never = kidnapped_errors(config.replace(relocalization_fraction=0.0))
     assert never == 0
     assert stuck[-40:].min() > 1.0
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba is not installed (the fast extra)")
+def test_relocalization_is_the_same_on_both_backends():
+    """The pose search runs after either backend's reading: the same redraws, the same path."""
+    config = CONFIG.replace(relocalization_delay=1.0)
+    errors, count = kidnapped_errors(config.replace(backend="numpy"))
+    compiled, compiled_count = kidnapped_errors(config.replace(backend="numba"))
+    assert count == compiled_count >= 1
+    np.testing.assert_allclose(compiled, errors, atol=1e-9)
+
+
+def test_a_pose_search_over_a_dense_reading_and_map_stays_small():
+    """60 observations against 120 landmarks: the search pairs and scores a bounded share of
+    the observations, so its memory stays far below what all pairs take (about 600 MB here,
+    growing with the square of both)."""
+    rng = np.random.default_rng(5)
+    landmarks = rng.uniform(-30.0, 30.0, (120, 2))
+    pose = np.array([1.0, -2.0, 0.4])
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    points = (landmarks[:60] - pose[:2]) @ np.array([[c, -s], [s, c]])
+    tracemalloc.start()
+    found, inliers = find_pose(points, landmarks, 0.5)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 100 * 2**20
+    assert inliers == 60
+    np.testing.assert_allclose(found, pose, atol=1e-6)
 
 
 def test_a_short_loss_is_waited_out():

@@ -51,6 +51,9 @@ are matched to a reading when the filter is lost (``FastSLAM._relocalize``)."""
 RELOCALIZATION_RETRY = 1.0
 """Seconds after a pose search that found nothing before the next one (a search over a
 reading costs tens of milliseconds)."""
+MAX_RELOCALIZATION_LANDMARKS = 150
+"""Landmarks (the nearest to the best particle) a pose search matches a reading against: the
+search's pair matching grows with their square."""
 MIN_RELOCALIZATION_INLIERS = 3
 """Observations a pose found from one reading must put near landmarks (two pin any pair)."""
 _NO_DRAWS = np.zeros(0)
@@ -375,10 +378,12 @@ class FastSLAM:
         most half of each reading's observations lie within ``relocalization_gate`` of a
         landmark seen from it; once lost for ``relocalization_delay`` s, the pose that explains
         more of them is searched (``relocalization.find_pose``, over the landmarks within the
-        sensor's reach plus ``RELOCALIZATION_RADIUS``). If it explains more than half and at
-        least ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest particles
-        are redrawn around it (weights uniform, as after resampling); otherwise the next search
-        waits ``RELOCALIZATION_RETRY`` s."""
+        sensor's reach plus ``RELOCALIZATION_RADIUS``, the nearest
+        ``MAX_RELOCALIZATION_LANDMARKS``). If it explains more than half and at least
+        ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest particles
+        (among equal weights, as after resampling, the first ones) are redrawn around it
+        (weights uniform, as after resampling); otherwise the next search waits
+        ``RELOCALIZATION_RETRY`` s."""
         usable = (np.isfinite(ranges) & np.isfinite(bearings)
                   & (ranges >= MIN_OBSERVATION_RANGE))
         count = int(usable.sum())
@@ -391,7 +396,10 @@ class FastSLAM:
         pose = self.poses[self._best]
         means = self._seed[0]
         reach = self._reach(ranges) + RELOCALIZATION_RADIUS
-        near = means[((means - pose[:2]) ** 2).sum(axis=1) <= reach * reach]
+        squared = ((means - pose[:2]) ** 2).sum(axis=1)
+        near = means[squared <= reach * reach]
+        if len(near) > MAX_RELOCALIZATION_LANDMARKS:
+            near = means[np.argsort(squared, kind="stable")[:MAX_RELOCALIZATION_LANDMARKS]]
         gate = self.config.relocalization_gate
         hits = int(explained(world_points(pose, points), near, gate).sum())
         if 2 * hits > count:

@@ -18,6 +18,13 @@ MIN_PAIR_DISTANCE = 2.0
 """Observed pairs closer than this (m) give too uncertain a heading to propose a pose."""
 MAX_CANDIDATES = 2000
 """Candidate poses scored per reading at most (the closest distance matches first)."""
+MAX_PAIR_POINTS = 12
+"""Observed points (spread evenly over the reading) whose pairs propose poses: 66 pairs at
+most, so the pair matching stays (66, N, N) whatever the reading holds."""
+MAX_SCORED_POINTS = 40
+"""Observed points (spread evenly over the reading) that score the candidates."""
+SCORE_CHUNK = 200
+"""Candidates scored at once: (200, 40, N) distances bound the memory of a search."""
 
 
 def world_points(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -40,20 +47,23 @@ def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
     of ``landmarks`` (N, 2), and how many it puts there (0 and a zero pose: no candidate).
 
     Candidates come from observed pairs (a, b) and landmark pairs (i, j), i != j, whose
-    distances agree within ``tolerance``: the rotation takes b - a onto j - i and the
+    distances agree within ``tolerance`` (a and b among ``MAX_PAIR_POINTS`` of the points,
+    scored on ``MAX_SCORED_POINTS`` of them): the rotation takes b - a onto j - i and the
     translation a onto i. Ties in the count go to the smaller sum of squared distances. The
     winner is refined by least squares over its matched points."""
-    count = len(points)
-    if count < 2 or len(landmarks) < 2:
+    if len(points) < 2 or len(landmarks) < 2:
         return np.zeros(3), 0
-    a, b = np.triu_indices(count, 1)
-    observed = points[b] - points[a]
+    pairing = _spread(points, MAX_PAIR_POINTS)
+    a, b = np.triu_indices(len(pairing), 1)
+    observed = pairing[b] - pairing[a]
     observed_length = np.hypot(observed[:, 0], observed[:, 1])
     keep = observed_length >= MIN_PAIR_DISTANCE
     a, b, observed, observed_length = a[keep], b[keep], observed[keep], observed_length[keep]
     mapped = landmarks[None, :] - landmarks[:, None]                        # (N, N, 2): j - i
     mapped_length = np.hypot(mapped[..., 0], mapped[..., 1])
     mismatch = np.abs(observed_length[:, None, None] - mapped_length)      # (P, N, N)
+    diagonal = np.arange(len(landmarks))
+    mismatch[:, diagonal, diagonal] = np.inf                               # no pair (i, i)
     pair, i, j = (mismatch <= tolerance).nonzero()
     if len(pair) == 0:
         return np.zeros(3), 0
@@ -63,23 +73,40 @@ def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
     yaw = wrap_angle(np.arctan2(mapped[i, j, 1], mapped[i, j, 0])
                      - np.arctan2(observed[pair, 1], observed[pair, 0]))
     c, s = np.cos(yaw), np.sin(yaw)
-    first = points[a[pair]]
+    first = pairing[a[pair]]
     x = landmarks[i, 0] - (c * first[:, 0] - s * first[:, 1])
     y = landmarks[i, 1] - (s * first[:, 0] + c * first[:, 1])
-    # Every observed point under every candidate pose, against every landmark: (C, K, N).
-    px = c[:, None] * points[:, 0] - s[:, None] * points[:, 1] + x[:, None]
-    py = s[:, None] * points[:, 0] + c[:, None] * points[:, 1] + y[:, None]
-    squared = ((px[..., None] - landmarks[:, 0]) ** 2
-               + (py[..., None] - landmarks[:, 1]) ** 2).min(axis=2)        # (C, K)
+    scoring = _spread(points, MAX_SCORED_POINTS)
+    squared = np.concatenate([_nearest_squared(scoring, landmarks, x[k:k + SCORE_CHUNK],
+                                               y[k:k + SCORE_CHUNK], c[k:k + SCORE_CHUNK],
+                                               s[k:k + SCORE_CHUNK])
+                              for k in range(0, len(x), SCORE_CHUNK)])       # (C, K')
     inside = squared <= tolerance * tolerance
     inliers = inside.sum(axis=1)
     cost = np.where(inside, squared, 0.0).sum(axis=1)
     best = int(np.lexsort((cost, -inliers))[0])
     pose = np.array([x[best], y[best], yaw[best]])
     matched = inside[best]
-    world = world_points(pose, points[matched])
+    world = world_points(pose, scoring[matched])
     nearest = landmarks[np.argmin(((world[:, None] - landmarks) ** 2).sum(axis=2), axis=1)]
-    return _fit(points[matched], nearest, pose), int(inliers[best])
+    pose = _fit(scoring[matched], nearest, pose)
+    return pose, int(explained(world_points(pose, points), landmarks, tolerance).sum())
+
+
+def _spread(points: np.ndarray, limit: int) -> np.ndarray:
+    """At most ``limit`` of the points (K, 2), evenly spread over their order."""
+    if len(points) <= limit:
+        return points
+    return points[np.linspace(0, len(points) - 1, limit).round().astype(int)]
+
+
+def _nearest_squared(points, landmarks, x, y, c, s) -> np.ndarray:
+    """(C, K) squared distance of every point (K, 2) under every candidate pose (x, y and the
+    cosine and sine of the heading, (C,)) to its nearest landmark (N, 2)."""
+    px = c[:, None] * points[:, 0] - s[:, None] * points[:, 1] + x[:, None]
+    py = s[:, None] * points[:, 0] + c[:, None] * points[:, 1] + y[:, None]
+    return ((px[..., None] - landmarks[:, 0]) ** 2
+            + (py[..., None] - landmarks[:, 1]) ** 2).min(axis=2)
 
 
 def _fit(points: np.ndarray, targets: np.ndarray, guess: np.ndarray) -> np.ndarray:

@@ -108,11 +108,12 @@ class PointCloudView(NamedTuple):
 
 def _string(raw: memoryview, at: int) -> tuple[str, int]:
     """The CDR string at absolute offset ``at`` (4-aligned first) and the offset after it;
-    ValueError when it does not fit or has no NUL."""
+    ValueError when it does not fit, has no NUL at its end or one inside (rclpy would cut the
+    text there)."""
     at += -(at - 4) % 4
     (size,) = _U32.unpack_from(raw, at)
     end = at + 4 + size
-    if size == 0 or end > len(raw) or raw[end - 1] != 0:
+    if size == 0 or end > len(raw) or raw[end - 1] != 0 or 0 in raw[at + 4:end - 1]:
         raise ValueError("bad CDR string")
     return str(raw[at + 4:end - 1], "utf-8"), end
 
@@ -135,7 +136,7 @@ def read_odometry(raw: bytes | memoryview) -> OdometryView | None:
         if len(raw) != at + _ODOMETRY_TAIL:
             return None
         x, y, z, qx, qy, qz, qw = _DOUBLES7.unpack_from(raw, at)
-    except (ValueError, struct.error):
+    except (ValueError, struct.error, IndexError):
         return None
     return OdometryView(header, child_frame_id,
                         PoseOnly(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))))
@@ -170,7 +171,7 @@ def read_point_cloud(raw: bytes | memoryview) -> PointCloudView | None:
         end = start + size
         if end + 1 > len(raw) or len(raw) - (end + 1) >= 4 or is_bigendian > 1 or raw[end] > 1:
             return None
-    except (ValueError, struct.error):
+    except (ValueError, struct.error, IndexError):
         return None
     return PointCloudView(header, height, width, fields, bool(is_bigendian), point_step,
                           row_step, raw[start:end], bool(raw[end]))
