@@ -15,8 +15,8 @@ the parameters used), so OUT alone is enough for ``fastslam-eval``. OUT also hol
 (map -> odom from the node, odom -> base_link from each odometry message) and ``/tf_static``
 (base_link -> the sensor frame, plus the input bag's static transforms), so RViz and Foxglove
 show it as they would a live robot. The outputs a replay writes most often (pose, transform,
-particles, path, map cloud, diagnostics) are serialized directly, byte for byte as rosbags
-writes them.
+particles, path, map cloud, map markers, diagnostics) are serialized directly, byte for byte as
+rosbags writes them.
 """
 from __future__ import annotations
 
@@ -55,8 +55,8 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, point_cloud2_cdr,
-                                    pose_array_cdr, pose_stamped_piece,
+from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
+                                    point_cloud2_cdr, pose_array_cdr, pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
@@ -206,14 +206,6 @@ class ProgressBar:
 
 
 # ---------------------------------------------------------------- recording
-
-
-def marker_piece(marker: Any, alignment: int) -> bytes:
-    """The bytes of one ``visualization_msgs/Marker`` inside a MarkerArray at a payload offset
-    that is ``alignment`` (0 or 4) modulo 8 (rclpy's serializer)."""
-    if alignment == 0:
-        return serialize_message(marker)[4:]
-    return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
 
 
 class MarkerArrayCdr(SequenceCdr):
