@@ -212,11 +212,13 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
 
 def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
     """The same messages (several topics, out-of-order stamps, enough to close chunks) through
-    rosbags' MCAP writer and through the replay's give identical files."""
+    rosbags' MCAP writer and through the replay's (its storage, the recorder's writes) give
+    identical files and metadata."""
     from importlib.metadata import version
 
-    from fastslam_ros.tools.bag_schema import TYPESTORE, open_writer
-    from fastslam_ros.tools.replay import LEAN_WRITER_ROSBAGS, LeanMcapWriter, lean_writer
+    from fastslam_ros.tools.bag_schema import open_writer
+    from fastslam_ros.tools.replay import (LEAN_WRITER_ROSBAGS, LeanMcapWriter, OutputRecorder,
+                                           lean_writer)
 
     if not version("rosbags").startswith(LEAN_WRITER_ROSBAGS):
         pytest.skip(f"rosbags {version('rosbags')}: the replay records through rosbags' writer")
@@ -229,9 +231,10 @@ def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
         writer = wrap(open_writer(tmp_path / name / "bag"))  # one name: it is in the file
         with writer:
             assert (type(writer.storage) is LeanMcapWriter) == (name == "lean")
-            connections = [writer.add_connection(f"/topic{i}", "std_msgs/msg/String",
-                                                 typestore=TYPESTORE) for i in range(3)]
+            recorder = OutputRecorder(writer)
+            assert (recorder._write == writer.write) == (name == "rosbags")
             for index, stamp, data in messages:
-                writer.write(connections[index], stamp, data)
-        files.append((tmp_path / name / "bag" / "bag.mcap").read_bytes())
-    assert len(files[0]) > 2 * 2**20 and files[0] == files[1]
+                recorder.copy(f"/topic{index}", "std_msgs/msg/String", stamp, data)
+        files.append([(tmp_path / name / "bag" / file).read_bytes()
+                      for file in ("bag.mcap", "metadata.yaml")])
+    assert len(files[0][0]) > 2 * 2**20 and files[0] == files[1]

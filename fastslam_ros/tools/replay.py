@@ -46,7 +46,7 @@ from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
@@ -281,6 +281,21 @@ class OutputRecorder:
         self.connections: dict[str, Any] = {}
         self.stamp_ns = 0
         self._sequences: dict[str, SequenceCdr] = {}
+        self._write = writer.write
+        if type(writer.storage) is LeanMcapWriter and writer.compression_mode != \
+                CompressionMode.MESSAGE:
+            self._write = self._write_lean
+
+    def _write_lean(self, connection: Any, timestamp: int, data: bytes) -> None:
+        """``Writer.write`` without its checks (the recorder writes only to the connections it
+        added; rosbags looks each up in a list, comparing every field)."""
+        writer = self.writer
+        writer.storage.write(connection, timestamp, data)
+        writer.counts[connection.id] += 1
+        if timestamp < writer.min_timestamp:
+            writer.min_timestamp = timestamp
+        if timestamp > writer.max_timestamp:
+            writer.max_timestamp = timestamp
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         connection = self.connections.get(topic)
@@ -302,7 +317,7 @@ class OutputRecorder:
         else:
             raw = serialize_message(msg)
         connection = self.connections.get(topic) or self._connection(topic, ros_msgtype(msg))
-        self.writer.write(connection, self.stamp_ns, raw)
+        self._write(connection, self.stamp_ns, raw)
         if type(msg) is TransformStamped:
             translation, rotation = msg.transform.translation, msg.transform.rotation
             stamp = msg.header.stamp
@@ -313,7 +328,7 @@ class OutputRecorder:
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
-        self.writer.write(self._connection(topic, msgtype), stamp_ns, raw)
+        self._write(self._connection(topic, msgtype), stamp_ns, raw)
 
     def tf(self, topic: str, transforms: list[Any]) -> None:
         """Write rosbags ``TransformStamped`` messages as one ``TFMessage`` on ``topic``."""
