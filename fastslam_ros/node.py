@@ -397,8 +397,10 @@ class FastSLAMNode(FilterNode):
         self._publish(self._path_pub, self._path_builder.build(self._header(), stamps, poses))
 
     def _publish_particles(self) -> None:
-        self._publish(self._particles_pub,
-                      ros_io.pose_array(self._header(), self.slam.particle_poses()))
+        header, poses = self._header(), self.slam.particle_poses()
+        planar = self.planar_particles and not self.publish_to_dds
+        self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if planar
+                      else ros_io.pose_array(header, poses))
 
     def _publish_map(self) -> None:
         """~/landmarks markers (DELETE for landmarks gone or unconfirmed since the last time) and

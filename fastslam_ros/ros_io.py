@@ -12,7 +12,7 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, Sequence
+from typing import NamedTuple, Protocol, Sequence
 
 import numpy as np
 import yaml
@@ -300,6 +300,16 @@ def pose_array(header: Header, poses: np.ndarray) -> PoseArray:
     """(M, 3) planar poses -> ``geometry_msgs/PoseArray``."""
     return PoseArray(header=header, poses=[_planar_pose(x, y, yaw) for x, y, yaw
                                            in np.asarray(poses, dtype=float).tolist()])
+
+
+class PlanarPoseArray(NamedTuple):
+    """The ``geometry_msgs/PoseArray`` ``pose_array(header, planar)`` kept as its header and
+    (M, 3) planar poses."""
+
+    header: Header
+    planar: np.ndarray
+
+    MSGTYPE = "geometry_msgs/msg/PoseArray"
 
 
 def path(header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:

@@ -236,3 +236,11 @@ def test_marker_written_directly_is_the_serializers(msg, alignment):
     else:
         expected = canonical(MarkerArray(markers=[msg]), "visualization_msgs/msg/MarkerArray")[8:]
     assert cdr.marker_piece(msg, alignment) == expected
+
+
+@settings(max_examples=100, deadline=None)
+@given(STAMPS, FRAMES, st.lists(st.tuples(FLOATS, FLOATS, st.floats(-10.0, 10.0)), max_size=5))
+def test_planar_pose_array_written_directly_is_the_pose_arrays(stamp, frame, poses):
+    msg = ros_io.PlanarPoseArray(header(stamp, frame), np.array(poses).reshape(-1, 3))
+    assert cdr.planar_pose_array_cdr(msg) == canonical(ros_io.pose_array(msg.header, msg.planar),
+                                                       "geometry_msgs/msg/PoseArray")

@@ -12,6 +12,7 @@ string without its NUL, text that is not UTF-8): the caller then takes the gener
 """
 from __future__ import annotations
 
+import math
 import struct
 from typing import Any, NamedTuple
 
@@ -272,6 +273,21 @@ def pose_array_cdr(msg: Any) -> bytes:
     buffer.u32(len(msg.poses))
     for pose in msg.poses:
         buffer.pose(pose)
+    return bytes(buffer.data)
+
+
+def planar_pose_array_cdr(msg: Any) -> bytes:
+    """A serialized ``geometry_msgs/PoseArray`` from a ``ros_io.PlanarPoseArray``: the bytes of
+    ``pose_array_cdr(ros_io.pose_array(header, planar))`` without a Pose per pose."""
+    buffer = _Buffer(CDR_LE, 4)
+    buffer.header(msg.header)
+    planar = np.asarray(msg.planar, dtype=float).tolist()
+    buffer.u32(len(planar))
+    if planar:
+        buffer.align(8)
+        values = [value for x, y, yaw in planar
+                  for value in (x, y, 0.0, 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))]
+        buffer.data += struct.pack(f"<{len(values)}d", *values)
     return bytes(buffer.data)
 
 

@@ -54,9 +54,11 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
+from fastslam_ros.ros_io import PlanarPoseArray
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
-                                    point_cloud2_cdr, pose_array_cdr, pose_stamped_piece,
+                                    planar_pose_array_cdr, point_cloud2_cdr, pose_array_cdr,
+                                    pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
@@ -85,7 +87,7 @@ PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
 DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
                   PoseWithCovarianceStamped: pose_with_covariance_stamped_cdr,
                   PoseArray: pose_array_cdr, PointCloud2: point_cloud2_cdr,
-                  DiagnosticArray: diagnostic_array_cdr}
+                  DiagnosticArray: diagnostic_array_cdr, PlanarPoseArray: planar_pose_array_cdr}
 """Output types serialized directly (rclpy's serializer costs about 6 us per pose)."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
@@ -113,7 +115,9 @@ class ReplayResult:
 
 
 def ros_msgtype(msg: Any) -> str:
-    """``pkg/msg/Name`` of an rclpy message instance."""
+    """``pkg/msg/Name`` of an rclpy message instance (or the ``MSGTYPE`` of a look-alike)."""
+    if isinstance(msg, PlanarPoseArray):
+        return msg.MSGTYPE
     package = type(msg).__module__.split(".")[0]
     return f"{package}/msg/{type(msg).__name__}"
 
@@ -522,6 +526,7 @@ def _create_node(target: ReplayTarget, context: Context, params: dict[str, Any])
         raise ValueError(str(error)) from None
     # Nobody listens over DDS in a replay: outputs go only to the recorder.
     node.publish_to_dds = False
+    node.planar_particles = True
     return node
 
 
