@@ -398,7 +398,7 @@ class FastSLAMNode(FilterNode):
 
     def _publish_particles(self) -> None:
         header, poses = self._header(), self.slam.particle_poses()
-        planar = self.planar_particles and not self.publish_to_dds
+        planar = self.lean_outputs and not self.publish_to_dds
         self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if planar
                       else ros_io.pose_array(header, poses))
 
@@ -409,6 +409,9 @@ class FastSLAMNode(FilterNode):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
+        lean = self.lean_outputs and not self.publish_to_dds
+        if self._marker_builder.lean != lean:
+            self._marker_builder = ros_io.MarkerBuilder(lean)
         self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys

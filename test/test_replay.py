@@ -181,7 +181,8 @@ def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, translatio
 
 def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     """MarkerArrayCdr against rclpy's serializer over a changing map (landmarks moved, added,
-    removed; ids of every length, so markers start at both alignments)."""
+    removed; ids of every length, so markers start at both alignments), and the lean builder's
+    MarkerViews give the bytes of the rclpy markers."""
     from types import SimpleNamespace
 
     from rclpy.serialization import deserialize_message, serialize_message
@@ -191,8 +192,11 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     from fastslam_ros import ros_io
     from fastslam_ros.tools.replay import MarkerArrayCdr
 
+    from fastslam_ros.tools.bag_schema import TYPESTORE
+
     rng = np.random.default_rng(3)
     builder, cdr = ros_io.MarkerBuilder(), MarkerArrayCdr()
+    lean_builder, lean_cdr = ros_io.MarkerBuilder(lean=True), MarkerArrayCdr()
     keys = np.arange(40)
     means = rng.normal(0.0, 20.0, (40, 2))
     for step in range(6):
@@ -206,6 +210,11 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
         msg = builder.build(Header(frame_id="map"), landmark_map, removed_keys=[1000 + step])
         expected = deserialize_message(serialize_message(msg), MarkerArray)
         assert deserialize_message(cdr.serialize(msg), MarkerArray) == expected
+        lean = lean_builder.build(Header(frame_id="map"), landmark_map, [1000 + step])
+        assert isinstance(lean, ros_io.MarkerArrayView)
+        assert lean_cdr.serialize(lean) == bytes(TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(
+            serialize_message(msg), "visualization_msgs/msg/MarkerArray"),
+            "visualization_msgs/msg/MarkerArray"))
         keep = rng.uniform(size=len(keys)) < 0.9
         keys, means = np.append(keys[keep], 100 + step), np.vstack([means[keep], [[1.0, 2.0]]])
 

@@ -54,7 +54,7 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
-from fastslam_ros.ros_io import PlanarPoseArray
+from fastslam_ros.ros_io import MarkerArrayView, PlanarPoseArray
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
                                     planar_pose_array_cdr, point_cloud2_cdr, pose_array_cdr,
@@ -116,7 +116,7 @@ class ReplayResult:
 
 def ros_msgtype(msg: Any) -> str:
     """``pkg/msg/Name`` of an rclpy message instance (or the ``MSGTYPE`` of a look-alike)."""
-    if isinstance(msg, PlanarPoseArray):
+    if isinstance(msg, (PlanarPoseArray, MarkerArrayView)):
         return msg.MSGTYPE
     package = type(msg).__module__.split(".")[0]
     return f"{package}/msg/{type(msg).__name__}"
@@ -226,7 +226,7 @@ class PathCdr(SequenceCdr):
         super().__init__("poses", pose_stamped_piece, has_header=True)
 
 
-SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, PathMsg: PathCdr}
+SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, MarkerArrayView: MarkerArrayCdr, PathMsg: PathCdr}
 """Output types serialized from the pieces of their reused sub-messages, one writer a topic."""
 
 
@@ -526,7 +526,7 @@ def _create_node(target: ReplayTarget, context: Context, params: dict[str, Any])
         raise ValueError(str(error)) from None
     # Nobody listens over DDS in a replay: outputs go only to the recorder.
     node.publish_to_dds = False
-    node.planar_particles = True
+    node.lean_outputs = True
     return node
 
 
