@@ -397,8 +397,10 @@ class FastSLAMNode(FilterNode):
         self._publish(self._path_pub, self._path_builder.build(self._header(), stamps, poses))
 
     def _publish_particles(self) -> None:
-        self._publish(self._particles_pub,
-                      ros_io.pose_array(self._header(), self.slam.particle_poses()))
+        header, poses = self._header(), self.slam.particle_poses()
+        planar = self.lean_outputs and not self.publish_to_dds
+        self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if planar
+                      else ros_io.pose_array(header, poses))
 
     def _publish_map(self) -> None:
         """~/landmarks markers (DELETE for landmarks gone or unconfirmed since the last time) and
@@ -407,6 +409,9 @@ class FastSLAMNode(FilterNode):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
+        lean = self.lean_outputs and not self.publish_to_dds
+        if self._marker_builder.lean != lean:
+            self._marker_builder = ros_io.MarkerBuilder(lean)
         self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys

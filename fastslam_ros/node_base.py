@@ -234,6 +234,10 @@ class FilterNode(Node):
         self._counter_values: dict[str, tuple[int, KeyValue]] = {}
         self.publish_to_dds = True
         """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
+        self.lean_outputs = False
+        """True, with ``publish_to_dds`` False: ``~/particles`` and ``~/landmarks`` go to the
+        listeners as ``ros_io.PlanarPoseArray`` and ``ros_io.MarkerArrayView`` (a replay
+        serializes them directly; rclpy builds a message object per particle and per marker)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
         self.settings: dict[str, Any] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""

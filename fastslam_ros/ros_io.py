@@ -12,7 +12,7 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, Sequence
+from typing import NamedTuple, Protocol, Sequence
 
 import numpy as np
 import yaml
@@ -302,6 +302,16 @@ def pose_array(header: Header, poses: np.ndarray) -> PoseArray:
                                            in np.asarray(poses, dtype=float).tolist()])
 
 
+class PlanarPoseArray(NamedTuple):
+    """The ``geometry_msgs/PoseArray`` ``pose_array(header, planar)`` kept as its header and
+    (M, 3) planar poses."""
+
+    header: Header
+    planar: np.ndarray
+
+    MSGTYPE = "geometry_msgs/msg/PoseArray"
+
+
 def path(header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:
     """Timed (T, 3) planar poses -> ``nav_msgs/Path``, one PoseStamped per pose."""
     return PathBuilder().build(header, stamps, poses)
@@ -358,9 +368,12 @@ class MarkerBuilder:
     Only the markers of landmarks that changed since the previous message (mean, covariance,
     existence or id) are built again, with the new header; the others are reused, so a large
     map that barely changed is cheap to publish again. The reused markers are never modified.
+    ``lean``: the landmarks' markers are ``MarkerView`` and the array a ``MarkerArrayView``
+    (what a replay serializes directly; an rclpy Marker builds a dozen sub-messages).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, lean: bool = False) -> None:
+        self.lean = lean
         self._cache: dict[int, tuple[list[float], list[Marker]]] = {}
 
     def build(self, header: Header, landmark_map: LandmarkMapLike,
@@ -376,8 +389,9 @@ class MarkerBuilder:
         if changed:
             changed_covariances = np.asarray(landmark_map.covariances)[changed]
             major, minor, angles = geometry.ellipse_axes(changed_covariances)
+            make_pair = _marker_view_pair if self.lean else _marker_pair
             for position, index in enumerate(changed):
-                cache[keys[index]] = (rows[index], _marker_pair(
+                cache[keys[index]] = (rows[index], make_pair(
                     header, keys[index], rows[index], float(major[position]),
                     float(minor[position]), float(angles[position])))
         markers = []
@@ -387,7 +401,7 @@ class MarkerBuilder:
             markers += entry[1]
         self._cache = cache
         markers += delete_markers(header, removed_keys, (ELLIPSE_NAMESPACE, LABEL_NAMESPACE))
-        return MarkerArray(markers=markers)
+        return MarkerArrayView(markers) if self.lean else MarkerArray(markers=markers)
 
 
 def _marker_pair(header: Header, key: int, row: list[float], major: float, minor: float,
@@ -398,6 +412,94 @@ def _marker_pair(header: Header, key: int, row: list[float], major: float, minor
     return [ellipse_marker(header, key, (x, y, angle), major, minor, color),
             label_marker(header, key, (x, y, LABEL_LIFT),
                          str(landmark_id) if landmark_id >= 0 else f"k{key}")]
+
+
+class _Vector(NamedTuple):
+    x: float
+    y: float
+    z: float
+
+
+class _Quaternion(NamedTuple):
+    x: float
+    y: float
+    z: float
+    w: float
+
+
+class _Pose(NamedTuple):
+    position: _Vector
+    orientation: _Quaternion
+
+
+class _Color(NamedTuple):
+    r: float
+    g: float
+    b: float
+    a: float
+
+
+class _Duration(NamedTuple):
+    sec: int
+    nanosec: int
+
+
+class _Texture(NamedTuple):
+    header: Header
+    format: str
+    data: bytes
+
+
+class _MeshFile(NamedTuple):
+    filename: str
+    data: bytes
+
+
+class MarkerView(NamedTuple):
+    """A ``visualization_msgs/Marker`` as plain attributes, its unused fields empty."""
+
+    header: Header
+    ns: str
+    id: int
+    type: int
+    action: int
+    pose: _Pose
+    scale: _Vector
+    color: _Color
+    text: str = ""
+    lifetime: _Duration = _Duration(0, 0)
+    frame_locked: bool = False
+    points: tuple = ()
+    colors: tuple = ()
+    texture_resource: str = ""
+    texture: _Texture = _Texture(Header(), "", b"")
+    uv_coordinates: tuple = ()
+    mesh_resource: str = ""
+    mesh_file: _MeshFile = _MeshFile("", b"")
+    mesh_use_embedded_materials: bool = False
+
+
+class MarkerArrayView(NamedTuple):
+    """A ``visualization_msgs/MarkerArray`` of ``MarkerView`` (and rclpy DELETE markers)."""
+
+    markers: list
+
+    MSGTYPE = "visualization_msgs/msg/MarkerArray"
+
+
+def _marker_view_pair(header: Header, key: int, row: list[float], major: float, minor: float,
+                      angle: float) -> list[MarkerView]:
+    """``_marker_pair`` as ``MarkerView``."""
+    x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
+    _, _, qz, qw = geometry.yaw_to_quaternion(angle)
+    return [MarkerView(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER, Marker.ADD,
+                       _Pose(_Vector(x, y, 0.0), _Quaternion(0.0, 0.0, qz, qw)),
+                       _Vector(major, minor, ELLIPSE_HEIGHT),
+                       _Color(0.1, 0.4, 1.0, 0.25 + 0.6 * existence)),
+            MarkerView(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING, Marker.ADD,
+                       _Pose(_Vector(x, y, LABEL_LIFT), _Quaternion(0.0, 0.0, 0.0, 1.0)),
+                       _Vector(0.0, 0.0, LABEL_HEIGHT), _Color(1.0, 1.0, 1.0, 1.0),
+                       str(landmark_id) if landmark_id >= 0 else f"k{key}")]
 
 
 def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float,

@@ -5,14 +5,15 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
+from geometry_msgs.msg import Point, PoseArray, PoseWithCovarianceStamped, TransformStamped
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
-from std_msgs.msg import Header
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate
 
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cdr
@@ -20,6 +21,7 @@ from fastslam_ros.tools.bag_schema import TYPESTORE
 
 FRAMES = st.sampled_from(["", "odom", "base_link", "a_frame_with_a_longer_name", "kart\u00e9"])
 FLOATS = st.floats(allow_nan=False, allow_infinity=False, width=64)
+UNIT = st.floats(0.0, 1.0, width=32)
 STAMPS = st.tuples(st.integers(0, 2**31 - 1), st.integers(0, 999_999_999))
 
 
@@ -197,3 +199,48 @@ def test_empty_and_single_pose_arrays(poses):
     msg = ros_io.pose_array(Header(frame_id="map"), poses)
     assert isinstance(msg, PoseArray)
     assert cdr.pose_array_cdr(msg) == canonical(msg, "geometry_msgs/msg/PoseArray")
+
+
+def markers(draw) -> Marker:
+    """Markers with every field set, sequences empty or not."""
+    msg = Marker(header=header(draw(STAMPS), draw(FRAMES)), ns=draw(FRAMES),
+                 id=draw(st.integers(-2**31, 2**31 - 1)), type=draw(st.integers(0, 11)),
+                 action=draw(st.integers(0, 3)), text=draw(FRAMES),
+                 frame_locked=draw(st.booleans()), texture_resource=draw(FRAMES),
+                 mesh_resource=draw(FRAMES), mesh_use_embedded_materials=draw(st.booleans()))
+    (msg.pose.position.x, msg.pose.position.y, msg.pose.position.z, msg.pose.orientation.x,
+     msg.pose.orientation.y, msg.pose.orientation.z, msg.pose.orientation.w,
+     msg.scale.x, msg.scale.y, msg.scale.z) = draw(st.lists(FLOATS, min_size=10, max_size=10))
+    msg.color = ColorRGBA(**dict(zip("rgba", draw(st.lists(UNIT, min_size=4, max_size=4)))))
+    msg.lifetime.sec, msg.lifetime.nanosec = draw(STAMPS)
+    msg.points = [Point(x=x, y=y, z=z) for x, y, z in draw(
+        st.lists(st.tuples(FLOATS, FLOATS, FLOATS), max_size=3))]
+    msg.colors = [ColorRGBA(r=r, a=a) for r, a in draw(st.lists(st.tuples(UNIT, UNIT),
+                                                                 max_size=3))]
+    msg.uv_coordinates = [UVCoordinate(u=u, v=v) for u, v in draw(
+        st.lists(st.tuples(UNIT, UNIT), max_size=2))]
+    msg.texture.header = header(draw(STAMPS), draw(FRAMES))
+    msg.texture.format = draw(FRAMES)
+    msg.texture.data = draw(st.lists(st.integers(0, 255), max_size=5))
+    msg.mesh_file.filename = draw(FRAMES)
+    msg.mesh_file.data = draw(st.lists(st.integers(0, 255), max_size=5))
+    return msg
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.composite(markers)(), st.sampled_from([0, 4]))
+def test_marker_written_directly_is_the_serializers(msg, alignment):
+    """A Marker alone (payload offset 0 modulo 8) and first in a MarkerArray (4)."""
+    if alignment == 0:
+        expected = canonical(msg, "visualization_msgs/msg/Marker")[4:]
+    else:
+        expected = canonical(MarkerArray(markers=[msg]), "visualization_msgs/msg/MarkerArray")[8:]
+    assert cdr.marker_piece(msg, alignment) == expected
+
+
+@settings(max_examples=100, deadline=None)
+@given(STAMPS, FRAMES, st.lists(st.tuples(FLOATS, FLOATS, st.floats(-10.0, 10.0)), max_size=5))
+def test_planar_pose_array_written_directly_is_the_pose_arrays(stamp, frame, poses):
+    msg = ros_io.PlanarPoseArray(header(stamp, frame), np.array(poses).reshape(-1, 3))
+    assert cdr.planar_pose_array_cdr(msg) == canonical(ros_io.pose_array(msg.header, msg.planar),
+                                                       "geometry_msgs/msg/PoseArray")

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from geometry_msgs.msg import PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -201,6 +201,28 @@ def test_odometry_history_gives_consecutive_steps_ending_at_the_stamp():
 
 
 # --- scripted runs through the callbacks --------------------------------------------------------
+
+def test_lean_outputs_go_to_listeners_only_without_dds(context):
+    """A replay's node (lean_outputs, no DDS) hands ~/particles over as the array of the
+    PoseArray a live node publishes; with DDS the flag changes nothing."""
+    runs = {}
+    for dds in (True, False):
+        node = make_node(context)
+        node.lean_outputs, node.publish_to_dds = True, dds
+        outputs = Recorder(node)
+        replay(node, scripted_run(3.0))
+        runs[dds] = outputs.messages
+    particles = runs[True]["/fastslam/particles"]
+    assert particles and len(particles) == len(runs[False]["/fastslam/particles"])
+    for live, planar in zip(particles, runs[False]["/fastslam/particles"]):
+        assert isinstance(live, PoseArray) and isinstance(planar, ros_io.PlanarPoseArray)
+        assert ros_io.pose_array(planar.header, planar.planar) == live
+    markers = runs[True]["/fastslam/landmarks"]
+    assert markers and len(markers) == len(runs[False]["/fastslam/landmarks"])
+    for live, lean in zip(markers, runs[False]["/fastslam/landmarks"]):
+        assert isinstance(live, MarkerArray) and isinstance(lean, ros_io.MarkerArrayView)
+        assert len(live.markers) == len(lean.markers)
+
 
 def test_scripted_run_pose_map_and_throttled_outputs(context):
     node = make_node(context)

@@ -181,7 +181,8 @@ def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, translatio
 
 def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     """MarkerArrayCdr against rclpy's serializer over a changing map (landmarks moved, added,
-    removed; ids of every length, so markers start at both alignments)."""
+    removed; ids of every length, so markers start at both alignments), and the lean builder's
+    MarkerViews give the bytes of the rclpy markers."""
     from types import SimpleNamespace
 
     from rclpy.serialization import deserialize_message, serialize_message
@@ -191,8 +192,11 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     from fastslam_ros import ros_io
     from fastslam_ros.tools.replay import MarkerArrayCdr
 
+    from fastslam_ros.tools.bag_schema import TYPESTORE
+
     rng = np.random.default_rng(3)
     builder, cdr = ros_io.MarkerBuilder(), MarkerArrayCdr()
+    lean_builder, lean_cdr = ros_io.MarkerBuilder(lean=True), MarkerArrayCdr()
     keys = np.arange(40)
     means = rng.normal(0.0, 20.0, (40, 2))
     for step in range(6):
@@ -206,17 +210,24 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
         msg = builder.build(Header(frame_id="map"), landmark_map, removed_keys=[1000 + step])
         expected = deserialize_message(serialize_message(msg), MarkerArray)
         assert deserialize_message(cdr.serialize(msg), MarkerArray) == expected
+        lean = lean_builder.build(Header(frame_id="map"), landmark_map, [1000 + step])
+        assert isinstance(lean, ros_io.MarkerArrayView)
+        assert lean_cdr.serialize(lean) == bytes(TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(
+            serialize_message(msg), "visualization_msgs/msg/MarkerArray"),
+            "visualization_msgs/msg/MarkerArray"))
         keep = rng.uniform(size=len(keys)) < 0.9
         keys, means = np.append(keys[keep], 100 + step), np.vstack([means[keep], [[1.0, 2.0]]])
 
 
 def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
     """The same messages (several topics, out-of-order stamps, enough to close chunks) through
-    rosbags' MCAP writer and through the replay's give identical files."""
+    rosbags' MCAP writer and through the replay's (its storage, the recorder's writes) give
+    identical files and metadata."""
     from importlib.metadata import version
 
-    from fastslam_ros.tools.bag_schema import TYPESTORE, open_writer
-    from fastslam_ros.tools.replay import LEAN_WRITER_ROSBAGS, LeanMcapWriter, lean_writer
+    from fastslam_ros.tools.bag_schema import open_writer
+    from fastslam_ros.tools.replay import (LEAN_WRITER_ROSBAGS, LeanMcapWriter, OutputRecorder,
+                                           lean_writer)
 
     if not version("rosbags").startswith(LEAN_WRITER_ROSBAGS):
         pytest.skip(f"rosbags {version('rosbags')}: the replay records through rosbags' writer")
@@ -229,9 +240,10 @@ def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
         writer = wrap(open_writer(tmp_path / name / "bag"))  # one name: it is in the file
         with writer:
             assert (type(writer.storage) is LeanMcapWriter) == (name == "lean")
-            connections = [writer.add_connection(f"/topic{i}", "std_msgs/msg/String",
-                                                 typestore=TYPESTORE) for i in range(3)]
+            recorder = OutputRecorder(writer)
+            assert (recorder._write == writer.write) == (name == "rosbags")
             for index, stamp, data in messages:
-                writer.write(connections[index], stamp, data)
-        files.append((tmp_path / name / "bag" / "bag.mcap").read_bytes())
-    assert len(files[0]) > 2 * 2**20 and files[0] == files[1]
+                recorder.copy(f"/topic{index}", "std_msgs/msg/String", stamp, data)
+        files.append([(tmp_path / name / "bag" / file).read_bytes()
+                      for file in ("bag.mcap", "metadata.yaml")])
+    assert len(files[0][0]) > 2 * 2**20 and files[0] == files[1]

@@ -12,6 +12,7 @@ string without its NUL, text that is not UTF-8): the caller then takes the gener
 """
 from __future__ import annotations
 
+import math
 import struct
 from typing import Any, NamedTuple
 
@@ -275,6 +276,21 @@ def pose_array_cdr(msg: Any) -> bytes:
     return bytes(buffer.data)
 
 
+def planar_pose_array_cdr(msg: Any) -> bytes:
+    """A serialized ``geometry_msgs/PoseArray`` from a ``ros_io.PlanarPoseArray``: the bytes of
+    ``pose_array_cdr(ros_io.pose_array(header, planar))`` without a Pose per pose."""
+    buffer = _Buffer(CDR_LE, 4)
+    buffer.header(msg.header)
+    planar = np.asarray(msg.planar, dtype=float).tolist()
+    buffer.u32(len(planar))
+    if planar:
+        buffer.align(8)
+        values = [value for x, y, yaw in planar
+                  for value in (x, y, 0.0, 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))]
+        buffer.data += struct.pack(f"<{len(values)}d", *values)
+    return bytes(buffer.data)
+
+
 def point_cloud2_cdr(msg: Any) -> bytes:
     """A serialized ``sensor_msgs/PointCloud2`` (rclpy or look-alike)."""
     buffer = _Buffer(CDR_LE, 4)
@@ -364,3 +380,45 @@ class SequenceCdr:
 def _bytes_sequence(buffer: _Buffer, data: Any) -> None:
     buffer.u32(len(data))
     buffer.data += memoryview(data).cast("B") if len(data) else b""
+
+
+_FLOATS4 = struct.Struct("<4f")
+_MARKER_IDS = struct.Struct("<iii")
+_MARKER_TAIL = struct.Struct("<10d4fiI?")
+"""A Marker's pose (7 doubles), scale (3), color (4 float32), lifetime and frame_locked."""
+
+
+def marker_piece(marker: Any, alignment: int) -> bytes:
+    """The bytes of a ``visualization_msgs/Marker`` (rclpy or look-alike) inside a message,
+    starting at a payload offset that is ``alignment`` (0 or 4) modulo 8."""
+    buffer = _Buffer(bytes(alignment), 0)
+    buffer.header(marker.header)
+    buffer.string(marker.ns)
+    buffer.align(4)
+    buffer.data += _MARKER_IDS.pack(marker.id, marker.type, marker.action)
+    buffer.align(8)
+    pose, scale, color, lifetime = marker.pose, marker.scale, marker.color, marker.lifetime
+    p, q = pose.position, pose.orientation
+    buffer.data += _MARKER_TAIL.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w, scale.x, scale.y,
+                                     scale.z, color.r, color.g, color.b, color.a, lifetime.sec,
+                                     lifetime.nanosec, marker.frame_locked)
+    buffer.u32(len(marker.points))
+    for point in marker.points:
+        buffer.align(8)
+        buffer.data += struct.pack("<3d", point.x, point.y, point.z)
+    buffer.u32(len(marker.colors))
+    for rgba in marker.colors:
+        buffer.data += _FLOATS4.pack(rgba.r, rgba.g, rgba.b, rgba.a)
+    buffer.string(marker.texture_resource)
+    buffer.header(marker.texture.header)
+    buffer.string(marker.texture.format)
+    _bytes_sequence(buffer, marker.texture.data)
+    buffer.u32(len(marker.uv_coordinates))
+    for uv in marker.uv_coordinates:
+        buffer.data += struct.pack("<2f", uv.u, uv.v)
+    buffer.string(marker.text)
+    buffer.string(marker.mesh_resource)
+    buffer.string(marker.mesh_file.filename)
+    _bytes_sequence(buffer, marker.mesh_file.data)
+    buffer.data.append(1 if marker.mesh_use_embedded_materials else 0)
+    return bytes(buffer.data[alignment:])

@@ -15,8 +15,8 @@ the parameters used), so OUT alone is enough for ``fastslam-eval``. OUT also hol
 (map -> odom from the node, odom -> base_link from each odometry message) and ``/tf_static``
 (base_link -> the sensor frame, plus the input bag's static transforms), so RViz and Foxglove
 show it as they would a live robot. The outputs a replay writes most often (pose, transform,
-particles, path, map cloud, diagnostics) are serialized directly, byte for byte as rosbags
-writes them.
+particles, path, map cloud, map markers, diagnostics) are serialized directly, byte for byte as
+rosbags writes them.
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
@@ -54,9 +54,11 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
+from fastslam_ros.ros_io import MarkerArrayView, PlanarPoseArray
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, point_cloud2_cdr,
-                                    pose_array_cdr, pose_stamped_piece,
+from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
+                                    planar_pose_array_cdr, point_cloud2_cdr, pose_array_cdr,
+                                    pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
@@ -85,7 +87,7 @@ PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
 DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
                   PoseWithCovarianceStamped: pose_with_covariance_stamped_cdr,
                   PoseArray: pose_array_cdr, PointCloud2: point_cloud2_cdr,
-                  DiagnosticArray: diagnostic_array_cdr}
+                  DiagnosticArray: diagnostic_array_cdr, PlanarPoseArray: planar_pose_array_cdr}
 """Output types serialized directly (rclpy's serializer costs about 6 us per pose)."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
@@ -113,7 +115,9 @@ class ReplayResult:
 
 
 def ros_msgtype(msg: Any) -> str:
-    """``pkg/msg/Name`` of an rclpy message instance."""
+    """``pkg/msg/Name`` of an rclpy message instance (or the ``MSGTYPE`` of a look-alike)."""
+    if isinstance(msg, (PlanarPoseArray, MarkerArrayView)):
+        return msg.MSGTYPE
     package = type(msg).__module__.split(".")[0]
     return f"{package}/msg/{type(msg).__name__}"
 
@@ -208,14 +212,6 @@ class ProgressBar:
 # ---------------------------------------------------------------- recording
 
 
-def marker_piece(marker: Any, alignment: int) -> bytes:
-    """The bytes of one ``visualization_msgs/Marker`` inside a MarkerArray at a payload offset
-    that is ``alignment`` (0 or 4) modulo 8 (rclpy's serializer)."""
-    if alignment == 0:
-        return serialize_message(marker)[4:]
-    return serialize_message(MarkerArray(markers=[marker]))[8:]  # after header and count
-
-
 class MarkerArrayCdr(SequenceCdr):
     """``visualization_msgs/MarkerArray`` from pieces (``SequenceCdr``)."""
 
@@ -230,7 +226,7 @@ class PathCdr(SequenceCdr):
         super().__init__("poses", pose_stamped_piece, has_header=True)
 
 
-SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, PathMsg: PathCdr}
+SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, MarkerArrayView: MarkerArrayCdr, PathMsg: PathCdr}
 """Output types serialized from the pieces of their reused sub-messages, one writer a topic."""
 
 
@@ -289,6 +285,21 @@ class OutputRecorder:
         self.connections: dict[str, Any] = {}
         self.stamp_ns = 0
         self._sequences: dict[str, SequenceCdr] = {}
+        self._write = writer.write
+        if type(writer.storage) is LeanMcapWriter and writer.compression_mode != \
+                CompressionMode.MESSAGE:
+            self._write = self._write_lean
+
+    def _write_lean(self, connection: Any, timestamp: int, data: bytes) -> None:
+        """``Writer.write`` without its checks (the recorder writes only to the connections it
+        added; rosbags looks each up in a list, comparing every field)."""
+        writer = self.writer
+        writer.storage.write(connection, timestamp, data)
+        writer.counts[connection.id] += 1
+        if timestamp < writer.min_timestamp:
+            writer.min_timestamp = timestamp
+        if timestamp > writer.max_timestamp:
+            writer.max_timestamp = timestamp
 
     def _connection(self, topic: str, msgtype: str) -> Any:
         connection = self.connections.get(topic)
@@ -310,7 +321,7 @@ class OutputRecorder:
         else:
             raw = serialize_message(msg)
         connection = self.connections.get(topic) or self._connection(topic, ros_msgtype(msg))
-        self.writer.write(connection, self.stamp_ns, raw)
+        self._write(connection, self.stamp_ns, raw)
         if type(msg) is TransformStamped:
             translation, rotation = msg.transform.translation, msg.transform.rotation
             stamp = msg.header.stamp
@@ -321,7 +332,7 @@ class OutputRecorder:
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
-        self.writer.write(self._connection(topic, msgtype), stamp_ns, raw)
+        self._write(self._connection(topic, msgtype), stamp_ns, raw)
 
     def tf(self, topic: str, transforms: list[Any]) -> None:
         """Write rosbags ``TransformStamped`` messages as one ``TFMessage`` on ``topic``."""
@@ -515,6 +526,7 @@ def _create_node(target: ReplayTarget, context: Context, params: dict[str, Any])
         raise ValueError(str(error)) from None
     # Nobody listens over DDS in a replay: outputs go only to the recorder.
     node.publish_to_dds = False
+    node.lean_outputs = True
     return node
 
 
