@@ -389,11 +389,11 @@ class MarkerBuilder:
         if changed:
             changed_covariances = np.asarray(landmark_map.covariances)[changed]
             major, minor, angles = geometry.ellipse_axes(changed_covariances)
-            make_pair = _marker_view_pair if self.lean else _marker_pair
             for position, index in enumerate(changed):
-                cache[keys[index]] = (rows[index], make_pair(
-                    header, keys[index], rows[index], float(major[position]),
-                    float(minor[position]), float(angles[position])))
+                views = _landmark_views(header, keys[index], rows[index], float(major[position]),
+                                        float(minor[position]), float(angles[position]))
+                cache[keys[index]] = (rows[index], views if self.lean
+                                      else [marker_from_view(view) for view in views])
         markers = []
         for key, row in zip(keys, rows):
             entry = cache.get(key) or self._cache[key]
@@ -402,16 +402,6 @@ class MarkerBuilder:
         self._cache = cache
         markers += delete_markers(header, removed_keys, (ELLIPSE_NAMESPACE, LABEL_NAMESPACE))
         return MarkerArrayView(markers) if self.lean else MarkerArray(markers=markers)
-
-
-def _marker_pair(header: Header, key: int, row: list[float], major: float, minor: float,
-                 angle: float) -> list[Marker]:
-    """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
-    x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
-    color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=0.25 + 0.6 * existence)
-    return [ellipse_marker(header, key, (x, y, angle), major, minor, color),
-            label_marker(header, key, (x, y, LABEL_LIFT),
-                         str(landmark_id) if landmark_id >= 0 else f"k{key}")]
 
 
 class _Vector(NamedTuple):
@@ -487,56 +477,61 @@ class MarkerArrayView(NamedTuple):
     MSGTYPE = "visualization_msgs/msg/MarkerArray"
 
 
-def _marker_view_pair(header: Header, key: int, row: list[float], major: float, minor: float,
-                      angle: float) -> list[MarkerView]:
-    """``_marker_pair`` as ``MarkerView``."""
+def _landmark_views(header: Header, key: int, row: list[float], major: float, minor: float,
+                    angle: float) -> list[MarkerView]:
+    """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
     x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
-    _, _, qz, qw = geometry.yaw_to_quaternion(angle)
-    return [MarkerView(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER, Marker.ADD,
-                       _Pose(_Vector(x, y, 0.0), _Quaternion(0.0, 0.0, qz, qw)),
-                       _Vector(major, minor, ELLIPSE_HEIGHT),
-                       _Color(0.1, 0.4, 1.0, 0.25 + 0.6 * existence)),
-            MarkerView(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING, Marker.ADD,
-                       _Pose(_Vector(x, y, LABEL_LIFT), _Quaternion(0.0, 0.0, 0.0, 1.0)),
-                       _Vector(0.0, 0.0, LABEL_HEIGHT), _Color(1.0, 1.0, 1.0, 1.0),
+    return [ellipse_view(header, key, (x, y, angle), major, minor,
+                         (0.1, 0.4, 1.0, 0.25 + 0.6 * existence)),
+            label_view(header, key, (x, y, LABEL_LIFT),
                        str(landmark_id) if landmark_id >= 0 else f"k{key}")]
+
+
+def ellipse_view(header: Header, key: int, pose: Sequence[float], major: float, minor: float,
+                 color: Sequence[float]) -> MarkerView:
+    """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
+    heading (namespace ``ELLIPSE_NAMESPACE``), colour (r, g, b, a)."""
+    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
+    return MarkerView(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER, Marker.ADD,
+                      _Pose(_Vector(float(pose[0]), float(pose[1]), 0.0),
+                            _Quaternion(0.0, 0.0, qz, qw)),
+                      _Vector(major, minor, ELLIPSE_HEIGHT), _Color(*color))
+
+
+def label_view(header: Header, key: int, position: Sequence[float], text: str) -> MarkerView:
+    """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
+    return MarkerView(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING, Marker.ADD,
+                      _Pose(_Vector(float(position[0]), float(position[1]), float(position[2])),
+                            _Quaternion(0.0, 0.0, 0.0, 1.0)),
+                      _Vector(0.0, 0.0, LABEL_HEIGHT), _Color(1.0, 1.0, 1.0, 1.0), text)
+
+
+def marker_from_view(view: MarkerView) -> Marker:
+    """The rclpy ``Marker`` of a ``MarkerView`` (its pose, scale, colour and text; the other
+    fields keep their defaults, as in the view). Filled in place: passing new sub-messages to
+    the constructor would build the defaults as well."""
+    marker = Marker()
+    marker.header, marker.ns, marker.id = view.header, view.ns, view.id
+    marker.type, marker.action, marker.text = view.type, view.action, view.text
+    position, orientation = marker.pose.position, marker.pose.orientation
+    position.x, position.y, position.z = view.pose.position
+    orientation.x, orientation.y, orientation.z, orientation.w = view.pose.orientation
+    scale, color = marker.scale, marker.color
+    scale.x, scale.y, scale.z = view.scale
+    color.r, color.g, color.b, color.a = view.color
+    return marker
 
 
 def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float,
                    minor: float, color: ColorRGBA) -> Marker:
-    """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
-    heading (namespace ``ELLIPSE_NAMESPACE``)."""
-    ellipse = _marker(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER)
-    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
-    position, orientation = ellipse.pose.position, ellipse.pose.orientation
-    position.x, position.y = float(pose[0]), float(pose[1])
-    orientation.z, orientation.w = qz, qw
-    ellipse.color = color
-    scale = ellipse.scale
-    scale.x, scale.y, scale.z = major, minor, ELLIPSE_HEIGHT
-    return ellipse
+    """``ellipse_view`` as an rclpy ``Marker``."""
+    return marker_from_view(ellipse_view(header, key, pose, major, minor,
+                                         (color.r, color.g, color.b, color.a)))
 
 
 def label_marker(header: Header, key: int, position: Sequence[float], text: str) -> Marker:
-    """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
-    label = _marker(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING)
-    label.text = text
-    color = label.color
-    color.r, color.g, color.b, color.a = 1.0, 1.0, 1.0, 1.0
-    point = label.pose.position
-    point.x, point.y, point.z = float(position[0]), float(position[1]), float(position[2])
-    label.pose.orientation.w = 1.0
-    label.scale.z = LABEL_HEIGHT
-    return label
-
-
-def _marker(header: Header, namespace: str, key: int, marker_type: int) -> Marker:
-    """An ADD marker; its default sub-messages are filled in place by the callers (passing
-    new ones to the constructor would build the defaults as well)."""
-    marker = Marker()
-    marker.header, marker.ns, marker.id = header, namespace, key
-    marker.type, marker.action = marker_type, Marker.ADD
-    return marker
+    """``label_view`` as an rclpy ``Marker``."""
+    return marker_from_view(label_view(header, key, position, text))
 
 
 def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str]
