@@ -12,11 +12,12 @@ string without its NUL, text that is not UTF-8): the caller then takes the gener
 """
 from __future__ import annotations
 
-import math
 import struct
 from typing import Any, NamedTuple
 
 import numpy as np
+
+from fastslam_ros.core.geometry import yaw_to_quaternion
 
 CDR_LE = b"\x00\x01\x00\x00"
 """Encapsulation header of little-endian plain CDR."""
@@ -286,7 +287,7 @@ def planar_pose_array_cdr(msg: Any) -> bytes:
     if planar:
         buffer.align(8)
         values = [value for x, y, yaw in planar
-                  for value in (x, y, 0.0, 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))]
+                  for value in (x, y, 0.0, *yaw_to_quaternion(yaw))]
         buffer.data += struct.pack(f"<{len(values)}d", *values)
     return bytes(buffer.data)
 
