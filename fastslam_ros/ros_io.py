@@ -111,6 +111,11 @@ def seconds_to_stamp(seconds: float) -> Time:
     return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 
+def nanoseconds_to_stamp(nanoseconds: int) -> Time:
+    """Integer nanoseconds (>= 0) -> ``builtin_interfaces/Time``, as rclpy's ``Time.to_msg``."""
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
 def yaw_to_quaternion(yaw: float) -> Quaternion:
     """Rotation by ``yaw`` about z as a Quaternion message."""
     x, y, z, w = geometry.yaw_to_quaternion(yaw)

@@ -224,6 +224,34 @@ def test_lean_outputs_go_to_listeners_only_without_dds(context):
         assert len(live.markers) == len(lean.markers)
 
 
+def test_node_time_set_directly_gives_the_outputs_of_the_clock(context):
+    """``set_node_time`` (what a replay calls) drives the throttled outputs, the stamps and
+    /diagnostics exactly as the rclpy clock does."""
+    runs = []
+    for direct in (False, True):
+        node = make_node(context)
+        outputs = Recorder(node)
+        for event in scripted_run(6.0):
+            if direct:
+                node.set_node_time(round(event.arrival * 1e9))
+            else:
+                set_clock(node, event.arrival)
+            deliver(node, event.msg)
+        node.flush()
+        runs.append(outputs.messages)
+    clock, direct = runs
+    assert clock.keys() == direct.keys() and len(clock["/diagnostics"]) >= 6
+    for topic, messages in clock.items():
+        assert len(messages) == len(direct[topic]), topic
+        for by_clock, by_time in zip(messages, direct[topic]):
+            if topic == "/diagnostics":  # callback_time_max is wall time
+                assert by_clock.header == by_time.header
+                by_clock, by_time = ([(v.key, v.value) for v in msg.status[0].values
+                                      if v.key != "callback_time_max"]
+                                     for msg in (by_clock, by_time))
+            assert by_clock == by_time, topic
+
+
 def test_scripted_run_pose_map_and_throttled_outputs(context):
     node = make_node(context)
     outputs = Recorder(node)

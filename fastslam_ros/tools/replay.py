@@ -3,8 +3,8 @@
 Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into
 a look-alike object (``tools/cdr.py``: the attributes the node's readers use), any other input
 (``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
-subscription callbacks; before each one the node's clock (``use_sim_time``) is set to the
-message's bag time. Nothing goes through
+subscription callbacks; before each one the node's time is set to the message's bag time
+(``set_node_time``, as ``use_sim_time`` with a clock would). Nothing goes through
 DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
 a replay runs as fast as the filter allows and gives the same outputs as a live run at the
 same times. Every message the node publishes is recorded into
@@ -38,11 +38,9 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Path as PathMsg
-from rclpy.clock import ClockType
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message, serialize_message
-from rclpy.time import Time
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
@@ -566,7 +564,6 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
               or (recorder is not None and topic_of(c) in target.copied_topics)]
     bar = ProgressBar(sum(c.msgcount for c in wanted if topic_of(c) in callbacks)) \
         if progress else None
-    clock = node.get_clock()
     frames = (node.get_parameter("odom_frame").value, node.get_parameter("base_frame").value)
     first_ns = last_ns = None
     done = 0
@@ -580,7 +577,7 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
             continue
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
-        clock.set_ros_time_override(Time(nanoseconds=stamp_ns, clock_type=ClockType.ROS_TIME))
+        node.set_node_time(stamp_ns)
         direct = DIRECT_READERS.get(connection.msgtype)
         msg = direct(raw) if direct is not None else None
         if msg is None:
