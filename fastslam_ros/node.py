@@ -373,7 +373,8 @@ class FastSLAMNode(FilterNode):
         """~/pose and map -> odom at the latest observation (every observation: cheap)."""
         header = self._header()
         pose, covariance = self._estimate()
-        self._publish(self._pose_pub, ros_io.pose_with_covariance(header, pose, covariance))
+        build = ros_io.pose_with_covariance_view if self._lean() else ros_io.pose_with_covariance
+        self._publish(self._pose_pub, build(header, pose, covariance))
         self._publish_map_to_odom(header, pose)
 
     def _publish_throttled(self, now: float) -> None:
@@ -398,8 +399,7 @@ class FastSLAMNode(FilterNode):
 
     def _publish_particles(self) -> None:
         header, poses = self._header(), self.slam.particle_poses()
-        planar = self.lean_outputs and not self.publish_to_dds
-        self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if planar
+        self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if self._lean()
                       else ros_io.pose_array(header, poses))
 
     def _publish_map(self) -> None:
@@ -409,7 +409,7 @@ class FastSLAMNode(FilterNode):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
-        lean = self.lean_outputs and not self.publish_to_dds
+        lean = self._lean()
         if self._marker_builder.lean != lean:
             self._marker_builder = ros_io.MarkerBuilder(lean)
         self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))

@@ -237,9 +237,11 @@ class FilterNode(Node):
         self._node_time_ns: int | None = None
         """Node time given by ``set_node_time`` (an in-process replay); None: the rclpy clock."""
         self.lean_outputs = False
-        """True, with ``publish_to_dds`` False: ``~/particles`` and ``~/landmarks`` go to the
-        listeners as ``ros_io.PlanarPoseArray`` and ``ros_io.MarkerArrayView`` (a replay
-        serializes them directly; rclpy builds a message object per particle and per marker)."""
+        """True, with ``publish_to_dds`` False: ``~/particles``, ``~/landmarks``, ``~/pose`` and
+        ``~/map_to_odom`` go to the listeners as ``ros_io.PlanarPoseArray``,
+        ``ros_io.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView`` and
+        ``ros_io.TransformStampedView`` (a replay serializes them directly; rclpy builds a
+        message object per particle, per marker and per sub-message)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
         self.settings: dict[str, Any] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""
@@ -593,6 +595,10 @@ class FilterNode(Node):
 
     # --- outputs -------------------------------------------------------------------------------
 
+    def _lean(self) -> bool:
+        """Whether outputs go to the listeners as plain look-alikes (``lean_outputs``)."""
+        return self.lean_outputs and not self.publish_to_dds
+
     def _publish(self, publisher, msg) -> None:
         """Publish and hand the message to every output listener (replay records them)."""
         if self.publish_to_dds:
@@ -620,9 +626,10 @@ class FilterNode(Node):
         map_to_odom = compose(compose(pose, relative_pose(self._odometry.anchor_pose,
                                                           np.zeros(3))),
                               self._odometry_gate.correction)
-        transform = ros_io.transform(header, self.settings["odom_frame"], map_to_odom)
+        build = ros_io.transform_view if self._lean() else ros_io.transform
+        transform = build(header, self.settings["odom_frame"], map_to_odom)
         self._publish(self._map_to_odom_pub, transform)
-        if self.settings["publish_tf"] and self._tf_broadcaster is not None:
+        if self.publish_to_dds and self.settings["publish_tf"] and self._tf_broadcaster:
             self._tf_broadcaster.sendTransform(transform)
 
     def _new_problems(self, now: float) -> list[str]:

@@ -247,7 +247,8 @@ class PeopleTrackerNode(FilterNode):
         header = self._map_header(stamp)
         mean, covariance = self.tracker.mean_pose_and_covariance()
         pose = mean if self.settings["pose_estimate"] == "mean" else self.tracker.best_pose()
-        self._publish(self._pose_pub, ros_io.pose_with_covariance(header, pose, covariance))
+        build = ros_io.pose_with_covariance_view if self._lean() else ros_io.pose_with_covariance
+        self._publish(self._pose_pub, build(header, pose, covariance))
         self._publish(self._people_pub,
                       people_io.people_cloud(header, self.tracker.published_people()))
         self._publish_map_to_odom(header, pose)

@@ -160,13 +160,9 @@ def pose_msg(pose: Sequence[float]) -> Pose:
 
 
 def _planar_pose(x: float, y: float, yaw: float) -> Pose:
-    """``pose_msg`` of floats (a PoseArray builds one per particle). The default sub-messages
-    are filled in place: passing new ones would build the defaults as well."""
-    _, _, qz, qw = geometry.yaw_to_quaternion(yaw)
+    """``pose_msg`` of floats (a PoseArray builds one per particle)."""
     pose = Pose()
-    position, orientation = pose.position, pose.orientation
-    position.x, position.y = x, y
-    orientation.z, orientation.w = qz, qw
+    _fill_pose(pose, _planar_pose_view((x, y, yaw)))
     return pose
 
 
@@ -285,15 +281,84 @@ def estimate_cloud(header: Header, means: np.ndarray, covariances: np.ndarray,
 
 # --- poses -------------------------------------------------------------------------------------
 
-def pose_with_covariance(header: Header, pose: Sequence[float],
-                         covariance: np.ndarray) -> PoseWithCovarianceStamped:
-    """Planar pose with its (3, 3) covariance over (x, y, theta) placed in the 6x6 ROS layout."""
-    msg = PoseWithCovarianceStamped(header=header)
-    msg.pose.pose = pose_msg(pose)
+class _Vector(NamedTuple):
+    x: float
+    y: float
+    z: float
+
+
+class _Quaternion(NamedTuple):
+    x: float
+    y: float
+    z: float
+    w: float
+
+
+class _Pose(NamedTuple):
+    position: _Vector
+    orientation: _Quaternion
+
+
+class _PoseWithCovariance(NamedTuple):
+    pose: _Pose
+    covariance: np.ndarray
+
+
+class PoseWithCovarianceStampedView(NamedTuple):
+    """A ``geometry_msgs/PoseWithCovarianceStamped`` as plain attributes."""
+
+    header: Header
+    pose: _PoseWithCovariance
+
+    MSGTYPE = "geometry_msgs/msg/PoseWithCovarianceStamped"
+
+
+class _Transform(NamedTuple):
+    translation: _Vector
+    rotation: _Quaternion
+
+
+class TransformStampedView(NamedTuple):
+    """A ``geometry_msgs/TransformStamped`` as plain attributes."""
+
+    header: Header
+    child_frame_id: str
+    transform: _Transform
+
+    MSGTYPE = "geometry_msgs/msg/TransformStamped"
+
+
+def _planar_pose_view(pose: Sequence[float]) -> _Pose:
+    """Planar pose (x, y, theta) at z = 0 as plain attributes (``pose_msg``'s values)."""
+    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
+    return _Pose(_Vector(float(pose[0]), float(pose[1]), 0.0), _Quaternion(0.0, 0.0, qz, qw))
+
+
+def pose_with_covariance_view(header: Header, pose: Sequence[float],
+                              covariance: np.ndarray) -> PoseWithCovarianceStampedView:
+    """Planar pose with its (3, 3) covariance over (x, y, theta) placed in the 6x6 ROS layout
+    (float64 (36,))."""
     full = np.zeros(36)
     full[_PLANAR_COVARIANCE] = np.ravel(covariance)
-    msg.pose.covariance = full  # float64 (36,): taken as it is, not checked per item
+    return PoseWithCovarianceStampedView(header, _PoseWithCovariance(_planar_pose_view(pose),
+                                                                     full))
+
+
+def pose_with_covariance(header: Header, pose: Sequence[float],
+                         covariance: np.ndarray) -> PoseWithCovarianceStamped:
+    """``pose_with_covariance_view`` as an rclpy message."""
+    view = pose_with_covariance_view(header, pose, covariance)
+    msg = PoseWithCovarianceStamped(header=header)
+    _fill_pose(msg.pose.pose, view.pose.pose)
+    msg.pose.covariance = view.pose.covariance  # float64 (36,): taken as it is, not checked
     return msg
+
+
+def _fill_pose(pose: Pose, view: _Pose) -> None:
+    """Set an rclpy Pose (in place: new sub-messages would build the defaults as well)."""
+    position, orientation = pose.position, pose.orientation
+    position.x, position.y, position.z = view.position
+    orientation.x, orientation.y, orientation.z, orientation.w = view.orientation
 
 
 _PLANAR = (0, 1, 5)  # x, y and rotation about z in (x, y, z, rot x, rot y, rot z)
@@ -346,12 +411,21 @@ class PathBuilder:
         return PathMsg(header=header, poses=path_poses)
 
 
+def transform_view(header: Header, child_frame_id: str,
+                   pose: Sequence[float]) -> TransformStampedView:
+    """Planar pose of ``child_frame_id`` in ``header.frame_id`` as a transform at z = 0."""
+    planar = _planar_pose_view(pose)
+    return TransformStampedView(header, child_frame_id,
+                                _Transform(planar.position, planar.orientation))
+
+
 def transform(header: Header, child_frame_id: str, pose: Sequence[float]) -> TransformStamped:
-    """Planar pose of ``child_frame_id`` in ``header.frame_id`` -> ``TransformStamped``."""
+    """``transform_view`` as an rclpy ``TransformStamped``."""
+    view = transform_view(header, child_frame_id, pose).transform
     msg = TransformStamped(header=header, child_frame_id=child_frame_id)
     translation, rotation = msg.transform.translation, msg.transform.rotation
-    translation.x, translation.y = float(pose[0]), float(pose[1])
-    _, _, rotation.z, rotation.w = geometry.yaw_to_quaternion(float(pose[2]))
+    translation.x, translation.y, translation.z = view.translation
+    rotation.x, rotation.y, rotation.z, rotation.w = view.rotation
     return msg
 
 
@@ -407,24 +481,6 @@ class MarkerBuilder:
         self._cache = cache
         markers += delete_markers(header, removed_keys, (ELLIPSE_NAMESPACE, LABEL_NAMESPACE))
         return MarkerArrayView(markers) if self.lean else MarkerArray(markers=markers)
-
-
-class _Vector(NamedTuple):
-    x: float
-    y: float
-    z: float
-
-
-class _Quaternion(NamedTuple):
-    x: float
-    y: float
-    z: float
-    w: float
-
-
-class _Pose(NamedTuple):
-    position: _Vector
-    orientation: _Quaternion
 
 
 class _Color(NamedTuple):

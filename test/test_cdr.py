@@ -152,6 +152,24 @@ def test_pose_and_transform_written_directly_are_the_serializers(stamp, frame, c
 
 
 @settings(max_examples=60, deadline=None)
+@given(STAMPS, FRAMES, FRAMES, st.tuples(FLOATS, FLOATS, st.floats(-10.0, 10.0)),
+       st.lists(FLOATS, min_size=9, max_size=9))
+def test_pose_and_transform_views_written_directly_are_the_rclpy_messages(stamp, frame, child,
+                                                                           pose, covariance):
+    """A replay's node hands ~/pose and ~/map_to_odom over as views (``lean_outputs``)."""
+    covariance = np.array(covariance).reshape(3, 3)
+    view = ros_io.pose_with_covariance_view(header(stamp, frame), pose, covariance)
+    assert isinstance(view, ros_io.PoseWithCovarianceStampedView)
+    assert cdr.pose_with_covariance_stamped_cdr(view) == canonical(
+        ros_io.pose_with_covariance(view.header, pose, covariance),
+        "geometry_msgs/msg/PoseWithCovarianceStamped")
+    view = ros_io.transform_view(header(stamp, frame), child, pose)
+    assert isinstance(view, ros_io.TransformStampedView)
+    assert cdr.transform_stamped_cdr(view) == canonical(
+        ros_io.transform(view.header, child, pose), "geometry_msgs/msg/TransformStamped")
+
+
+@settings(max_examples=60, deadline=None)
 @given(STAMPS, FRAMES, st.lists(st.tuples(FLOATS, FLOATS, FLOATS), max_size=12))
 def test_pose_array_written_directly_is_the_serializers(stamp, frame, poses):
     msg = ros_io.pose_array(header(stamp, frame), np.array(poses).reshape(-1, 3))

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -34,6 +34,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from fastslam_ros import ros_io
 from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
+from fastslam_ros.tools import cdr
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 100 + os.getpid() % 100
@@ -204,7 +205,8 @@ def test_odometry_history_gives_consecutive_steps_ending_at_the_stamp():
 
 def test_lean_outputs_go_to_listeners_only_without_dds(context):
     """A replay's node (lean_outputs, no DDS) hands ~/particles over as the array of the
-    PoseArray a live node publishes; with DDS the flag changes nothing."""
+    PoseArray a live node publishes, ~/landmarks, ~/pose and ~/map_to_odom as look-alikes of
+    its messages; with DDS the flag changes nothing."""
     runs = {}
     for dds in (True, False):
         node = make_node(context)
@@ -222,6 +224,16 @@ def test_lean_outputs_go_to_listeners_only_without_dds(context):
     for live, lean in zip(markers, runs[False]["/fastslam/landmarks"]):
         assert isinstance(live, MarkerArray) and isinstance(lean, ros_io.MarkerArrayView)
         assert len(live.markers) == len(lean.markers)
+    for topic, live_type, view_type, write in (
+            ("/fastslam/pose", PoseWithCovarianceStamped, ros_io.PoseWithCovarianceStampedView,
+             cdr.pose_with_covariance_stamped_cdr),
+            ("/fastslam/map_to_odom", TransformStamped, ros_io.TransformStampedView,
+             cdr.transform_stamped_cdr)):
+        lives, views = runs[True][topic], runs[False][topic]
+        assert lives and len(lives) == len(views)
+        for live, view in zip(lives, views):  # the writer's bytes are rclpy's (test_cdr)
+            assert type(live) is live_type and type(view) is view_type
+            assert write(view) == write(live)
 
 
 def test_node_time_set_directly_gives_the_outputs_of_the_clock(context):

@@ -52,7 +52,8 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
-from fastslam_ros.ros_io import MarkerArrayView, PlanarPoseArray
+from fastslam_ros.ros_io import (MarkerArrayView, PlanarPoseArray, PoseWithCovarianceStampedView,
+                                 TransformStampedView)
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
                                     planar_pose_array_cdr, point_cloud2_cdr, pose_array_cdr,
@@ -82,8 +83,15 @@ messages per reading, and a generic deserializer costs more than the filter's pr
 message they do not read (None) takes the generic path."""
 PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
 """Input types whose generic path is a rosbags message (a quarter of an rclpy message's cost)."""
+LOOK_ALIKES = (PlanarPoseArray, MarkerArrayView, PoseWithCovarianceStampedView,
+               TransformStampedView)
+"""The node's lean outputs (``lean_outputs``), each naming its type (``MSGTYPE``)."""
+TRANSFORMS = (TransformStamped, TransformStampedView)
+"""Outputs that also go to ``/tf``."""
 DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
+                  TransformStampedView: transform_stamped_cdr,
                   PoseWithCovarianceStamped: pose_with_covariance_stamped_cdr,
+                  PoseWithCovarianceStampedView: pose_with_covariance_stamped_cdr,
                   PoseArray: pose_array_cdr, PointCloud2: point_cloud2_cdr,
                   DiagnosticArray: diagnostic_array_cdr, PlanarPoseArray: planar_pose_array_cdr}
 """Output types serialized directly (rclpy's serializer costs about 6 us per pose)."""
@@ -114,7 +122,7 @@ class ReplayResult:
 
 def ros_msgtype(msg: Any) -> str:
     """``pkg/msg/Name`` of an rclpy message instance (or the ``MSGTYPE`` of a look-alike)."""
-    if isinstance(msg, (PlanarPoseArray, MarkerArrayView)):
+    if isinstance(msg, LOOK_ALIKES):
         return msg.MSGTYPE
     package = type(msg).__module__.split(".")[0]
     return f"{package}/msg/{type(msg).__name__}"
@@ -320,7 +328,7 @@ class OutputRecorder:
             raw = serialize_message(msg)
         connection = self.connections.get(topic) or self._connection(topic, ros_msgtype(msg))
         self._write(connection, self.stamp_ns, raw)
-        if type(msg) is TransformStamped:
+        if type(msg) in TRANSFORMS:
             translation, rotation = msg.transform.translation, msg.transform.rotation
             stamp = msg.header.stamp
             self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
