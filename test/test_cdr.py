@@ -53,6 +53,30 @@ def test_odometry_read_directly_is_rclpys(stamp, frame, child, values):
     assert pose_or_error(view) == pose_or_error(msg)
 
 
+def test_odometry_frames_read_again_only_when_their_bytes_change():
+    """A stream of odometry read directly: the frames of the previous message are reused only
+    for bytes that are the same there; any other message reads as rclpy reads it."""
+    stream = []
+    for index, (frame, child) in enumerate([("odom", "base_link")] * 3 + [
+            ("odom", "base_lint"), ("odom", "base_link"), ("", "base_link"), ("map", ""),
+            ("a_frame_with_a_longer_name", "base_link"), ("odom", "base_link")]):
+        msg = Odometry(header=header((index, 1000 * index), frame), child_frame_id=child)
+        msg.pose.pose.position.x, msg.pose.pose.orientation.w = float(index), 1.0
+        stream.append(serialize_message(msg))
+    truncated = stream[1][:-8]  # the same frame bytes, too short
+    stream.insert(2, truncated)
+    for raw in stream:
+        view = cdr.read_odometry(raw)
+        if raw is truncated:
+            assert view is None
+            continue
+        msg = deserialize_message(raw, Odometry)
+        assert (view.header.stamp.sec, view.header.stamp.nanosec, view.header.frame_id,
+                view.child_frame_id) == (msg.header.stamp.sec, msg.header.stamp.nanosec,
+                                         msg.header.frame_id, msg.child_frame_id)
+        assert view.pose.pose.position.x == msg.pose.pose.position.x
+
+
 def pose_or_error(msg):
     try:
         return ros_io.odometry_pose(msg).tolist()

@@ -126,22 +126,36 @@ def _header(raw: memoryview) -> tuple[Header, int]:
     return Header(Stamp(sec, nanosec), frame_id), at
 
 
+_odometry_frames: tuple[bytes | None, str, str, int] = (None, "", "", 0)
+"""The bytes of the last odometry's frame strings (from offset 12 to its pose), the two frames
+they read as and the pose's offset: a stream repeats its frames, and a message whose bytes there
+are the same reads the same without parsing them again."""
+_new = tuple.__new__
+"""A NamedTuple from a tuple, without the Python call of its ``__new__`` (six per odometry)."""
+
+
 def read_odometry(raw: bytes | memoryview) -> OdometryView | None:
     """The header, child frame and pose of a serialized ``nav_msgs/Odometry`` (see above)."""
+    global _odometry_frames
     raw = memoryview(raw)
     if raw[:4] != CDR_LE:
         return None
     try:
-        header, at = _header(raw)
-        child_frame_id, at = _string(raw, at)
-        at += -(at - 4) % 8
+        stamp = _STAMP.unpack_from(raw, 4)
+        seen, frame_id, child_frame_id, at = _odometry_frames
+        if raw[12:at] != seen:
+            frame_id, at = _string(raw, 12)
+            child_frame_id, at = _string(raw, at)
+            at += -(at - 4) % 8
+            _odometry_frames = (bytes(raw[12:at]), frame_id, child_frame_id, at)
         if len(raw) != at + _ODOMETRY_TAIL:
             return None
         x, y, z, qx, qy, qz, qw = _DOUBLES7.unpack_from(raw, at)
     except (ValueError, struct.error, IndexError):
         return None
-    return OdometryView(header, child_frame_id,
-                        PoseOnly(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))))
+    pose = _new(Pose, (_new(Point, (x, y, z)), _new(Quaternion, (qx, qy, qz, qw))))
+    return _new(OdometryView, (_new(Header, (_new(Stamp, stamp), frame_id)), child_frame_id,
+                               _new(PoseOnly, (pose,))))
 
 
 def read_point_cloud(raw: bytes | memoryview) -> PointCloudView | None:
