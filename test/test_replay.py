@@ -1,6 +1,7 @@
 """Replay through the real node: recorded outputs, determinism, errors, parameter files."""
 from __future__ import annotations
 
+import gc
 import json
 
 import numpy as np
@@ -48,6 +49,7 @@ def test_replay_records_outputs_at_bag_time(tmp_path, short_bag):
 def test_same_bag_params_and_seed_give_identical_estimates(tmp_path, short_bag):
     for name in ("a", "b"):
         replay_bag(short_bag, dict(PARAMS, seed=11), out_path=tmp_path / name)
+        assert gc.get_freeze_count() == 0  # the start's objects were frozen for the run only
     first = read_topic(tmp_path / "a", "/fastslam/pose")[1]
     second = read_topic(tmp_path / "b", "/fastslam/pose")[1]
     assert len(first) == len(second) == 100

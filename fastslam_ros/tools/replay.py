@@ -21,6 +21,7 @@ rosbags writes them.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -453,7 +454,8 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
             node.output_listeners.append(recorder.record)
             _record_static_transforms(node, reader, recorder, topics, target)
         start, start_cpu = time.perf_counter(), time.process_time()
-        done, duration = _feed(node, reader, recorder, progress, topics, target)
+        with _existing_objects_frozen():
+            done, duration = _feed(node, reader, recorder, progress, topics, target)
         result = ReplayResult(dict(node.stats), time.perf_counter() - start, duration,
                               Path(out_path) if out_path is not None else None, used_params,
                               time.process_time() - start_cpu)
@@ -464,6 +466,21 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                     "messages": done, "stats": result.stats, "params": used_params}
             recorder.record(REPLAY_INFO_TOPIC, String(data=json.dumps(info)))
         return result
+
+
+@contextmanager
+def _existing_objects_frozen() -> Iterator[None]:
+    """Keep the objects that exist now (modules, compiled kernels, the node) out of the garbage
+    collector's scans for the block (``gc.freeze``): a replay allocates enough to trigger full
+    collections, and each would scan them all again. Nothing if the caller froze some itself."""
+    if gc.get_freeze_count():
+        yield
+        return
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 ISOLATION_ENVIRONMENT = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF", "ROS_STATIC_PEERS": ""}
