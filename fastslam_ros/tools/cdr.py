@@ -12,6 +12,7 @@ string without its NUL, text that is not UTF-8): the caller then takes the gener
 """
 from __future__ import annotations
 
+import functools
 import struct
 from typing import Any, NamedTuple
 
@@ -196,8 +197,7 @@ def read_point_cloud(raw: bytes | memoryview) -> PointCloudView | None:
 def _cdr_string(buffer: bytearray, text: str) -> None:
     """Append a CDR string (uint32 length with the NUL, the bytes, the NUL), 4-aligned."""
     buffer += bytes(-len(buffer) % 4)
-    encoded = text.encode() + b"\0"
-    buffer += struct.pack("<I", len(encoded)) + encoded
+    buffer += _string_piece(text)
 
 
 _frame_bytes: dict[tuple[int, tuple[str, ...]], bytes] = {}
@@ -251,6 +251,14 @@ def pose_with_covariance_stamped_cdr(msg: Any) -> bytes:
                      np.asarray(msg.pose.covariance, dtype="<f8").tobytes()))
 
 
+@functools.lru_cache(maxsize=4096)
+def _string_piece(text: str) -> bytes:
+    """A CDR string from a 4-aligned offset: uint32 length with the NUL, the bytes, the NUL
+    (outputs repeat the same frames, namespaces, keys and values; cached)."""
+    encoded = text.encode() + b"\0"
+    return _U32.pack(len(encoded)) + encoded
+
+
 class _Buffer:
     """CDR bytes being written; alignment counts from ``origin`` (the payload's start)."""
 
@@ -266,9 +274,8 @@ class _Buffer:
         self.data += _U32.pack(value)
 
     def string(self, text: str) -> None:
-        encoded = text.encode() + b"\0"
-        self.u32(len(encoded))
-        self.data += encoded
+        self.align(4)
+        self.data += _string_piece(text)
 
     def header(self, header: Any) -> None:
         self.align(4)
