@@ -3,18 +3,46 @@ dropped, a jump that enough messages in a row agree on is taken."""
 from __future__ import annotations
 
 import math
+from decimal import Decimal
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fastslam_ros.core.timing import (ODOMETRY_CONFIRMATIONS, STAMP_CONFIRMATIONS,
                                       TIME_JUMP_BACK, TIME_JUMP_FORWARD, Confirmation,
-                                      OdometryGate, StampGate)
+                                      OdometryGate, StampGate, seconds_to_nanoseconds)
 
 USABLE, OUTLIER, BACKWARDS, FORWARD = (StampGate.USABLE, StampGate.OUTLIER, StampGate.BACKWARDS,
                                        StampGate.FORWARD)
 PLAUSIBLE, IMPLAUSIBLE, BRIDGED = (OdometryGate.PLAUSIBLE, OdometryGate.IMPLAUSIBLE,
                                    OdometryGate.BRIDGED)
+
+
+def decimal_nanoseconds(seconds: float) -> int:
+    """The nanoseconds of the shortest decimal of ``seconds``, rounded half to even."""
+    whole = math.floor(seconds)
+    fraction = Decimal(repr(float(seconds))) - whole
+    return whole * 1_000_000_000 + int((fraction * 1_000_000_000).to_integral_value())
+
+
+@settings(max_examples=2000, deadline=None)
+@given(st.one_of(st.floats(-1e3, 1e17, allow_nan=False),
+                 st.builds(lambda sec, nsec, beyond: float(f"{sec}.{nsec:09d}{beyond}"),
+                           st.integers(0, 2**31), st.integers(0, 999_999_999),
+                           st.sampled_from(["", "5", "4", "6", "50", "51", "49"]))))
+def test_seconds_to_nanoseconds_is_the_decimal_rounded_half_to_even(seconds):
+    assert seconds_to_nanoseconds(seconds) == decimal_nanoseconds(seconds)
+
+
+def test_seconds_to_nanoseconds_at_the_halves_and_the_exponents():
+    for seconds in (0.0, 1.0, 2.5e-9, 1.5e-9, 0.0000000005, 0.0000000015, 1.0000000025,
+                    1.0000000035, 12.5, 1796197074.6807956, 1e-5, 1.5e-7, 1e16, 3e17, -0.5,
+                    -1.0000000005):
+        assert seconds_to_nanoseconds(seconds) == decimal_nanoseconds(seconds), seconds
+    assert seconds_to_nanoseconds(0.0000000015) == 2  # half to even: 1.5 ns -> 2
+    assert seconds_to_nanoseconds(0.0000000025) == 2  # 2.5 ns -> 2
 
 
 def test_the_confirmation_counts_only_agreeing_messages_in_a_row():

@@ -27,8 +27,16 @@ def seconds_to_nanoseconds(seconds: float) -> int:
     meant, so a stamp converted to float and back keeps its nanoseconds wherever the float can
     hold them, and two conversions of one stamp always agree.
     """
+    text = repr(float(seconds))
+    whole, point, digits = text.partition(".")
+    if point and whole.isdigit() and digits.isdigit():  # d.ddd (>= 0, no exponent): no Decimal
+        nanoseconds = int(whole) * 1_000_000_000 + int(digits[:9].ljust(9, "0"))
+        rest = digits[9:].rstrip("0")  # beyond the nanoseconds: rounded half to even, as below
+        if rest and (rest > "5" or rest == "5" and nanoseconds % 2):
+            nanoseconds += 1
+        return nanoseconds
     whole = math.floor(seconds)
-    fraction = Decimal(repr(float(seconds))) - whole
+    fraction = Decimal(text) - whole
     return whole * 1_000_000_000 + int((fraction * 1_000_000_000).to_integral_value())
 
 
