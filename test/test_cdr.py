@@ -77,6 +77,24 @@ def test_odometry_frames_read_again_only_when_their_bytes_change():
         assert view.pose.pose.position.x == msg.pose.pose.position.x
 
 
+@settings(max_examples=100, deadline=None)
+@given(STAMPS, FRAMES, FRAMES, st.lists(FLOATS, min_size=7, max_size=7))
+def test_odometry_transform_from_the_bytes_is_the_one_from_the_message(stamp, frame, child,
+                                                                        values):
+    msg = Odometry(header=header(stamp, frame), child_frame_id=child)
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    p.x, p.y, p.z, q.x, q.y, q.z, q.w = values
+    raw = serialize_message(msg)
+    view = cdr.read_odometry(raw)
+    assert cdr.odometry_tf_cdr(raw, "odom", "base_link") == cdr.tf_message_cdr(
+        *stamp, frame or "odom", child or "base_link", values[:3], values[3:])
+    assert cdr.read_odometry(raw[:-1]) is None
+    assert cdr.odometry_tf_cdr(raw[:-1], "odom", "base_link") is None  # not read: no bytes
+    other = Odometry(header=header(stamp, frame + "x"), child_frame_id=child)
+    assert cdr.odometry_tf_cdr(serialize_message(other), "odom", "base_link") is None
+    assert view is not None
+
+
 def pose_or_error(msg):
     try:
         return ros_io.odometry_pose(msg).tolist()

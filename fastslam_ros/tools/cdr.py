@@ -233,6 +233,23 @@ def tf_message_cdr(sec: int, nanosec: int, parent: str, child: str, translation,
                      _DOUBLES7.pack(*translation, *rotation)))
 
 
+_TF_COUNT = struct.Struct("<4sI")
+
+
+def odometry_tf_cdr(raw: bytes | memoryview, odom_frame: str, base_frame: str) -> bytes | None:
+    """``tf_message_cdr`` of the odometry ``read_odometry`` read last from ``raw``: its stamp
+    and its pose's bytes copied, its frames (the given ones where empty), the bytes the function
+    writes from the message read; None for bytes it did not read (the caller then writes the
+    transform from the message)."""
+    seen, frame_id, child_frame_id, at = _odometry_frames
+    raw = memoryview(raw)
+    if raw[12:at] != seen or len(raw) != at + _ODOMETRY_TAIL or raw[:4] != CDR_LE:
+        return None
+    return b"".join((_TF_COUNT.pack(CDR_LE, 1), raw[4:12],
+                     _frames(12, (frame_id or odom_frame, child_frame_id or base_frame)),
+                     raw[at:at + _DOUBLES7.size]))
+
+
 def transform_stamped_cdr(msg: Any) -> bytes:
     """A serialized ``geometry_msgs/TransformStamped`` (an rclpy or look-alike message)."""
     stamp, t, r = msg.header.stamp, msg.transform.translation, msg.transform.rotation

@@ -57,8 +57,8 @@ from fastslam_ros.ros_io import (MarkerArrayView, PlanarPoseArray, PoseWithCovar
                                  TransformStampedView)
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
-                                    planar_pose_array_cdr, point_cloud2_cdr, pose_array_cdr,
-                                    pose_stamped_piece,
+                                    odometry_tf_cdr, planar_pose_array_cdr, point_cloud2_cdr,
+                                    pose_array_cdr, pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
@@ -339,19 +339,24 @@ class OutputRecorder:
 
     def copy(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
         """Write an input message unchanged."""
-        self._write(self._connection(topic, msgtype), stamp_ns, raw)
+        self._write(self.connections.get(topic) or self._connection(topic, msgtype), stamp_ns,
+                    raw)
 
     def tf(self, topic: str, transforms: list[Any]) -> None:
         """Write rosbags ``TransformStamped`` messages as one ``TFMessage`` on ``topic``."""
         self.copy(topic, TF_TYPE, self.stamp_ns, tf_message_bytes(transforms))
 
-    def odometry_tf(self, msg: Any, odom_frame: str, base_frame: str) -> None:
-        """``/tf`` odom -> base_link of an odometry message the node used (so valid)."""
-        pose, stamp = msg.pose.pose, msg.header.stamp
-        p, q = pose.position, pose.orientation
-        self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, tf_message_cdr(
-            stamp.sec, stamp.nanosec, msg.header.frame_id or odom_frame,
-            msg.child_frame_id or base_frame, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)))
+    def odometry_tf(self, msg: Any, raw: bytes, odom_frame: str, base_frame: str) -> None:
+        """``/tf`` odom -> base_link of an odometry message the node used (so valid): from its
+        bytes when ``read_odometry`` read them, else from the message."""
+        data = odometry_tf_cdr(raw, odom_frame, base_frame)
+        if data is None:
+            pose, stamp = msg.pose.pose, msg.header.stamp
+            p, q = pose.position, pose.orientation
+            data = tf_message_cdr(stamp.sec, stamp.nanosec, msg.header.frame_id or odom_frame,
+                                  msg.child_frame_id or base_frame, (p.x, p.y, p.z),
+                                  (q.x, q.y, q.z, q.w))
+        self.copy(TF_TOPIC, TF_TYPE, self.stamp_ns, data)
 
 
 @dataclass(frozen=True)
@@ -613,7 +618,7 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
         used_odometry = node.stats["used_odom"]
         callbacks[topic](msg)
         if recorder is not None and node.stats["used_odom"] > used_odometry:
-            recorder.odometry_tf(msg, *frames)  # only what the node did not drop
+            recorder.odometry_tf(msg, raw, *frames)  # only what the node did not drop
         done += 1
         if bar is not None:
             bar.update(done, (stamp_ns - first_ns) * 1e-9)
