@@ -395,6 +395,8 @@ class FastSLAMNode(FilterNode):
         keep = decimation(len(stamps), self.settings["path_max_poses"])
         if keep is not None:
             stamps, poses = stamps[keep], poses[keep]
+        if self._path_builder.lean != self._lean():
+            self._path_builder = ros_io.PathBuilder(self._lean())
         self._publish(self._path_pub, self._path_builder.build(self._header(), stamps, poses))
 
     def _publish_particles(self) -> None:

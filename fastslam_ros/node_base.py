@@ -237,11 +237,12 @@ class FilterNode(Node):
         self._node_time_ns: int | None = None
         """Node time given by ``set_node_time`` (an in-process replay); None: the rclpy clock."""
         self.lean_outputs = False
-        """True, with ``publish_to_dds`` False: ``~/particles``, ``~/landmarks``, ``~/pose`` and
-        ``~/map_to_odom`` go to the listeners as ``ros_io.PlanarPoseArray``,
-        ``ros_io.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView`` and
-        ``ros_io.TransformStampedView`` (a replay serializes them directly; rclpy builds a
-        message object per particle, per marker and per sub-message)."""
+        """True, with ``publish_to_dds`` False: ``~/particles``, ``~/landmarks``, ``~/pose``,
+        ``~/map_to_odom`` and ``~/path`` go to the listeners as ``ros_io.PlanarPoseArray``,
+        ``ros_io.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView``,
+        ``ros_io.TransformStampedView`` and ``ros_io.PathView`` (a replay serializes them
+        directly; rclpy builds a message object per particle, per marker and per
+        sub-message)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
         self.settings: dict[str, Any] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""

@@ -107,8 +107,13 @@ def checked_stamp_to_seconds(stamp) -> float:
 
 def seconds_to_stamp(seconds: float) -> Time:
     """Float seconds -> ``builtin_interfaces/Time`` (``seconds_to_nanoseconds``, never negative)."""
-    nanoseconds = max(0, seconds_to_nanoseconds(seconds))
-    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+    sec, nanosec = _stamp_parts(seconds)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def _stamp_parts(seconds: float) -> tuple[int, int]:
+    """(sec, nanosec) of ``seconds_to_stamp``."""
+    return divmod(max(0, seconds_to_nanoseconds(seconds)), 1_000_000_000)
 
 
 def nanoseconds_to_stamp(nanoseconds: int) -> Time:
@@ -387,28 +392,74 @@ def path(header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:
     return PathBuilder().build(header, stamps, poses)
 
 
+class _Stamp(NamedTuple):
+    sec: int
+    nanosec: int
+
+
+class _Header(NamedTuple):
+    stamp: _Stamp
+    frame_id: str
+
+
+class PoseStampedView(NamedTuple):
+    """A ``geometry_msgs/PoseStamped`` as plain attributes."""
+
+    header: _Header
+    pose: _Pose
+
+
+class PathView(NamedTuple):
+    """A ``nav_msgs/Path`` of ``PoseStampedView``."""
+
+    header: Header
+    poses: list
+
+    MSGTYPE = "nav_msgs/msg/Path"
+
+
+def pose_stamped_view(frame_id: str, stamp: float, pose: Sequence[float]) -> PoseStampedView:
+    """A planar pose (x, y, theta) at ``stamp`` (s) in ``frame_id``."""
+    return PoseStampedView(_Header(_Stamp(*_stamp_parts(stamp)), frame_id),
+                           _planar_pose_view(pose))
+
+
+def pose_stamped_from_view(view: PoseStampedView) -> PoseStamped:
+    """The rclpy ``PoseStamped`` of a ``PoseStampedView``."""
+    msg = PoseStamped(header=Header(stamp=Time(sec=view.header.stamp.sec,
+                                               nanosec=view.header.stamp.nanosec),
+                                    frame_id=view.header.frame_id))
+    _fill_pose(msg.pose, view.pose)
+    return msg
+
+
 class PathBuilder:
     """Builds successive ``nav_msgs/Path`` messages of a growing trajectory.
 
     A PoseStamped costs ~50 us to build and a path is mostly the previous one plus new poses, so
     the PoseStamped of every (stamp, pose) still on the path is reused; a long path is then
-    cheap to publish again. The reused messages are never modified.
+    cheap to publish again. The reused messages are never modified. ``lean``: the poses are
+    ``PoseStampedView`` and the path a ``PathView`` (what a replay serializes directly).
     """
 
-    def __init__(self) -> None:
-        self._cache: dict[tuple[float, ...], PoseStamped] = {}
+    def __init__(self, lean: bool = False) -> None:
+        self.lean = lean
+        self._cache: dict[tuple[float, ...], PoseStamped | PoseStampedView] = {}
 
     def build(self, header: Header, stamps: np.ndarray, poses: np.ndarray) -> PathMsg:
-        cache, path_poses = {}, []
+        cache, path_poses, frame_id = {}, [], header.frame_id
         for stamp, pose in zip(np.asarray(stamps).tolist(), np.asarray(poses).tolist()):
-            key = (header.frame_id, stamp, *pose)
-            cached = self._cache.get(key) or PoseStamped(
-                header=Header(stamp=seconds_to_stamp(stamp), frame_id=header.frame_id),
-                pose=pose_msg(pose))
+            key = (frame_id, stamp, *pose)
+            cached = self._cache.get(key)
+            if cached is None:
+                cached = pose_stamped_view(frame_id, stamp, pose)
+                if not self.lean:
+                    cached = pose_stamped_from_view(cached)
             cache[key] = cached
             path_poses.append(cached)
         self._cache = cache
-        return PathMsg(header=header, poses=path_poses)
+        return PathView(header, path_poses) if self.lean else PathMsg(header=header,
+                                                                      poses=path_poses)
 
 
 def transform_view(header: Header, child_frame_id: str,

@@ -244,6 +244,8 @@ def test_paths_from_cached_pieces_are_the_serializers():
     rng = np.random.default_rng(5)
     builder, writer = ros_io.PathBuilder(), cdr.SequenceCdr("poses", cdr.pose_stamped_piece,
                                                             has_header=True)
+    lean_builder, lean_writer = ros_io.PathBuilder(lean=True), cdr.SequenceCdr(
+        "poses", cdr.pose_stamped_piece, has_header=True)
     stamps, poses = np.zeros(0), np.zeros((0, 3))
     for step, frame in enumerate(["map", "m", "map_frame", "", "map"] * 3):
         stamps = np.append(stamps, 10.0 + step * 0.37)
@@ -251,6 +253,9 @@ def test_paths_from_cached_pieces_are_the_serializers():
         keep = slice(None) if step % 4 else slice(step % 3, None)
         msg = builder.build(header((step, 7 * step), frame), stamps[keep], poses[keep])
         assert writer.serialize(msg) == canonical(msg, "nav_msgs/msg/Path")
+        lean = lean_builder.build(header((step, 7 * step), frame), stamps[keep], poses[keep])
+        assert isinstance(lean, ros_io.PathView)
+        assert lean_writer.serialize(lean) == writer.serialize(msg)  # a replay's ~/path
     assert isinstance(msg, PathMsg) and deserialize_message(writer.serialize(msg), PathMsg) == msg
 
 

@@ -20,6 +20,7 @@ import pytest
 import rclpy
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry
+from nav_msgs.msg import Path as PathMsg
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -205,8 +206,8 @@ def test_odometry_history_gives_consecutive_steps_ending_at_the_stamp():
 
 def test_lean_outputs_go_to_listeners_only_without_dds(context):
     """A replay's node (lean_outputs, no DDS) hands ~/particles over as the array of the
-    PoseArray a live node publishes, ~/landmarks, ~/pose and ~/map_to_odom as look-alikes of
-    its messages; with DDS the flag changes nothing."""
+    PoseArray a live node publishes, ~/landmarks, ~/pose, ~/map_to_odom and ~/path as
+    look-alikes of its messages; with DDS the flag changes nothing."""
     runs = {}
     for dds in (True, False):
         node = make_node(context)
@@ -228,7 +229,9 @@ def test_lean_outputs_go_to_listeners_only_without_dds(context):
             ("/fastslam/pose", PoseWithCovarianceStamped, ros_io.PoseWithCovarianceStampedView,
              cdr.pose_with_covariance_stamped_cdr),
             ("/fastslam/map_to_odom", TransformStamped, ros_io.TransformStampedView,
-             cdr.transform_stamped_cdr)):
+             cdr.transform_stamped_cdr),
+            ("/fastslam/path", PathMsg, ros_io.PathView, cdr.SequenceCdr(
+                "poses", cdr.pose_stamped_piece, has_header=True).serialize)):
         lives, views = runs[True][topic], runs[False][topic]
         assert lives and len(lives) == len(views)
         for live, view in zip(lives, views):  # the writer's bytes are rclpy's (test_cdr)

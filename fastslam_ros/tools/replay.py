@@ -53,8 +53,8 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
-from fastslam_ros.ros_io import (MarkerArrayView, PlanarPoseArray, PoseWithCovarianceStampedView,
-                                 TransformStampedView)
+from fastslam_ros.ros_io import (MarkerArrayView, PathView, PlanarPoseArray,
+                                 PoseWithCovarianceStampedView, TransformStampedView)
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
                                     odometry_tf_cdr, planar_pose_array_cdr, point_cloud2_cdr,
@@ -85,7 +85,7 @@ message they do not read (None) takes the generic path."""
 PLAIN_TYPES = ("nav_msgs/msg/Odometry",)
 """Input types whose generic path is a rosbags message (a quarter of an rclpy message's cost)."""
 LOOK_ALIKES = (PlanarPoseArray, MarkerArrayView, PoseWithCovarianceStampedView,
-               TransformStampedView)
+               TransformStampedView, PathView)
 """The node's lean outputs (``lean_outputs``), each naming its type (``MSGTYPE``)."""
 TRANSFORMS = (TransformStamped, TransformStampedView)
 """Outputs that also go to ``/tf``."""
@@ -233,7 +233,8 @@ class PathCdr(SequenceCdr):
         super().__init__("poses", pose_stamped_piece, has_header=True)
 
 
-SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, MarkerArrayView: MarkerArrayCdr, PathMsg: PathCdr}
+SEQUENCE_WRITERS = {MarkerArray: MarkerArrayCdr, MarkerArrayView: MarkerArrayCdr, PathMsg: PathCdr,
+                    PathView: PathCdr}
 """Output types serialized from the pieces of their reused sub-messages, one writer a topic."""
 
 
