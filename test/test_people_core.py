@@ -464,28 +464,3 @@ def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_publishe
     assert tracker.published_people().keys.tolist() == []     # not published
     run(tracker, grid, pose, [(6.0, 1.5)], 3, t)              # back in view
     assert tracker.published_people().keys.tolist() == key
-
-
-def test_every_particle_takes_the_best_particles_ids():
-    """A robot particle whose two people carry each other's ids (swapped against the best
-    particle's) takes the best particle's ids: a change of the best particle swaps none."""
-    grid = room()
-    pose = np.array([2.0, 5.0, 0.0])
-    tracker = tracker_at(grid, pose, num_particles=2, resample_threshold=0.0)
-    spots = [(6.0, 4.0), (6.0, 6.5)]
-    tracker.alive[:, :2] = tracker.confirmed[:, :2] = True
-    tracker.logodds[:, :2] = 3.0
-    tracker.people[:, 0] = spots[0]
-    tracker.people[:, 1] = spots[1]
-    tracker.keys[0, :2] = (4, 7)
-    tracker.keys[1, :2] = (7, 4)
-    tracker.log_weights[:] = np.log([0.9, 0.1])
-    tracker.next_key = 8
-    tracker.update(0.0, scan_at(grid, pose, spots))
-    best = tracker.best_index
-    expected = {tuple(np.round(p, 0)): int(k) for p, k in
-                zip(tracker.people_of(best).means, tracker.people_of(best).keys)}
-    for m in range(2):
-        people = tracker.people_of(m)
-        assert {tuple(np.round(p, 0)): int(k) for p, k in zip(people.means, people.keys)} \
-            == expected

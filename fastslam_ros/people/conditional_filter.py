@@ -549,7 +549,6 @@ class PeopleTracker:
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
         self._vote_keys(weights)
-        self._follow_best_keys(int(np.argmax(weights)))
         report.effective_sample_size = effective_sample_size(weights)
         if report.effective_sample_size < s.resample_threshold * self.num_particles:
             self._gather(systematic_resample(weights, self.rng))
@@ -578,41 +577,6 @@ class PeopleTracker:
         single[first[count == 1]] = True
         take &= single
         self.keys[m[take], n[take]] = unique[choice[take]]
-
-    def _follow_best_keys(self, best: int) -> None:
-        """Every robot particle's people take the ids of the best particle's people they
-        match (mutual nearest within VOTE_GATE): the published ids are the best particle's,
-        and when another particle becomes the best its ids are already those, so a change of
-        the best particle swaps no published ids. A person whose id a match took takes the
-        matched person's old id (a swap), or a fresh one if that is taken too."""
-        m, n, _, means = self._live_people()
-        reference = np.flatnonzero(self.alive[best])
-        if len(m) == 0 or len(reference) == 0:
-            return
-        count, slots = self.alive.shape
-        mean = np.zeros((count, slots, 2))
-        mean[m, n] = means
-        gaps = np.linalg.norm(mean[:, :, None, :] - mean[best, reference][None, None], axis=3)
-        gaps = np.where(self.alive[:, :, None], gaps, np.inf)            # (M, N, R)
-        nearest = np.argmin(gaps, axis=2)                                # (M, N)
-        nearest_back = np.argmin(gaps, axis=1)                           # (M, R)
-        rows = np.arange(count)[:, None]
-        matched = (np.take_along_axis(gaps, nearest[..., None], axis=2)[..., 0] < VOTE_GATE) & (
-            nearest_back[rows, nearest] == np.arange(slots)[None, :])
-        keys = np.where(matched, self.keys[best, reference][nearest], self.keys)
-        # an unmatched person whose id a matched one took takes that one's old id
-        taken = (self.alive & ~matched)[:, :, None] & (matched & self.alive)[:, None, :] & (
-            keys[:, None, :] == self.keys[:, :, None])                   # (M, N, N)
-        clash = taken.any(axis=2)
-        keys = np.where(clash, np.take_along_axis(self.keys, np.argmax(taken, axis=2), axis=1),
-                        keys)
-        duplicate = self.alive & clash & np.any(
-            self.alive[:, None, :] & (keys[:, None, :] == keys[:, :, None])
-            & ~np.eye(slots, dtype=bool)[None], axis=2)
-        fresh = np.flatnonzero(duplicate.ravel())
-        keys.ravel()[fresh] = self.next_key + np.arange(len(fresh))
-        self.next_key += len(fresh)
-        self.keys = np.where(self.alive, keys, self.keys)
 
     def _gather(self, index: np.ndarray) -> None:
         """Keep the robot particles ``index`` with their people, at equal weights."""
