@@ -1,9 +1,11 @@
 """World generator and simulator: sensor and odometry statistics, determinism, vehicle
-kinematics, observation geometry, scenarios, the in-memory synthetic worlds."""
+kinematics, observation geometry, scenarios, the in-memory synthetic worlds; the people
+simulator's crowd (solid bodies that pass each other, off the walls, never deadlocked)."""
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections import deque
 
 import numpy as np
 import pytest
@@ -11,6 +13,7 @@ import pytest
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.core.observation import inverse_observe
+from fastslam_ros.tools import people_sim
 from fastslam_ros.tools.sim import SimConfig, build_world, recommended_params, simulate
 from fastslam_ros.tools.synthetic import make_world
 from fastslam_ros.tools.world import (RangeBearingSensor, circle_path, odometry_with_noise,
@@ -224,3 +227,93 @@ def test_written_parameter_file_applies_under_any_namespace(tmp_path):
     path = write_params_yaml(tmp_path / "sim.yaml", params, "Recommended\nparameters")
     assert path.read_text().startswith("# Recommended\n# parameters\n/**:\n")
     assert read_params_file(path, "/robot1/fastslam") == pytest.approx(params)
+
+
+# ---------------------------------------------------------------- the people simulator's crowd
+
+
+def _distance_to_walls(points: np.ndarray) -> np.ndarray:
+    """(K,) distance (m) of points (K, 2) to the nearest wall or furniture rectangle."""
+    walls = np.array(people_sim.WALLS)
+    dx = np.maximum(np.maximum(walls[None, :, 0] - points[:, None, 0],
+                               points[:, None, 0] - walls[None, :, 1]), 0.0)
+    dy = np.maximum(np.maximum(walls[None, :, 2] - points[:, None, 1],
+                               points[:, None, 1] - walls[None, :, 3]), 0.0)
+    return np.hypot(dx, dy).min(axis=1)
+
+
+def _walk_crowd(crowd, duration: float, robot=(9.0, 10.5, 0.0)):
+    """Step ``crowd`` for ``duration`` s at 50 Hz; yield (t, ids, positions) every step."""
+    dt = 0.02
+    for k in range(int(round(duration / dt))):
+        t = (k + 1) * dt
+        crowd.step(t, dt, np.array(robot))
+        yield t, [p.ident for p in crowd.people], np.array([p.position for p in crowd.people])
+
+
+@pytest.mark.parametrize("seed,people", [(1, 5), (2, 5), (3, 8)])
+def test_simulated_people_keep_apart_stay_off_walls_and_keep_walking(seed, people):
+    crowd = people_sim.Crowd(people, np.random.default_rng([seed, 0]))
+    closest, off_walls = np.inf, np.inf
+    last_change, stuck = {}, 0.0
+    state = {}
+    for t, _, positions in _walk_crowd(crowd, 150.0):
+        if len(positions) > 1:
+            gaps = np.linalg.norm(positions[:, None] - positions[None], axis=2)
+            closest = min(closest, gaps[np.triu_indices(len(positions), 1)].min())
+        if len(positions):
+            off_walls = min(off_walls, _distance_to_walls(positions).min())
+        for person in crowd.people:
+            now = (person.node, len(person.path), person.pause > 0.0)
+            if state.get(person.ident) != now:
+                state[person.ident], last_change[person.ident] = now, t
+            elif person.pause <= 0.0:
+                stuck = max(stuck, t - last_change[person.ident])
+    # solid bodies, from the first step on (newcomers enter only where the way is clear)
+    assert closest >= people_sim.PERSONAL_DISTANCE - 1e-9
+    assert off_walls >= people_sim.PERSON_RADIUS
+    # no deadlock: the longest edge (5.4 m) takes 11 s at the slowest 0.5 m/s; passing,
+    # waiting and yielding may add some seconds, never minutes
+    assert stuck < 30.0
+    assert crowd.next_id >= people + 4  # people keep leaving and newcomers keep entering
+
+
+def _two_walkers(first: tuple, second: tuple):
+    """A crowd of two people walking given (start node, path) at 0.8 m/s, no pause."""
+    crowd = people_sim.Crowd(0, np.random.default_rng(0))
+    for ident, (start, path) in enumerate((first, second)):
+        crowd.people.append(people_sim.Person(
+            ident, np.array(people_sim.NODES[start], dtype=float), start,
+            path=deque(path), speed=0.8))
+    crowd.next_id = 2
+    return crowd
+
+
+@pytest.mark.parametrize("first,second,goals", [
+    # face to face along the corridor: they step aside and pass
+    (("c2", ["c3"]), ("c3", ["c2"]), ("c3", "c2")),
+    # through one door from both sides at once: one waits or yields, both get through
+    (("c1", ["door_a", "room_a"]), ("room_a", ["door_a", "c1"]), ("room_a", "c1")),
+])
+def test_two_people_meeting_head_on_pass_each_other(first, second, goals):
+    crowd = _two_walkers(first, second)
+    reached = [math.inf, math.inf]
+    closest = np.inf
+    for t, _, positions in _walk_crowd(crowd, 40.0, robot=(-10.0, -10.0, 0.0)):
+        closest = min(closest, float(np.linalg.norm(positions[0] - positions[1])))
+        for person in crowd.people:
+            if person.node == goals[person.ident] and reached[person.ident] == math.inf:
+                reached[person.ident] = t
+    assert closest >= people_sim.PERSONAL_DISTANCE - 1e-9
+    walk = [np.linalg.norm(np.subtract(people_sim.NODES[goals[i]], people_sim.NODES[start]))
+            for i, (start, _) in enumerate((first, second))]
+    # both arrive, within the walk at 0.8 m/s plus a bounded wait
+    assert max(r - w / 0.8 for r, w in zip(reached, walk)) < 12.0
+
+
+def test_simulated_crowd_is_deterministic_by_seed():
+    def track(seed):
+        crowd = people_sim.Crowd(5, np.random.default_rng([seed, 0]))
+        return [positions.copy() for _, _, positions in _walk_crowd(crowd, 20.0)][-1]
+    np.testing.assert_array_equal(track(4), track(4))
+    assert track(4).shape != track(5).shape or not np.array_equal(track(4), track(5))

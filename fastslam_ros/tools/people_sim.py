@@ -7,7 +7,8 @@ its wheel odometry integrates noisy, slightly biased velocities at 50 Hz. A 360-
 against the people, cylinders of radius 0.2 m that occlude each other. Five people walk a graph
 of corridor, door and room points at their own speeds, stop for a while, and leave by the
 corridor's ends; whoever left is replaced, after a pause, by a new person (a new id) entering
-there.
+there once the way is clear. People are solid: they keep PERSONAL_DISTANCE apart and off the
+walls, step aside to pass each other and yield rather than block (``Crowd``).
 
 The bag holds schema v1's ``/odom`` and ``/ground_truth/pose`` plus ``/map``
 (``nav_msgs/OccupancyGrid``, one message), ``/scan`` (``sensor_msgs/LaserScan``, frame
@@ -79,6 +80,30 @@ EDGES = (("west_exit", "c1"), ("c1", "c2"), ("c2", "c3"), ("c3", "c4"), ("c4", "
 EXITS = ("west_exit", "east_exit")
 ROOMS = tuple(name for name in NODES if name.startswith("room"))
 PERSON_RADIUS = 0.2
+PERSONAL_DISTANCE = 0.6
+"""People keep at least this far apart, centre to centre (m): 0.2 m between two bodies of
+PERSON_RADIUS, within the 0.5-0.8 m that pedestrians passing each other in a corridor keep; two
+people still pass side by side through a 1.2 m door."""
+WALL_CLEARANCE = PERSON_RADIUS + 2.0 * RESOLUTION
+"""A person's centre stays this far (m) from every occupied cell centre, which keeps the body
+off the walls: the distance of a point's cell centre to the nearest occupied cell centre errs
+from the point's distance to the wall's face by up to about two cells."""
+ROBOT_DISTANCE = 0.7
+"""People do not step closer than this to the robot (m); they wait for it to pass."""
+LOOKAHEAD = 1.0
+"""People steer by where they and the others will be in this many seconds (s)."""
+COMFORT_DISTANCE = 1.2
+"""Below this distance (m) between the look-ahead points the social cost rises."""
+SOCIAL_WEIGHT = 4.0
+"""Weight of the social cost against the progress towards the target."""
+KEEP_RIGHT = 0.02
+"""Preference for stepping aside to the right (breaks the tie of two people face to face)."""
+ARRIVAL_SLACK = 1.0
+"""A person kept from its next point (m) by others counts as there within this distance."""
+WALK_HEADINGS = np.radians(np.arange(-90.0, 91.0, 15.0))
+"""Headings (relative to the target) a walking person may step in."""
+YIELD_HEADINGS = np.radians(np.arange(-180.0, 180.0, 15.0))
+"""Headings a yielding person may step in (any)."""
 
 
 @dataclass(frozen=True)
@@ -138,7 +163,9 @@ def build_map() -> OccupancyMap:
 
 @dataclass
 class Person:
-    """A walking person: position, the points still to walk, speed, pause left (s)."""
+    """A walking person: position, the points still to walk, speed, pause left (s), and how
+    long it has been kept from walking on (s), how long it waits before yielding (s), and how
+    long it still yields (s)."""
 
     ident: int
     position: np.ndarray
@@ -148,6 +175,10 @@ class Person:
     offset: float = 0.0
     pause: float = 0.0
     leaving: bool = False
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    waited: float = 0.0
+    patience: float = 2.0
+    yielding: float = 0.0
 
 
 def _graph() -> dict[str, list[str]]:
@@ -177,22 +208,63 @@ def _route(graph: dict[str, list[str]], start: str, goal: str) -> list[str]:
 
 
 class Crowd:
-    """The people of a simulation, moved in steps; ``people`` are the ones in the world."""
+    """The people of a simulation, moved in steps; ``people`` are the ones in the world.
 
-    def __init__(self, count: int, rng: np.random.Generator) -> None:
+    People are solid: no one steps within PERSONAL_DISTANCE of another person, within
+    WALL_CLEARANCE of a wall, or closer than ROBOT_DISTANCE to the robot. Each step a walking
+    person picks, among the headings up to 90 degrees off its target, the one that best trades
+    progress for a social cost (how close its look-ahead point comes to the others' predicted
+    ones), so people step aside early to pass each other, keeping right. A person kept from
+    progressing for longer than its patience (1.5-2.5 s) yields: for 1-2 s it steps in any
+    direction away from the others (and back along its edge), which lets the other pass; it
+    never waits for good. Newcomers enter only when their entry point is clear.
+    """
+
+    def __init__(self, count: int, rng: np.random.Generator,
+                 grid: OccupancyMap | None = None) -> None:
         self.rng = rng
+        self.grid = grid if grid is not None else build_map()
+        self.walkable = self.grid.free & (self.grid.distance >= WALL_CLEARANCE)
+        """Cells a person's centre may be in."""
         self.graph = _graph()
         self.people: list[Person] = []
         self.next_id = 0
-        self.arrivals: list[float] = []
+        self.arrivals: list[tuple[float, str]] = []
+        """(time, exit) of the newcomers to come."""
         for _ in range(count):
-            self._spawn(str(rng.choice(ROOMS)))
+            self._spawn_in_room()
 
-    def _spawn(self, node: str) -> None:
+    def _clear(self, points: np.ndarray, person: Person | None = None) -> np.ndarray:
+        """Whether each of points (K, 2) is in free space and PERSONAL_DISTANCE from everyone
+        (but ``person``)."""
+        points = np.atleast_2d(points)
+        rows, cols, inside = self.grid.cells(points)
+        clear = inside & self.walkable[rows, cols]
+        others = [p.position for p in self.people if p is not person]
+        if others:
+            gaps = np.linalg.norm(points[:, None, :] - np.array(others)[None], axis=2)
+            clear &= gaps.min(axis=1) >= PERSONAL_DISTANCE
+        return clear
+
+    def _spawn_in_room(self) -> None:
+        """A person at a random room point, or near it where the room point is taken."""
         rng = self.rng
-        person = Person(self.next_id, np.array(NODES[node], dtype=float), node,
-                        speed=float(rng.uniform(0.5, 1.1)), offset=float(rng.uniform(-0.3, 0.3)),
-                        pause=float(rng.uniform(0.0, 3.0)))
+        node = str(rng.choice(ROOMS))
+        position = np.array(NODES[node], dtype=float)
+        for _ in range(1000):
+            if self._clear(position)[0]:
+                break
+            position = np.array(NODES[node]) + rng.uniform(-0.8, 0.8, 2)
+        else:
+            raise ValueError("people: too many for the rooms")
+        self._spawn(node, position)
+
+    def _spawn(self, node: str, position: np.ndarray) -> None:
+        rng = self.rng
+        person = Person(self.next_id, position, node, speed=float(rng.uniform(0.5, 1.1)),
+                        offset=float(rng.uniform(-0.3, 0.3)),
+                        pause=float(rng.uniform(0.0, 3.0)),
+                        patience=float(rng.uniform(1.5, 2.5)))
         self.next_id += 1
         self.people.append(person)
         self._new_goal(person)
@@ -205,42 +277,108 @@ class Crowd:
         person.leaving = goal in EXITS
         person.path = deque(_route(self.graph, person.node, goal))
 
+    def _social_cost(self, person: Person, lookahead: np.ndarray) -> np.ndarray:
+        """(K,) cost of look-ahead points (K, 2): how far into the others' comfort distance
+        (at their predicted positions) they reach."""
+        others = [p for p in self.people if p is not person]
+        if not others:
+            return np.zeros(len(lookahead))
+        predicted = np.array([p.position + LOOKAHEAD * p.velocity for p in others])
+        gaps = np.linalg.norm(lookahead[:, None, :] - predicted[None], axis=2)
+        return np.sum(np.clip(1.0 - gaps / COMFORT_DISTANCE, 0.0, None) ** 2, axis=1)
+
+    def _walk(self, person: Person, dt: float, robot: np.ndarray) -> None:
+        """One step of a walking person towards its next point (or of a yielding one)."""
+        target_node = person.path[0]
+        start = np.array(NODES[person.node])
+        end = np.array(NODES[target_node])
+        direction = (end - start) / max(np.linalg.norm(end - start), 1e-9)
+        normal = np.array([-direction[1], direction[0]])
+        offset = 0.0 if target_node in EXITS else person.offset
+        target = end + offset * normal
+        to_target = target - person.position
+        distance = float(np.linalg.norm(to_target))
+        step = person.speed * dt
+        if distance <= step and self._clear(target, person)[0] and not self._robot_blocks(
+                person.position, target[None], robot)[0]:
+            person.velocity = (target - person.position) / dt
+            person.position = target
+            person.node = person.path.popleft()
+            person.waited = 0.0
+            return
+        if person.yielding > 0.0:
+            person.yielding -= dt
+            relative = YIELD_HEADINGS
+            back = start - person.position
+            reference = math.atan2(back[1], back[0])
+            preference = 0.5 * np.cos(relative)
+        else:
+            relative = WALK_HEADINGS
+            reference = math.atan2(to_target[1], to_target[0])
+            preference = np.cos(relative) - KEEP_RIGHT * np.sin(relative)
+        headings = reference + relative
+        unit = np.stack([np.cos(headings), np.sin(headings)], axis=1)
+        length = min(step, distance) if person.yielding <= 0.0 else step
+        candidates = person.position + length * unit
+        feasible = self._clear(candidates, person) & ~self._robot_blocks(person.position,
+                                                                         candidates, robot)
+        score = preference - SOCIAL_WEIGHT * self._social_cost(
+            person, person.position + LOOKAHEAD * person.speed * unit)
+        progress = 0.0
+        if feasible.any():
+            best = int(np.argmax(np.where(feasible, score, -np.inf)))
+            moved = candidates[best] - person.position
+            progress = float(moved @ to_target) / max(distance, 1e-9)
+            person.velocity = moved / dt
+            person.position = candidates[best]
+        else:
+            person.velocity = np.zeros(2)
+        if person.yielding > 0.0:
+            return
+        if progress >= 0.25 * step:
+            person.waited = 0.0
+            return
+        person.waited += dt
+        if distance < ARRIVAL_SLACK:
+            person.node = person.path.popleft()  # kept from the point: close enough
+            person.waited = 0.0
+        elif person.waited >= person.patience:
+            person.yielding = float(self.rng.uniform(1.0, 2.0))
+            person.waited = 0.0
+
+    @staticmethod
+    def _robot_blocks(position: np.ndarray, candidates: np.ndarray,
+                      robot: np.ndarray) -> np.ndarray:
+        """Whether stepping to each candidate would come within ROBOT_DISTANCE of the robot
+        (a person already that close may step anywhere: the robot drove up to it)."""
+        if np.linalg.norm(position - robot[:2]) < ROBOT_DISTANCE:
+            return np.zeros(len(candidates), dtype=bool)
+        return np.linalg.norm(candidates - robot[:2], axis=1) < ROBOT_DISTANCE
+
     def step(self, t: float, dt: float, robot: np.ndarray) -> None:
-        """Walk everyone for ``dt`` s; people keep 0.7 m off the robot (they wait)."""
+        """Walk everyone for ``dt`` s, one after the other (each against the others' newest
+        positions); newcomers whose time has come enter where their exit is clear."""
         rng = self.rng
         for person in list(self.people):
             if person.pause > 0.0:
                 person.pause -= dt
+                person.velocity = np.zeros(2)
                 continue
             if not person.path:
                 if person.leaving:
                     self.people.remove(person)
-                    self.arrivals.append(t + float(rng.uniform(2.0, 8.0)))
+                    self.arrivals.append((t + float(rng.uniform(2.0, 8.0)),
+                                          str(rng.choice(EXITS))))
                     continue
                 person.pause = float(rng.uniform(0.0, 6.0)) if rng.random() < 0.6 else 0.0
                 self._new_goal(person)
                 continue
-            target_node = person.path[0]
-            start = np.array(NODES[person.node])
-            end = np.array(NODES[target_node])
-            direction = (end - start) / max(np.linalg.norm(end - start), 1e-9)
-            normal = np.array([-direction[1], direction[0]])
-            offset = 0.0 if target_node in EXITS else person.offset
-            target = end + offset * normal
-            to_target = target - person.position
-            distance = float(np.linalg.norm(to_target))
-            step = person.speed * dt
-            proposed = (target if distance <= step
-                        else person.position + to_target / distance * step)
-            if np.linalg.norm(proposed - robot[:2]) < 0.7 <= np.linalg.norm(
-                    person.position - robot[:2]) + 1e-9:
-                continue
-            person.position = proposed
-            if distance <= step:
-                person.node = person.path.popleft()
-        for arrival in [a for a in self.arrivals if a <= t]:
-            self.arrivals.remove(arrival)
-            self._spawn(str(rng.choice(EXITS)))
+            self._walk(person, dt, robot)
+        for arrival in [a for a in self.arrivals if a[0] <= t]:
+            entry = np.array(NODES[arrival[1]], dtype=float)
+            if self._clear(entry)[0] and np.linalg.norm(entry - robot[:2]) >= ROBOT_DISTANCE:
+                self.arrivals.remove(arrival)
+                self._spawn(arrival[1], entry)
 
 
 # ---------------------------------------------------------------- robot and laser
@@ -286,7 +424,7 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
     rng_world = np.random.default_rng([config.seed, 0])
     rng_odometry = np.random.default_rng([config.seed, 1])
     rng_laser = np.random.default_rng([config.seed, 2])
-    crowd = Crowd(config.people, rng_world)
+    crowd = Crowd(config.people, rng_world, grid)
     dt = 1.0 / config.odometry_rate
     per_scan = int(round(config.odometry_rate / config.scan_rate))
     route = np.array(ROUTE)
