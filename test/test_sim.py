@@ -70,6 +70,31 @@ def test_sensor_detects_within_reach_with_its_noise_detection_rate_and_clutter(s
         RangeBearingSensor(10.0, 0.2, 0.05, clutter_spread="volume")
 
 
+def test_sensor_with_a_field_of_view_sees_and_reports_clutter_only_in_its_opening():
+    sensor = RangeBearingSensor(max_range=10.0, sigma_range=0.0, sigma_bearing=0.0,
+                                clutter_rate=2.0, field_of_view=math.pi / 2)
+    # Landmarks at 5 m every 15 degrees: those within 45 degrees of the heading are in view.
+    angles = np.radians(np.arange(-180, 180, 15))
+    pose = np.array([2.0, 1.0, -2.8])
+    landmarks = pose[:2] + 5.0 * np.column_stack([np.cos(angles + pose[2]),
+                                                  np.sin(angles + pose[2])])
+    rng = np.random.default_rng(5)
+    readings = [sensor.observe(pose, landmarks, rng) for _ in range(500)]
+    labels = np.concatenate([r.labels for r in readings])
+    bearings = np.concatenate([r.bearings for r in readings])
+    in_view = np.flatnonzero(np.abs(angles) <= math.pi / 4 + 1e-9)
+    assert set(labels[labels >= 0].tolist()) == set(in_view.tolist())
+    np.testing.assert_allclose(bearings[labels >= 0], angles[labels[labels >= 0]], atol=1e-9)
+    # Clutter: Poisson(2) per reading, bearings evenly over the opening (variance w^2 / 12).
+    clutter = bearings[labels < 0]
+    assert np.all(np.abs(clutter) <= math.pi / 4)
+    assert within_standard_errors(np.array([np.count_nonzero(r.labels < 0) for r in readings]),
+                                  2.0, math.sqrt(2.0))
+    assert within_standard_errors(clutter, 0.0, (math.pi / 2) / math.sqrt(12.0))
+    with pytest.raises(ValueError, match="field_of_view"):
+        RangeBearingSensor(10.0, 0.2, 0.05, field_of_view=0.0)
+
+
 def test_odometry_model_noise_has_its_stated_spread_and_none_gives_the_truth():
     truth = circle_path(radius=5.0, num_steps=4000, laps=20.0)
     # The circle: constant radius, chords of 2 r sin(d/2), heading along the circle's tangent.
@@ -211,6 +236,10 @@ def test_recommended_params_are_valid_core_settings():
         assert set(params) - core_fields == {"pose_estimate", "markers_rate", "path_rate",
                                              "particles_rate"}
         assert params["sigma_bearing"] == pytest.approx(math.radians(1.0))
+        assert "field_of_view" not in params
+    narrow = recommended_params(SimConfig(scenario="clutter", max_range=15.0,
+                                          field_of_view=math.pi))
+    assert (narrow["max_range"], narrow["field_of_view"]) == (15.0, math.pi)
 
 
 def test_bad_settings_are_rejected_by_name():

@@ -66,6 +66,8 @@ class SimConfig:
         "Control and odometry rate (Hz); ground truth is published at the same rate.")
     observation_rate: float = setting(5.0, "Sensor reading rate (Hz).")
     max_range: float = setting(30.0, "Landmarks farther than this are not observed (m).")
+    field_of_view: float = setting(2.0 * math.pi,
+        "Full opening angle of the sensor, centred on the heading (rad); 2 pi sees all around.")
     sigma_range: float = setting(0.1, "Range noise standard deviation (m).")
     sigma_bearing: float = setting(math.radians(1.0), "Bearing noise standard deviation (rad).")
     sigma_speed: float = setting(0.3,
@@ -109,6 +111,8 @@ class SimConfig:
         for name in ("sigma_speed", "sigma_steer", "duration", "start_time"):
             if getattr(config, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(config, name)})")
+        if not 0.0 < config.field_of_view <= 2.0 * math.pi:
+            raise ValueError("field_of_view: must be in (0, 2 pi]")
         if not 0.0 < config.detection_probability <= 1.0:
             raise ValueError("detection_probability: must be in (0, 1]")
         if config.laps < 1:
@@ -155,7 +159,8 @@ def simulate(config: SimConfig) -> SchemaBag:
     true_poses, odometry_poses = car.drive(world.waypoints, config.laps, config.control_rate,
                                            control_rng, config.duration)
     sensor = RangeBearingSensor(config.max_range, config.sigma_range, config.sigma_bearing,
-                                config.detection_probability, config.clutter_rate)
+                                config.detection_probability, config.clutter_rate,
+                                field_of_view=config.field_of_view)
     steps_per_reading = int(round(config.control_rate / config.observation_rate))
     reading_steps = np.arange(steps_per_reading, len(true_poses), steps_per_reading)
     readings = [sensor.observe(true_poses[step], world.landmarks.positions, sensor_rng)
@@ -208,6 +213,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         "path_rate": 0.2,
         "particles_rate": 1.0,
     }
+    if config.field_of_view < 2.0 * math.pi:
+        params["field_of_view"] = config.field_of_view
     if config.clutter_rate > 0.0 or config.detection_probability < 1.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
     return {name: float(value) if isinstance(value, (float, np.floating)) else value

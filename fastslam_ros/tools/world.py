@@ -76,14 +76,15 @@ class Reading:
 
 @dataclass(frozen=True)
 class RangeBearingSensor:
-    """A 360 degree range-bearing sensor at the vehicle's origin (SI units, radians).
+    """A range-bearing sensor at the vehicle's origin, looking forward (SI units, radians).
 
-    Each landmark within ``max_range`` is detected with ``detection_probability``, its range
-    and bearing off by N(0, sigma_range) and N(0, sigma_bearing); each reading adds
-    Poisson(``clutter_rate``) false detections, spread evenly over the disc the sensor reaches
+    Each landmark within ``max_range`` and within ``field_of_view`` (the full opening, centred
+    on the vehicle's heading; 2 pi sees all around) is detected with ``detection_probability``,
+    its range and bearing off by N(0, sigma_range) and N(0, sigma_bearing); each reading adds
+    Poisson(``clutter_rate``) false detections, spread evenly over the area the sensor reaches
     (``clutter_spread="area"``, as false returns from anywhere in view) or evenly over range and
     bearing (``"range"``, the outlier density the filter assumes, which puts more of them near
-    the sensor). Nothing is reported beyond ``max_range``.
+    the sensor). Nothing is reported beyond ``max_range`` or outside the field of view.
     """
 
     max_range: float
@@ -92,20 +93,28 @@ class RangeBearingSensor:
     detection_probability: float = 1.0
     clutter_rate: float = 0.0
     clutter_spread: Literal["area", "range"] = "area"
+    field_of_view: float = 2.0 * math.pi
 
     def __post_init__(self):
         if self.clutter_spread not in ("area", "range"):
             raise ValueError(f"clutter_spread: must be 'area' or 'range' "
                              f"(got {self.clutter_spread!r})")
+        if not 0.0 < self.field_of_view <= 2.0 * math.pi:
+            raise ValueError(f"field_of_view: must be in (0, 2 pi] (got {self.field_of_view})")
 
     def observe(self, pose: np.ndarray, landmarks: np.ndarray,
                 rng: np.random.Generator) -> Reading:
         """A noisy reading of ``landmarks`` (N, 2) from the true ``pose`` (x, y, theta)."""
         offset = landmarks - pose[:2]
         ranges = np.hypot(offset[:, 0], offset[:, 1])
-        visible = np.flatnonzero(ranges <= self.max_range)
+        half = 0.5 * self.field_of_view
+        true_bearings = wrap_angle(np.arctan2(offset[:, 1], offset[:, 0]) - pose[2])
+        in_view = ranges <= self.max_range
+        if half < math.pi:
+            in_view &= np.abs(true_bearings) <= half
+        visible = np.flatnonzero(in_view)
         detected = visible[rng.random(len(visible)) < self.detection_probability]
-        bearings = np.arctan2(offset[detected, 1], offset[detected, 0]) - pose[2]
+        bearings = true_bearings[detected]
         measured_range = ranges[detected] + rng.normal(0.0, self.sigma_range, len(detected))
         measured_bearing = bearings + rng.normal(0.0, self.sigma_bearing, len(detected))
         labels = detected
@@ -114,11 +123,14 @@ class RangeBearingSensor:
             spread = rng.random(clutter_count)
             clutter_range = self.max_range * (np.sqrt(spread) if self.clutter_spread == "area"
                                               else spread)
-            clutter_bearing = rng.uniform(-math.pi, math.pi, clutter_count)
+            clutter_bearing = rng.uniform(-half, half, clutter_count)
             measured_range = np.concatenate([measured_range, clutter_range])
             measured_bearing = np.concatenate([measured_bearing, clutter_bearing])
             labels = np.concatenate([labels, np.full(clutter_count, -1)])
         keep = (measured_range > 0.0) & (measured_range <= self.max_range)
+        if half < math.pi:
+            # A detection whose noisy bearing falls outside the opening is not reported.
+            keep &= np.abs(wrap_angle(measured_bearing)) <= half
         return Reading(measured_range[keep], wrap_angle(measured_bearing[keep]), labels[keep])
 
 
