@@ -603,11 +603,9 @@ def ellipse_view(header: Header, key: int, pose: Sequence[float], major: float, 
                  color: Sequence[float]) -> MarkerView:
     """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
     heading (namespace ``ELLIPSE_NAMESPACE``), colour (r, g, b, a)."""
-    _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
     return MarkerView(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER, Marker.ADD,
-                      _Pose(_Vector(float(pose[0]), float(pose[1]), 0.0),
-                            _Quaternion(0.0, 0.0, qz, qw)),
-                      _Vector(major, minor, ELLIPSE_HEIGHT), _Color(*color))
+                      _planar_pose_view(pose), _Vector(major, minor, ELLIPSE_HEIGHT),
+                      _Color(*color))
 
 
 def label_view(header: Header, key: int, position: Sequence[float], text: str) -> MarkerView:
@@ -625,9 +623,7 @@ def marker_from_view(view: MarkerView) -> Marker:
     marker = Marker()
     marker.header, marker.ns, marker.id = view.header, view.ns, view.id
     marker.type, marker.action, marker.text = view.type, view.action, view.text
-    position, orientation = marker.pose.position, marker.pose.orientation
-    position.x, position.y, position.z = view.pose.position
-    orientation.x, orientation.y, orientation.z, orientation.w = view.pose.orientation
+    _fill_pose(marker.pose, view.pose)
     scale, color = marker.scale, marker.color
     scale.x, scale.y, scale.z = view.scale
     color.r, color.g, color.b, color.a = view.color
