@@ -127,11 +127,12 @@ class RangeBearingSensor:
             measured_range = np.concatenate([measured_range, clutter_range])
             measured_bearing = np.concatenate([measured_bearing, clutter_bearing])
             labels = np.concatenate([labels, np.full(clutter_count, -1)])
+        measured_bearing = wrap_angle(measured_bearing)
         keep = (measured_range > 0.0) & (measured_range <= self.max_range)
         if half < math.pi:
             # A detection whose noisy bearing falls outside the opening is not reported.
-            keep &= np.abs(wrap_angle(measured_bearing)) <= half
-        return Reading(measured_range[keep], wrap_angle(measured_bearing[keep]), labels[keep])
+            keep &= np.abs(measured_bearing) <= half
+        return Reading(measured_range[keep], measured_bearing[keep], labels[keep])
 
 
 # ---------------------------------------------------------------- vehicles and odometry
