@@ -124,10 +124,12 @@ def test_find_pose_recovers_the_pose_from_one_reading_among_clutter():
     assert find_pose(close, landmarks, 0.5)[1] == 0
 
 
-def kidnapped_errors(config: FastSLAMConfig) -> tuple[np.ndarray, int]:
-    """Localize on the true map; after 40 readings (0.2 s apart) the filter is made certain
-    of a pose 5 m and 0.6 rad off; the best particle's position errors after that and the
-    number of relocalizations."""
+def kidnapped_errors(config: FastSLAMConfig, offset=(4.0, -3.0, 0.6),
+                     sigmas=(0.01, 0.01, 0.001)) -> tuple[np.ndarray, int]:
+    """Localize on the true map; after 40 readings (0.2 s apart) the particles are redrawn
+    around a pose ``offset`` (m, m, rad) off (standard deviations ``sigmas``; by default the
+    filter is made certain of a pose 5 m and 0.6 rad off); the best particle's position
+    errors after that and the number of relocalizations."""
     scene = world()
     slam = FastSLAM(config.replace(mode="localization"), initial_pose=scene.steps[0].truth)
     slam.seed_map(*truth_map(scene.landmarks))
@@ -136,7 +138,7 @@ def kidnapped_errors(config: FastSLAMConfig) -> tuple[np.ndarray, int]:
         slam.predict(previous, step.odometry)
         previous = step.odometry
         if index == 40:
-            slam.initialize_pose(step.truth + [4.0, -3.0, 0.6], np.diag([1e-4, 1e-4, 1e-6]))
+            slam.initialize_pose(step.truth + offset, np.diag(np.square(sigmas)))
         slam.update(step.ranges, step.bearings, stamp=0.2 * index)
         if index > 40:
             errors.append(np.hypot(*(slam.best_pose()[:2] - step.truth[:2])))
@@ -182,10 +184,31 @@ def test_a_pose_search_over_a_dense_reading_and_map_stays_small():
     np.testing.assert_allclose(found, pose, atol=1e-6)
 
 
-def test_a_short_loss_is_waited_out():
-    """Lost for less than relocalization_delay: no pose search (the kidnap lasts 16 s)."""
-    _, relocalizations = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0))
-    assert relocalizations == 0
+def test_a_loss_that_drifts_away_from_the_found_pose_is_not_waited_out():
+    """Certain of a pose 5 m and 0.6 rad off, the filter follows the odometry in a turned
+    frame, away from the pose the readings give: it is redrawn there long before the delay
+    (the kidnap lasts 16 s) and tracks the truth again."""
+    errors, relocalizations = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0))
+    assert relocalizations >= 1
+    assert errors[-40:].max() < 0.3
+
+
+def test_a_loss_that_keeps_its_distance_to_the_found_pose_is_waited_out(monkeypatch):
+    """2 m off along the heading, with a spread that does not reach the truth: lost and
+    searching, but the found pose stays within a gate of the closest one, so nothing is
+    redrawn before the delay; without the delay the same loss is ended."""
+    from fastslam_ros.core import fastslam
+    searches = []
+
+    def counted(*args):
+        searches.append(args)
+        return find_pose(*args)
+    monkeypatch.setattr(fastslam, "find_pose", counted)
+    offset, sigmas = (2.0, 0.0, 0.1), (1.0, 1.0, 0.1)
+    _, waited = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0), offset, sigmas)
+    assert waited == 0 and len(searches) >= 5
+    _, ended = kidnapped_errors(CONFIG.replace(relocalization_delay=0.0), offset, sigmas)
+    assert ended >= 1
 
 
 def test_a_pose_search_that_finds_nothing_waits_before_the_next(monkeypatch):

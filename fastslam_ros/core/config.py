@@ -60,9 +60,10 @@ class FastSLAMConfig:
         ">= association_gate.", low=0.0, low_exclusive=True, high=1e4)
     relocalization_fraction: float = parameter(
         0.5, "localization: fraction of the particles (the lightest) redrawn at the pose "
-        "found from a reading once the filter has been lost for relocalization_delay, when that "
-        "pose puts more than half of the reading's observations (and at least 3) near a "
-        "landmark (0: never).",
+        "found from a reading once the filter has been lost for relocalization_delay (or "
+        "earlier, once that pose has drifted relocalization_gate farther from the filter's), "
+        "when that pose puts more than half of the reading's observations (and at least 3) "
+        "near a landmark (0: never).",
         low=0.0, high=1.0)
     relocalization_gate: float = parameter(
         1.0, "localization: distance (m) from a landmark within which an observed point counts "
@@ -70,8 +71,9 @@ class FastSLAMConfig:
         "half of it.", low=0.0, low_exclusive=True, high=100.0)
     relocalization_delay: float = parameter(
         15.0, "localization: seconds the best particle must have been lost (at most half of "
-        "each reading's observations near a landmark) before a pose is searched from the "
-        "readings; shorter losses pass by themselves.", low=0.0, high=1e6)
+        "each reading's observations near a landmark) before the pose found from the readings "
+        "is taken while it stays within relocalization_gate of the closest found in this loss; "
+        "shorter losses pass by themselves.", low=0.0, high=1e6)
     alpha1: float = parameter(0.05, "Odometry noise: rotation from rotation (rad^2/rad^2).",
                               low=0.0, high=10.0)
     alpha2: float = parameter(0.001, "Odometry noise: rotation from translation (rad^2/m^2).",

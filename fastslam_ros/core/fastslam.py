@@ -159,6 +159,10 @@ class FastSLAM:
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
         self._lost_since: float | None = None
+        self._searched = -math.inf
+        """Stamp of the latest pose search of the current loss."""
+        self._closest = math.inf
+        """Smallest distance (m) between the best particle and the pose found this loss."""
         self.num_updates = 0
         self.num_underflows = 0
 
@@ -376,14 +380,16 @@ class FastSLAM:
     def _relocalize(self, ranges: np.ndarray, bearings: np.ndarray, stamp: float) -> None:
         """Localization on a fixed map (sensor resetting). The best particle is lost while at
         most half of each reading's observations lie within ``relocalization_gate`` of a
-        landmark seen from it; once lost for ``relocalization_delay`` s, the pose that explains
-        more of them is searched (``relocalization.find_pose``, over the landmarks within the
-        sensor's reach plus ``RELOCALIZATION_RADIUS``, the nearest
-        ``MAX_RELOCALIZATION_LANDMARKS``). If it explains more than half and at least
-        ``MIN_RELOCALIZATION_INLIERS``, the ``relocalization_fraction`` lightest particles
-        (among equal weights, as after resampling, the first ones) are redrawn around it
-        (weights uniform, as after resampling); otherwise the next search waits
-        ``RELOCALIZATION_RETRY`` s."""
+        landmark seen from it. While lost, once per ``RELOCALIZATION_RETRY`` s, the pose that
+        explains more of them is searched (``relocalization.find_pose``, over the landmarks
+        within the sensor's reach plus ``RELOCALIZATION_RADIUS``, the nearest
+        ``MAX_RELOCALIZATION_LANDMARKS``); a pose that explains more than half and at least
+        ``MIN_RELOCALIZATION_INLIERS`` is taken once the loss has lasted
+        ``relocalization_delay`` s, or earlier once it lies ``relocalization_gate`` farther
+        from the best particle than the closest such pose of this loss (the filter is drifting
+        away from the map, not finding it by itself). Taking it redraws the
+        ``relocalization_fraction`` lightest particles (among equal weights, as after
+        resampling, the first ones) around it (weights uniform, as after resampling)."""
         usable = (np.isfinite(ranges) & np.isfinite(bearings)
                   & (ranges >= MIN_OBSERVATION_RANGE))
         count = int(usable.sum())
@@ -406,14 +412,22 @@ class FastSLAM:
             self._lost_since = None
             return
         if self._lost_since is None:
-            self._lost_since = stamp
-        if stamp - self._lost_since < self.config.relocalization_delay:
+            self._lost_since, self._searched, self._closest = stamp, -math.inf, math.inf
+        if stamp - self._searched < RELOCALIZATION_RETRY:
+            # A search costs tens of milliseconds: one per RELOCALIZATION_RETRY s.
             return
+        self._searched = stamp
         found, inliers = find_pose(points, near, gate)
         if 2 * inliers <= count or inliers < max(MIN_RELOCALIZATION_INLIERS, hits + 1):
-            # Nothing found (e.g. where the map has no landmarks): search again a little later,
-            # not at every reading.
-            self._lost_since = stamp - self.config.relocalization_delay + RELOCALIZATION_RETRY
+            # Nothing found (e.g. where the map has no landmarks).
+            self._closest = math.inf
+            return
+        apart = float(np.hypot(*(found[:2] - pose[:2])))
+        self._closest = min(self._closest, apart)
+        if (stamp - self._lost_since < self.config.relocalization_delay
+                and apart < self._closest + gate):
+            # Within the delay the filter may find the map by itself; once the pose the
+            # readings give has drifted a gate farther from it than it was, it will not.
             return
         redrawn = np.argsort(self.log_weights, kind="stable")[
             :max(1, round(self.config.relocalization_fraction * self.num_particles))]
