@@ -130,10 +130,11 @@ class FastSLAM:
         self.backend = "numpy" if self.kernels is None else "numba"
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
-        compiled = self.kernels is not None and config.resampling == "systematic"
-        self._resample = (self.kernels.systematic_resample if compiled
-                          else RESAMPLERS[config.resampling])
-        """The resampler of ``config.resampling`` (the compiled one where it exists)."""
+        self._resample_compiled = self.kernels is not None and config.resampling == "systematic"
+        """Systematic resampling, the poses' and the working set's in compiled calls."""
+        self._resample = RESAMPLERS[config.resampling]
+        self._log_uniform = -np.log(config.num_particles)
+        """The log weight of every particle after resampling."""
         self.reset(initial_pose)
 
     def _load_kernels(self):
@@ -151,9 +152,9 @@ class FastSLAM:
         """Forget everything: all particles at ``initial_pose``, empty maps, uniform weights."""
         count = self.config.num_particles
         self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
-        self.log_weights = np.full(count, -np.log(count))
+        self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
-        self.history = PathHistory(count)
+        self.history = PathHistory(count, kernels=self.kernels)
         self._pending = np.zeros(3)
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
@@ -339,14 +340,15 @@ class FastSLAM:
         return report
 
     def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                         stamp: float) -> UpdateReport:
+                         farthest: float, stamp: float) -> UpdateReport:
         """``update`` on the compiled backend: the reading's math in one call
-        (``kernels.update_reading``), on the numpy path's random draws in its order."""
+        (``kernels.update_reading``), on the numpy path's random draws in its order;
+        ``farthest``: the largest of ``ranges`` (0 when empty)."""
         config, count = self.config, self.num_particles
         known = config.association == "known"
         self._advance_motion()
         mean, cov = self._prior if self._prior is not None else (self.poses, None)
-        reach = self._reach(ranges)
+        reach = self._reach_of(farthest)
         ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None)
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
@@ -539,8 +541,11 @@ class FastSLAM:
 
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
-        return (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
-                + self._lever_length)
+        return self._reach_of(float(ranges.max(initial=0.0)))
+
+    def _reach_of(self, farthest: float) -> float:
+        """``_reach`` of a reading whose largest range is ``farthest`` (0 when empty)."""
+        return max(self.config.max_range, farthest) + REACH_MARGIN + self._lever_length
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -684,20 +689,25 @@ class FastSLAM:
         if report.n_eff >= self.config.resample_threshold * self.num_particles:
             return
         weights = np.exp(self.log_weights)
-        best = self._best
-        indices = self._resample(weights, self.rng)
-        self.poses = self.poses[indices]
+        heaviest = self.config.best_particle == "heaviest"
+        if self._resample_compiled:
+            indices, self.poses, copy = self.kernels.resample_poses(weights, self.rng,
+                                                                    self.poses, self._best)
+        else:
+            indices = self._resample(weights, self.rng)
+            self.poses = self.poses[indices]
+            copies = (indices == self._best).nonzero()[0] if heaviest else ()
+            copy = int(copies[0]) if len(copies) else -1
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)
-        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-        if self.config.best_particle == "central":
+        self.log_weights = np.full(self.num_particles, self._log_uniform)
+        if not heaviest:
             self._best = self._select_best()
         else:
             # Multinomial resampling may draw no copy of the heaviest particle: take the
             # heaviest particle drawn instead.
-            copies = (indices == best).nonzero()[0]
-            self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
+            self._best = copy if copy >= 0 else int(weights[indices].argmax())
         report.resampled = True
 
     def _select_best(self) -> int:

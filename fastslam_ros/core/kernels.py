@@ -838,20 +838,23 @@ def _usable_kernel(ranges, bearings, labels, known, min_range):
                   and ranges[k] >= min_range and (labels[k] >= 0 or not known))
     kept_ranges, kept_bearings = np.empty(count), np.empty(count)
     kept_labels = np.empty(count, np.int64)
+    farthest = 0.0
     i = 0
     for k in range(ranges.shape[0]):
         if (math.isfinite(ranges[k]) and math.isfinite(bearings[k]) and ranges[k] >= min_range
                 and (labels[k] >= 0 or not known)):
             kept_ranges[i], kept_bearings[i] = ranges[k], _wrap(bearings[k])
             kept_labels[i] = labels[k]
+            farthest = max(farthest, ranges[k])
             i += 1
-    return kept_ranges, kept_bearings, kept_labels
+    return kept_ranges, kept_bearings, kept_labels, farthest
 
 
 def usable_observations(ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
                         known: bool, min_range: float):
     """The gating of ``FastSLAM.update``: the observations with a finite range of at least
-    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0."""
+    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0; with the
+    largest kept range (0 when none is kept)."""
     return _usable_kernel(np.ascontiguousarray(ranges), np.ascontiguousarray(bearings),
                           np.ascontiguousarray(labels), known, min_range)
 
@@ -1115,6 +1118,123 @@ def take(ws, indices: np.ndarray):
 
 
 @njit(**_JIT)
+def _move_rows(indices, target):
+    """target[:] = target[indices] in place for non-decreasing ``indices``: rows whose source
+    lies after them first, in ascending order, then rows whose source lies before them, in
+    descending order (with sorted indices no source row is overwritten before it is read)."""
+    width = 1
+    for extent in target.shape[1:]:
+        width *= extent
+    flat = target.reshape((target.shape[0], width))
+    for m in range(indices.shape[0]):
+        if indices[m] > m:
+            for i in range(width):
+                flat[m, i] = flat[indices[m], i]
+    for m in range(indices.shape[0] - 1, -1, -1):
+        if indices[m] < m:
+            for i in range(width):
+                flat[m, i] = flat[indices[m], i]
+
+
+@njit(**_JIT)
+def _take_in_place_kernel(indices, row, slot, block, state, ident, valid, dirty, is_new):
+    for m in range(1, indices.shape[0]):
+        if indices[m] < indices[m - 1]:
+            return False
+    _move_rows(indices, row)
+    _move_rows(indices, slot)
+    _move_rows(indices, block)
+    _move_rows(indices, state)
+    _move_rows(indices, ident)
+    _move_rows(indices, valid)
+    _move_rows(indices, dirty)
+    _move_rows(indices, is_new)
+    return True
+
+
+def take_in_place(ws, indices: np.ndarray):
+    """``take`` for sorted ``indices`` (systematic resampling): the working set's entries are
+    moved within its own arrays (only the rows that change; no new arrays). Other indices:
+    ``take``."""
+    if not _take_in_place_kernel(indices, ws.row, ws.slot, ws.block, ws.state, ws.ident,
+                                 ws.valid, ws.dirty, ws.is_new):
+        return take(ws, indices)
+    ws.columns = ws.columns[indices]
+    return ws
+
+
+@njit(**_JIT)
+def _resample_poses_kernel(weights, offset, poses, best):
+    indices = _systematic_kernel(weights, offset)
+    count = indices.shape[0]
+    moved = np.empty((count, 3))
+    copy = -1
+    for m in range(count):
+        source = indices[m]
+        moved[m, 0], moved[m, 1], moved[m, 2] = poses[source, 0], poses[source, 1], \
+            poses[source, 2]
+        if copy < 0 and source == best:
+            copy = m
+    return indices, moved, copy
+
+
+def resample_poses(weights: np.ndarray, rng: np.random.Generator, poses: np.ndarray,
+                   best: int):
+    """``systematic_resample`` and what follows it in one call: (indices, the resampled
+    poses, the first copy of particle ``best``, -1 when none was drawn)."""
+    return _resample_poses_kernel(weights, rng.random(), poses, best)
+
+
+# ---------------------------------------------------------------------------- path history
+@njit(**_JIT)
+def _ranks(values):
+    """(the distinct values, sorted; each value's index among them) of non-negative integers:
+    ``np.unique`` and ``np.searchsorted`` on it, through a marker."""
+    size = 0
+    for v in values:
+        size = max(size, v + 1)
+    rank = np.zeros(size, np.int64)
+    for v in values:
+        rank[v] = 1
+    count = 0
+    for i in range(size):
+        if rank[i]:
+            rank[i] = count
+            count += 1
+    distinct = np.empty(count, np.int64)
+    positions = np.empty(values.shape[0], np.int64)
+    for k in range(values.shape[0]):
+        positions[k] = rank[values[k]]
+        distinct[positions[k]] = values[k]
+    return distinct, positions
+
+
+def ranks(values: np.ndarray):
+    """(np.unique(values), np.searchsorted(that, values)) of non-negative int64 ``values``
+    (``PathHistory``'s pruning)."""
+    return _ranks(values)
+
+
+@njit(**_JIT)
+def _prune_generation_kernel(parents, poses, alive):
+    kept_parents = np.empty(alive.shape[0], np.int64)
+    kept_poses = np.empty((alive.shape[0], 3))
+    for i in range(alive.shape[0]):
+        kept_parents[i] = parents[alive[i]]
+        kept_poses[i, 0], kept_poses[i, 1], kept_poses[i, 2] = poses[alive[i], 0], \
+            poses[alive[i], 1], poses[alive[i], 2]
+    distinct, positions = _ranks(kept_parents)
+    return distinct, positions, kept_poses
+
+
+def prune_generation(parents: np.ndarray, poses: np.ndarray, alive: np.ndarray):
+    """One generation of ``PathHistory._prune``: its ``alive`` nodes' (parents, poses) kept;
+    returns (the alive nodes of the generation before, sorted; the kept nodes' parents among
+    them; the kept poses)."""
+    return _prune_generation_kernel(parents, poses, alive)
+
+
+@njit(**_JIT)
 def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slots):
     num_particles, num_columns = columns.shape
     capacity = occupied.shape[1]
@@ -1354,6 +1474,10 @@ def warm_up() -> float:
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
+    take_in_place(ws, indices)
+    resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
+    distinct, _ = ranks(np.zeros(m, np.int64))
+    prune_generation(np.zeros(m, np.int64), poses, distinct)
     store = LandmarkStore(m, 5.0)
     gather(store, np.zeros((m, 1), np.int64), 2)
     block_records(store.table[0], store.occupied, store.state, store.ident)
