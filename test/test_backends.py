@@ -135,36 +135,6 @@ def test_compiled_take_matches_the_working_set_take():
 
 
 @needs_numba
-def test_in_place_take_matches_the_working_set_take():
-    """Sorted indices (systematic resampling): the working set's own arrays end equal to
-    ``WorkingSet.take``'s; unsorted ones get fresh arrays, also equal."""
-    from fastslam_ros.core import kernels
-    rng = np.random.default_rng(8)
-    particles, width = 40, 9
-    cases = [np.sort(rng.integers(0, particles, particles)) for _ in range(30)]
-    cases += [np.arange(particles), np.full(particles, 0), np.full(particles, particles - 1),
-              np.repeat(np.arange(0, particles, 2), 2), rng.permutation(particles)]
-    for indices in cases:
-        ws = WorkingSet(row=rng.integers(-1, 50, (particles, width)),
-                        slot=rng.integers(0, 8, (particles, width)),
-                        block=rng.integers(-1, 4, (particles, width)),
-                        columns=rng.integers(-1, 30, (particles, 4)),
-                        state=rng.normal(size=(particles, width, 6)),
-                        ident=rng.integers(-1, 99, (particles, width, 2)),
-                        valid=rng.random((particles, width)) < 0.5,
-                        dirty=rng.random((particles, width)) < 0.5,
-                        is_new=rng.random((particles, width)) < 0.5, first_new_slot=6)
-        expected = ws.take(indices)
-        sorted_indices = bool(np.all(np.diff(indices) >= 0))
-        state = ws.state
-        got = kernels.take_in_place(ws, indices)
-        assert (got is ws and got.state is state) == sorted_indices
-        assert got.first_new_slot == expected.first_new_slot
-        for name in vars(expected):
-            np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
-
-
-@needs_numba
 def test_compiled_resampling_of_the_poses_matches_numpy():
     """``resample_poses``: the indices of ``systematic_resample`` on the same draw, the poses
     they pick and the first copy of the given particle (-1 when it has none)."""

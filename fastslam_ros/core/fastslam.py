@@ -26,7 +26,7 @@ import numpy as np
 
 from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
-from .geometry import compose, relative_pose, wrap_angle
+from .geometry import compose, compose_floats, pose_floats, relative_pose_floats, wrap_angle
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .working_cache import WorkingSetCache
@@ -56,6 +56,8 @@ MAX_RELOCALIZATION_LANDMARKS = 150
 search's pair matching grows with their square."""
 MIN_RELOCALIZATION_INLIERS = 3
 """Observations a pose found from one reading must put near landmarks (two pin any pair)."""
+NO_MOTION = (0.0, 0.0, 0.0)
+"""The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
 _NO_DRAWS = np.zeros(0)
 _NO_NORMALS = np.zeros((0, 3))
 
@@ -155,7 +157,7 @@ class FastSLAM:
         self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
         self.history = PathHistory(count, kernels=self.kernels)
-        self._pending = np.zeros(3)
+        self._pending = NO_MOTION
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
@@ -213,7 +215,7 @@ class FastSLAM:
         self.poses = poses
         self.log_weights = np.full(count, -np.log(count))
         self._prior = None
-        self._pending = np.zeros(3)
+        self._pending = NO_MOTION
         self._has_pending = False
         self._lost_since = None
 
@@ -226,9 +228,10 @@ class FastSLAM:
         never spans a long curve): FastSLAM 1.0 then samples it; FastSLAM 2.0 adds it to each
         particle's Gaussian prior N(s_hat, P), which its proposal uses at the next observation.
         """
-        self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
+        self._pending = compose_floats(self._pending, relative_pose_floats(
+            pose_floats(odom_from), pose_floats(odom_to)))
         self._has_pending = True
-        x, y, theta = self._pending.tolist()
+        x, y, theta = self._pending
         if (math.hypot(x, y) > self.config.max_pending_translation
                 or abs(theta) > self.config.max_pending_rotation):
             self._advance_motion()
@@ -241,7 +244,7 @@ class FastSLAM:
             # The same steps as below, in one compiled call.
             self._prior, widest = self.kernels.advance_prior(self._prior, self.poses,
                                                              self._pending, self._settings)
-            self._pending = np.zeros(3)
+            self._pending = NO_MOTION
             self._has_pending = False
             if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
                 self.poses = self._sample_prior()
@@ -249,7 +252,7 @@ class FastSLAM:
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
                                       self.config.min_rotation_sigma, self.linear_noise)
-        self._pending = np.zeros(3)
+        self._pending = NO_MOTION
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.num_particles, 3))

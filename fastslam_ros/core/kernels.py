@@ -1047,13 +1047,13 @@ def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
     return moved, predicted, widest
 
 
-def advance_prior(prior, poses: np.ndarray, delta: np.ndarray, settings: ReadingSettings):
+def advance_prior(prior, poses: np.ndarray, delta, settings: ReadingSettings):
     """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
     dtheta) decomposed (``OdometryControl.from_delta``), its variances
     (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
     propagated through it (``propagate_gaussian``). Returns the new prior and its largest
     heading variance."""
-    dx, dy, dtheta = delta.tolist()
+    dx, dy, dtheta = delta
     if prior is None:
         moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
                                                          settings.floats)
@@ -1118,52 +1118,6 @@ def take(ws, indices: np.ndarray):
 
 
 @njit(**_JIT)
-def _move_rows(indices, target):
-    """target[:] = target[indices] in place for non-decreasing ``indices``: rows whose source
-    lies after them first, in ascending order, then rows whose source lies before them, in
-    descending order (with sorted indices no source row is overwritten before it is read)."""
-    width = 1
-    for extent in target.shape[1:]:
-        width *= extent
-    flat = target.reshape((target.shape[0], width))
-    for m in range(indices.shape[0]):
-        if indices[m] > m:
-            for i in range(width):
-                flat[m, i] = flat[indices[m], i]
-    for m in range(indices.shape[0] - 1, -1, -1):
-        if indices[m] < m:
-            for i in range(width):
-                flat[m, i] = flat[indices[m], i]
-
-
-@njit(**_JIT)
-def _take_in_place_kernel(indices, row, slot, block, state, ident, valid, dirty, is_new):
-    for m in range(1, indices.shape[0]):
-        if indices[m] < indices[m - 1]:
-            return False
-    _move_rows(indices, row)
-    _move_rows(indices, slot)
-    _move_rows(indices, block)
-    _move_rows(indices, state)
-    _move_rows(indices, ident)
-    _move_rows(indices, valid)
-    _move_rows(indices, dirty)
-    _move_rows(indices, is_new)
-    return True
-
-
-def take_in_place(ws, indices: np.ndarray):
-    """``take`` for sorted ``indices`` (systematic resampling): the working set's entries are
-    moved within its own arrays (only the rows that change; no new arrays). Other indices:
-    ``take``."""
-    if not _take_in_place_kernel(indices, ws.row, ws.slot, ws.block, ws.state, ws.ident,
-                                 ws.valid, ws.dirty, ws.is_new):
-        return take(ws, indices)
-    ws.columns = ws.columns[indices]
-    return ws
-
-
-@njit(**_JIT)
 def _resample_poses_kernel(weights, offset, poses, best):
     indices = _systematic_kernel(weights, offset)
     count = indices.shape[0]
@@ -1209,29 +1163,41 @@ def _ranks(values):
     return distinct, positions
 
 
-def ranks(values: np.ndarray):
-    """(np.unique(values), np.searchsorted(that, values)) of non-negative int64 ``values``
-    (``PathHistory``'s pruning)."""
-    return _ranks(values)
-
-
 @njit(**_JIT)
-def _prune_generation_kernel(parents, poses, alive):
-    kept_parents = np.empty(alive.shape[0], np.int64)
-    kept_poses = np.empty((alive.shape[0], 3))
-    for i in range(alive.shape[0]):
-        kept_parents[i] = parents[alive[i]]
-        kept_poses[i, 0], kept_poses[i, 1], kept_poses[i, 2] = poses[alive[i], 0], \
-            poses[alive[i], 1], poses[alive[i], 2]
-    distinct, positions = _ranks(kept_parents)
-    return distinct, positions, kept_poses
+def _prune_kernel(leaf, parents, poses, sizes):
+    """``PathHistory._prune_generations_numpy`` on the generations laid end to end
+    (``sizes`` nodes each): the kept nodes of each generation at the start of its stretch."""
+    count = sizes.shape[0]
+    starts = np.zeros(count + 1, np.int64)
+    for g in range(count):
+        starts[g + 1] = starts[g] + sizes[g]
+    alive, new_leaf = _ranks(leaf)
+    kept_parents = np.empty(parents.shape[0], np.int64)
+    kept_poses = np.empty((parents.shape[0], 3))
+    kept = np.empty(count, np.int64)
+    for g in range(count - 1, -1, -1):
+        base, width = starts[g], alive.shape[0]
+        chosen = np.empty(width, np.int64)
+        for i in range(width):
+            source = base + alive[i]
+            chosen[i] = parents[source]
+            kept_poses[base + i, 0], kept_poses[base + i, 1], kept_poses[base + i, 2] = \
+                poses[source, 0], poses[source, 1], poses[source, 2]
+        alive, positions = _ranks(chosen)
+        kept_parents[base:base + width] = positions
+        kept[g] = width
+    return new_leaf, kept_parents, kept_poses, starts, kept
 
 
-def prune_generation(parents: np.ndarray, poses: np.ndarray, alive: np.ndarray):
-    """One generation of ``PathHistory._prune``: its ``alive`` nodes' (parents, poses) kept;
-    returns (the alive nodes of the generation before, sorted; the kept nodes' parents among
-    them; the kept poses)."""
-    return _prune_generation_kernel(parents, poses, alive)
+def prune(leaf: np.ndarray, parents: list, poses: list):
+    """``PathHistory._prune_generations_numpy`` in one call: (the new leaf, the parents and
+    the poses of every generation, each a view into one array)."""
+    sizes = np.array([len(p) for p in parents], np.int64)
+    new_leaf, kept_parents, kept_poses, starts, kept = _prune_kernel(
+        leaf, np.concatenate(parents), np.concatenate(poses), sizes)
+    spans = list(zip(starts.tolist(), (starts[:-1] + kept).tolist()))
+    return (new_leaf, [kept_parents[a:b] for a, b in spans],
+            [kept_poses[a:b] for a, b in spans])
 
 
 @njit(**_JIT)
@@ -1474,10 +1440,8 @@ def warm_up() -> float:
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
     take(ws, indices)
-    take_in_place(ws, indices)
     resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
-    distinct, _ = ranks(np.zeros(m, np.int64))
-    prune_generation(np.zeros(m, np.int64), poses, distinct)
+    prune(np.zeros(m, np.int64), [np.zeros(m, np.int64)] * 2, [poses] * 2)
     store = LandmarkStore(m, 5.0)
     gather(store, np.zeros((m, 1), np.int64), 2)
     block_records(store.table[0], store.occupied, store.state, store.ident)

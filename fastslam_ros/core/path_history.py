@@ -23,8 +23,7 @@ class PathHistory:
                  chain_capacity: int = CHAIN_CAPACITY, kernels=None) -> None:
         self.num_particles = num_particles
         self.kernels = kernels
-        """The compiled backend (``core.kernels``: the pruning's generations in compiled
-        calls) or None."""
+        """The compiled backend (``core.kernels``, which then prunes) or None."""
         self.prune_every = prune_every
         self.chain_capacity = max(chain_capacity, 2 * prune_every)
         self._chain_stamps = np.zeros(0)
@@ -95,12 +94,9 @@ class PathHistory:
             self._parents[generation] = np.searchsorted(alive, parents)
 
     def _prune_generations(self, kernels) -> None:
-        """``_prune_generations_numpy`` with one compiled call per generation."""
-        alive, self.leaf = kernels.ranks(self.leaf)
-        for generation in range(len(self._stamps) - 1, -1, -1):
-            alive, self._parents[generation], self._poses[generation] = \
-                kernels.prune_generation(self._parents[generation], self._poses[generation],
-                                         alive)
+        """``_prune_generations_numpy`` in one compiled call."""
+        self.leaf, self._parents, self._poses = kernels.prune(self.leaf, self._parents,
+                                                             self._poses)
 
     def _extend_chain(self, stamps: np.ndarray, poses: np.ndarray) -> None:
         """Append to the chain; thin its older half while it would exceed the capacity."""

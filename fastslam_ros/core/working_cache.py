@@ -101,7 +101,7 @@ class WorkingSetCache:
         if self.current is not None:
             kernels = self.store.kernels
             self.current = (self.current.take(indices) if kernels is None
-                            else kernels.take_in_place(self.current, indices))
+                            else kernels.take(self.current, indices))
 
     def flush(self) -> None:
         """Write the working set back into the store and drop it."""
