@@ -104,7 +104,8 @@ def test_compiled_systematic_resampling_draws_the_numpy_indices():
         weights = weights / weights.sum()
         seed = int(rng.integers(1 << 31))
         expected = systematic_resample(weights, np.random.default_rng(seed))
-        got = kernels.systematic_resample(weights, np.random.default_rng(seed))
+        got, _, _ = kernels.resample_poses(weights, np.random.default_rng(seed),
+                                           np.zeros((len(weights), 3)), 0)
         np.testing.assert_array_equal(got, expected)
 
 

@@ -1080,11 +1080,6 @@ def _systematic_kernel(weights, offset):
     return indices
 
 
-def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """``resampling.systematic_resample``: on the same weights and draw, the same indices."""
-    return _systematic_kernel(weights, rng.random())
-
-
 @njit(**_JIT)
 def _take_rows(indices, source):
     """source[indices] along the first axis, element by element (numba's slice copies are
@@ -1134,8 +1129,9 @@ def _resample_poses_kernel(weights, offset, poses, best):
 
 def resample_poses(weights: np.ndarray, rng: np.random.Generator, poses: np.ndarray,
                    best: int):
-    """``systematic_resample`` and what follows it in one call: (indices, the resampled
-    poses, the first copy of particle ``best``, -1 when none was drawn)."""
+    """``resampling.systematic_resample`` (on the same weights and draw, the same indices) and
+    what follows it in one call: (indices, the resampled poses, the first copy of particle
+    ``best``, -1 when none was drawn)."""
     return _resample_poses_kernel(weights, rng.random(), poses, best)
 
 
@@ -1438,9 +1434,8 @@ def warm_up() -> float:
     advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
     advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
-    indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
+    indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
-    resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     prune(np.zeros(m, np.int64), [np.zeros(m, np.int64)] * 2, [poses] * 2)
     store = LandmarkStore(m, 5.0)
     gather(store, np.zeros((m, 1), np.int64), 2)
