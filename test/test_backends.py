@@ -104,7 +104,8 @@ def test_compiled_systematic_resampling_draws_the_numpy_indices():
         weights = weights / weights.sum()
         seed = int(rng.integers(1 << 31))
         expected = systematic_resample(weights, np.random.default_rng(seed))
-        got = kernels.systematic_resample(weights, np.random.default_rng(seed))
+        got, _, _ = kernels.resample_poses(weights, np.random.default_rng(seed),
+                                           np.zeros((len(weights), 3)), 0)
         np.testing.assert_array_equal(got, expected)
 
 
@@ -132,6 +133,59 @@ def test_compiled_take_matches_the_working_set_take():
         np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
         np.testing.assert_array_equal(getattr(ws, name), original)
         assert not np.shares_memory(getattr(got, name), getattr(ws, name))
+
+
+@needs_numba
+def test_compiled_resampling_of_the_poses_matches_numpy():
+    """``resample_poses``: the indices of ``systematic_resample`` on the same draw, the poses
+    they pick and the first copy of the given particle (-1 when it has none)."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(6)
+    for count in (1, 7, 100, 1000):
+        for _ in range(10):
+            weights = rng.gamma(0.3, size=count)
+            weights /= weights.sum()
+            poses = rng.normal(size=(count, 3))
+            best = int(rng.integers(count))
+            seed = int(rng.integers(1 << 31))
+            expected = systematic_resample(weights, np.random.default_rng(seed))
+            indices, moved, copy = kernels.resample_poses(
+                weights, np.random.default_rng(seed), poses, best)
+            np.testing.assert_array_equal(indices, expected)
+            np.testing.assert_array_equal(moved, poses[expected])
+            copies = (expected == best).nonzero()[0]
+            assert copy == (copies[0] if len(copies) else -1)
+
+
+@needs_numba
+def test_compiled_path_pruning_keeps_the_numpy_history():
+    """The path history pruned by the compiled kernels holds the same generations, parents,
+    poses and chain as the numpy one, through sorted, unsorted and collapsing resamplings."""
+    from fastslam_ros.core import kernels
+    from fastslam_ros.core.path_history import PathHistory
+    for particles in (1, 6, 50):
+        rng = np.random.default_rng(particles)
+        histories = [PathHistory(particles, prune_every=4, chain_capacity=64,
+                                 kernels=backend) for backend in (None, kernels)]
+        for step in range(300):
+            poses = rng.normal(size=(particles, 3))
+            draw = rng.random()
+            indices = (np.sort(rng.integers(0, particles, particles)) if draw < 0.4
+                       else rng.integers(0, particles, particles) if draw < 0.5
+                       else np.full(particles, int(rng.integers(particles))) if draw < 0.6
+                       else None)
+            for history in histories:
+                history.record(float(step), poses)
+                if indices is not None:
+                    history.resample(indices)
+            reference, compiled = histories
+            np.testing.assert_array_equal(compiled.leaf, reference.leaf)
+            for name in ("_parents", "_poses"):
+                assert len(getattr(compiled, name)) == len(getattr(reference, name))
+                for a, b in zip(getattr(compiled, name), getattr(reference, name)):
+                    np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(compiled._chain_poses, reference._chain_poses)
+            np.testing.assert_array_equal(compiled._chain_stamps, reference._chain_stamps)
 
 
 @needs_numba

@@ -26,7 +26,7 @@ import numpy as np
 
 from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
-from .geometry import compose, relative_pose, wrap_angle
+from .geometry import compose, compose_floats, pose_floats, relative_pose_floats, wrap_angle
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .working_cache import WorkingSetCache
@@ -56,6 +56,8 @@ MAX_RELOCALIZATION_LANDMARKS = 150
 search's pair matching grows with their square."""
 MIN_RELOCALIZATION_INLIERS = 3
 """Observations a pose found from one reading must put near landmarks (two pin any pair)."""
+NO_MOTION = (0.0, 0.0, 0.0)
+"""The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
 _NO_DRAWS = np.zeros(0)
 _NO_NORMALS = np.zeros((0, 3))
 
@@ -130,10 +132,11 @@ class FastSLAM:
         self.backend = "numpy" if self.kernels is None else "numba"
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
-        compiled = self.kernels is not None and config.resampling == "systematic"
-        self._resample = (self.kernels.systematic_resample if compiled
-                          else RESAMPLERS[config.resampling])
-        """The resampler of ``config.resampling`` (the compiled one where it exists)."""
+        self._resample_compiled = self.kernels is not None and config.resampling == "systematic"
+        """Systematic resampling, the poses' and the working set's in compiled calls."""
+        self._resample = RESAMPLERS[config.resampling]
+        self._log_uniform = -np.log(config.num_particles)
+        """The log weight of every particle after resampling."""
         self.reset(initial_pose)
 
     def _load_kernels(self):
@@ -151,10 +154,10 @@ class FastSLAM:
         """Forget everything: all particles at ``initial_pose``, empty maps, uniform weights."""
         count = self.config.num_particles
         self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
-        self.log_weights = np.full(count, -np.log(count))
+        self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
-        self.history = PathHistory(count)
-        self._pending = np.zeros(3)
+        self.history = PathHistory(count, kernels=self.kernels)
+        self._pending = NO_MOTION
         self._has_pending = False
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
@@ -216,7 +219,7 @@ class FastSLAM:
         self.poses = poses
         self.log_weights = np.full(count, -np.log(count))
         self._prior = None
-        self._pending = np.zeros(3)
+        self._pending = NO_MOTION
         self._has_pending = False
         self._lost_since = None
 
@@ -229,9 +232,10 @@ class FastSLAM:
         never spans a long curve): FastSLAM 1.0 then samples it; FastSLAM 2.0 adds it to each
         particle's Gaussian prior N(s_hat, P), which its proposal uses at the next observation.
         """
-        self._pending = compose(self._pending, relative_pose(odom_from, odom_to))
+        self._pending = compose_floats(self._pending, relative_pose_floats(
+            pose_floats(odom_from), pose_floats(odom_to)))
         self._has_pending = True
-        x, y, theta = self._pending.tolist()
+        x, y, theta = self._pending
         if (math.hypot(x, y) > self.config.max_pending_translation
                 or abs(theta) > self.config.max_pending_rotation):
             self._advance_motion()
@@ -244,7 +248,7 @@ class FastSLAM:
             # The same steps as below, in one compiled call.
             self._prior, widest = self.kernels.advance_prior(self._prior, self.poses,
                                                              self._pending, self._settings)
-            self._pending = np.zeros(3)
+            self._pending = NO_MOTION
             self._has_pending = False
             if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
                 self.poses = self._sample_prior()
@@ -252,7 +256,7 @@ class FastSLAM:
         control = OdometryControl.from_delta(self._pending)
         variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
                                       self.config.min_rotation_sigma, self.linear_noise)
-        self._pending = np.zeros(3)
+        self._pending = NO_MOTION
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
             normals = self.rng.standard_normal((self.num_particles, 3))
@@ -343,14 +347,15 @@ class FastSLAM:
         return report
 
     def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                         stamp: float) -> UpdateReport:
+                         farthest: float, stamp: float) -> UpdateReport:
         """``update`` on the compiled backend: the reading's math in one call
-        (``kernels.update_reading``), on the numpy path's random draws in its order."""
+        (``kernels.update_reading``), on the numpy path's random draws in its order;
+        ``farthest``: the largest of ``ranges`` (0 when empty)."""
         config, count = self.config, self.num_particles
         known = config.association == "known"
         self._advance_motion()
         mean, cov = self._prior if self._prior is not None else (self.poses, None)
-        reach = self._reach(ranges)
+        reach = self._reach_of(farthest)
         ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None)
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
@@ -553,8 +558,11 @@ class FastSLAM:
 
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
-        return (max(self.config.max_range, float(ranges.max(initial=0.0))) + REACH_MARGIN
-                + self._lever_length)
+        return self._reach_of(float(ranges.max(initial=0.0)))
+
+    def _reach_of(self, farthest: float) -> float:
+        """``_reach`` of a reading whose largest range is ``farthest`` (0 when empty)."""
+        return max(self.config.max_range, farthest) + REACH_MARGIN + self._lever_length
 
     def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
                   ranges: np.ndarray, bearings: np.ndarray):
@@ -698,20 +706,25 @@ class FastSLAM:
         if report.n_eff >= self.config.resample_threshold * self.num_particles:
             return
         weights = np.exp(self.log_weights)
-        best = self._best
-        indices = self._resample(weights, self.rng)
-        self.poses = self.poses[indices]
+        heaviest = self.config.best_particle == "heaviest"
+        if self._resample_compiled:
+            indices, self.poses, copy = self.kernels.resample_poses(weights, self.rng,
+                                                                    self.poses, self._best)
+        else:
+            indices = self._resample(weights, self.rng)
+            self.poses = self.poses[indices]
+            copies = (indices == self._best).nonzero()[0] if heaviest else ()
+            copy = int(copies[0]) if len(copies) else -1
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)
-        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-        if self.config.best_particle == "central":
+        self.log_weights = np.full(self.num_particles, self._log_uniform)
+        if not heaviest:
             self._best = self._select_best()
         else:
             # Multinomial resampling may draw no copy of the heaviest particle: take the
             # heaviest particle drawn instead.
-            copies = (indices == best).nonzero()[0]
-            self._best = int(copies[0]) if len(copies) else int(weights[indices].argmax())
+            self._best = copy if copy >= 0 else int(weights[indices].argmax())
         report.resampled = True
 
     def _select_best(self) -> int:

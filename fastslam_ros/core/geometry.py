@@ -67,10 +67,7 @@ def relative_pose(pose_from, pose_to) -> np.ndarray:
     """Pose of ``pose_to`` expressed in the frame of ``pose_from`` (both (..., 3))."""
     start, end = pose_floats(pose_from), pose_floats(pose_to)
     if start is not None and end is not None:
-        (x0, y0, t0), (x1, y1, t1) = start, end
-        c, s = math.cos(t0), math.sin(t0)
-        dx, dy = x1 - x0, y1 - y0
-        return np.array([c * dx + s * dy, -s * dx + c * dy, wrap_scalar(t1 - t0)])
+        return np.array(relative_pose_floats(start, end))
     pose_from = np.asarray(pose_from, dtype=float)
     pose_to = np.asarray(pose_to, dtype=float)
     dx = pose_to[..., 0] - pose_from[..., 0]
@@ -84,15 +81,28 @@ def compose(pose, delta) -> np.ndarray:
     """Pose ``delta`` (given in the frame of ``pose``) composed onto ``pose`` (both (..., 3))."""
     start, step = pose_floats(pose), pose_floats(delta)
     if start is not None and step is not None:
-        (x, y, t), (dx, dy, dt) = start, step
-        c, s = math.cos(t), math.sin(t)
-        return np.array([x + c * dx - s * dy, y + s * dx + c * dy, wrap_scalar(t + dt)])
+        return np.array(compose_floats(start, step))
     pose = np.asarray(pose, dtype=float)
     delta = np.asarray(delta, dtype=float)
     c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
     return np.stack([pose[..., 0] + c * delta[..., 0] - s * delta[..., 1],
                      pose[..., 1] + s * delta[..., 0] + c * delta[..., 1],
                      wrap_angle(pose[..., 2] + delta[..., 2])], axis=-1)
+
+
+def relative_pose_floats(start, end) -> tuple[float, float, float]:
+    """``relative_pose`` of two single poses given as three floats each."""
+    (x0, y0, t0), (x1, y1, t1) = start, end
+    c, s = math.cos(t0), math.sin(t0)
+    dx, dy = x1 - x0, y1 - y0
+    return c * dx + s * dy, -s * dx + c * dy, wrap_scalar(t1 - t0)
+
+
+def compose_floats(pose, delta) -> tuple[float, float, float]:
+    """``compose`` of two single poses given as three floats each."""
+    (x, y, t), (dx, dy, dt) = pose, delta
+    c, s = math.cos(t), math.sin(t)
+    return x + c * dx - s * dy, y + s * dx + c * dy, wrap_scalar(t + dt)
 
 
 def wrap_scalar(angle: float) -> float:

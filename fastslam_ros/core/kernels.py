@@ -838,20 +838,23 @@ def _usable_kernel(ranges, bearings, labels, known, min_range):
                   and ranges[k] >= min_range and (labels[k] >= 0 or not known))
     kept_ranges, kept_bearings = np.empty(count), np.empty(count)
     kept_labels = np.empty(count, np.int64)
+    farthest = 0.0
     i = 0
     for k in range(ranges.shape[0]):
         if (math.isfinite(ranges[k]) and math.isfinite(bearings[k]) and ranges[k] >= min_range
                 and (labels[k] >= 0 or not known)):
             kept_ranges[i], kept_bearings[i] = ranges[k], _wrap(bearings[k])
             kept_labels[i] = labels[k]
+            farthest = max(farthest, ranges[k])
             i += 1
-    return kept_ranges, kept_bearings, kept_labels
+    return kept_ranges, kept_bearings, kept_labels, farthest
 
 
 def usable_observations(ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
                         known: bool, min_range: float):
     """The gating of ``FastSLAM.update``: the observations with a finite range of at least
-    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0."""
+    ``min_range``, a finite bearing (wrapped) and, with ``known`` ids, an id >= 0; with the
+    largest kept range (0 when none is kept)."""
     return _usable_kernel(np.ascontiguousarray(ranges), np.ascontiguousarray(bearings),
                           np.ascontiguousarray(labels), known, min_range)
 
@@ -1044,13 +1047,13 @@ def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
     return moved, predicted, widest
 
 
-def advance_prior(prior, poses: np.ndarray, delta: np.ndarray, settings: ReadingSettings):
+def advance_prior(prior, poses: np.ndarray, delta, settings: ReadingSettings):
     """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
     dtheta) decomposed (``OdometryControl.from_delta``), its variances
     (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
     propagated through it (``propagate_gaussian``). Returns the new prior and its largest
     heading variance."""
-    dx, dy, dtheta = delta.tolist()
+    dx, dy, dtheta = delta
     if prior is None:
         moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
                                                          settings.floats)
@@ -1075,11 +1078,6 @@ def _systematic_kernel(weights, offset):
             source += 1
         indices[m] = source
     return indices
-
-
-def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """``resampling.systematic_resample``: on the same weights and draw, the same indices."""
-    return _systematic_kernel(weights, rng.random())
 
 
 @njit(**_JIT)
@@ -1112,6 +1110,90 @@ def take(ws, indices: np.ndarray):
         indices, ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
     return WorkingSet(row, slot, block, ws.columns[indices], state, ident, valid, dirty, is_new,
                       ws.first_new_slot)
+
+
+@njit(**_JIT)
+def _resample_poses_kernel(weights, offset, poses, best):
+    indices = _systematic_kernel(weights, offset)
+    count = indices.shape[0]
+    moved = np.empty((count, 3))
+    copy = -1
+    for m in range(count):
+        source = indices[m]
+        moved[m, 0], moved[m, 1], moved[m, 2] = poses[source, 0], poses[source, 1], \
+            poses[source, 2]
+        if copy < 0 and source == best:
+            copy = m
+    return indices, moved, copy
+
+
+def resample_poses(weights: np.ndarray, rng: np.random.Generator, poses: np.ndarray,
+                   best: int):
+    """``resampling.systematic_resample`` (on the same weights and draw, the same indices) and
+    what follows it in one call: (indices, the resampled poses, the first copy of particle
+    ``best``, -1 when none was drawn)."""
+    return _resample_poses_kernel(weights, rng.random(), poses, best)
+
+
+# ---------------------------------------------------------------------------- path history
+@njit(**_JIT)
+def _ranks(values):
+    """(the distinct values, sorted; each value's index among them) of non-negative integers:
+    ``np.unique`` and ``np.searchsorted`` on it, through a marker."""
+    size = 0
+    for v in values:
+        size = max(size, v + 1)
+    rank = np.zeros(size, np.int64)
+    for v in values:
+        rank[v] = 1
+    count = 0
+    for i in range(size):
+        if rank[i]:
+            rank[i] = count
+            count += 1
+    distinct = np.empty(count, np.int64)
+    positions = np.empty(values.shape[0], np.int64)
+    for k in range(values.shape[0]):
+        positions[k] = rank[values[k]]
+        distinct[positions[k]] = values[k]
+    return distinct, positions
+
+
+@njit(**_JIT)
+def _prune_kernel(leaf, parents, poses, sizes):
+    """``PathHistory._prune_generations_numpy`` on the generations laid end to end
+    (``sizes`` nodes each): the kept nodes of each generation at the start of its stretch."""
+    count = sizes.shape[0]
+    starts = np.zeros(count + 1, np.int64)
+    for g in range(count):
+        starts[g + 1] = starts[g] + sizes[g]
+    alive, new_leaf = _ranks(leaf)
+    kept_parents = np.empty(parents.shape[0], np.int64)
+    kept_poses = np.empty((parents.shape[0], 3))
+    kept = np.empty(count, np.int64)
+    for g in range(count - 1, -1, -1):
+        base, width = starts[g], alive.shape[0]
+        chosen = np.empty(width, np.int64)
+        for i in range(width):
+            source = base + alive[i]
+            chosen[i] = parents[source]
+            kept_poses[base + i, 0], kept_poses[base + i, 1], kept_poses[base + i, 2] = \
+                poses[source, 0], poses[source, 1], poses[source, 2]
+        alive, positions = _ranks(chosen)
+        kept_parents[base:base + width] = positions
+        kept[g] = width
+    return new_leaf, kept_parents, kept_poses, starts, kept
+
+
+def prune(leaf: np.ndarray, parents: list, poses: list):
+    """``PathHistory._prune_generations_numpy`` in one call: (the new leaf, the parents and
+    the poses of every generation, each a view into one array)."""
+    sizes = np.array([len(p) for p in parents], np.int64)
+    new_leaf, kept_parents, kept_poses, starts, kept = _prune_kernel(
+        leaf, np.concatenate(parents), np.concatenate(poses), sizes)
+    spans = list(zip(starts.tolist(), (starts[:-1] + kept).tolist()))
+    return (new_leaf, [kept_parents[a:b] for a, b in spans],
+            [kept_poses[a:b] for a, b in spans])
 
 
 @njit(**_JIT)
@@ -1352,8 +1434,9 @@ def warm_up() -> float:
     advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
     advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
-    indices = systematic_resample(np.full(m, 1.0 / m), np.random.default_rng(0))
+    indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
+    prune(np.zeros(m, np.int64), [np.zeros(m, np.int64)] * 2, [poses] * 2)
     store = LandmarkStore(m, 5.0)
     gather(store, np.zeros((m, 1), np.int64), 2)
     block_records(store.table[0], store.occupied, store.state, store.ident)

@@ -20,8 +20,10 @@ class PathHistory:
     """Ancestry tree of particle poses with periodic pruning of dead branches."""
 
     def __init__(self, num_particles: int, prune_every: int = 32,
-                 chain_capacity: int = CHAIN_CAPACITY) -> None:
+                 chain_capacity: int = CHAIN_CAPACITY, kernels=None) -> None:
         self.num_particles = num_particles
+        self.kernels = kernels
+        """The compiled backend (``core.kernels``, which then prunes) or None."""
         self.prune_every = prune_every
         self.chain_capacity = max(chain_capacity, 2 * prune_every)
         self._chain_stamps = np.zeros(0)
@@ -63,6 +65,22 @@ class PathHistory:
 
     def _prune(self) -> None:
         """Drop nodes no particle descends from; move single-ancestor generations to the chain."""
+        if self.kernels is not None:
+            self._prune_generations(self.kernels)
+        else:
+            self._prune_generations_numpy()
+        single = [len(p) == 1 for p in self._poses]
+        # Generations older than the newest single-node one form one chain.
+        cut = max((i + 1 for i, is_single in enumerate(single) if is_single), default=0)
+        keep_from = min(cut, len(self._stamps) - self.prune_every)
+        if keep_from > 0 and all(single[:keep_from]):
+            self._extend_chain(np.array(self._stamps[:keep_from]),
+                               np.array([p[0] for p in self._poses[:keep_from]]))
+            del self._stamps[:keep_from], self._poses[:keep_from], self._parents[:keep_from]
+            self._parents[0] = np.zeros_like(self._parents[0])
+
+    def _prune_generations_numpy(self) -> None:
+        """Keep only the nodes some particle descends from, renumbered in their order."""
         alive = np.unique(self.leaf)
         self.leaf = np.searchsorted(alive, self.leaf)
         for generation in range(len(self._stamps) - 1, -1, -1):
@@ -74,15 +92,11 @@ class PathHistory:
                 continue
             alive = np.unique(parents)
             self._parents[generation] = np.searchsorted(alive, parents)
-        single = [len(p) == 1 for p in self._poses]
-        # Generations older than the newest single-node one form one chain.
-        cut = max((i + 1 for i, is_single in enumerate(single) if is_single), default=0)
-        keep_from = min(cut, len(self._stamps) - self.prune_every)
-        if keep_from > 0 and all(single[:keep_from]):
-            self._extend_chain(np.array(self._stamps[:keep_from]),
-                               np.array([p[0] for p in self._poses[:keep_from]]))
-            del self._stamps[:keep_from], self._poses[:keep_from], self._parents[:keep_from]
-            self._parents[0] = np.zeros_like(self._parents[0])
+
+    def _prune_generations(self, kernels) -> None:
+        """``_prune_generations_numpy`` in one compiled call."""
+        self.leaf, self._parents, self._poses = kernels.prune(self.leaf, self._parents,
+                                                             self._poses)
 
     def _extend_chain(self, stamps: np.ndarray, poses: np.ndarray) -> None:
         """Append to the chain; thin its older half while it would exceed the capacity."""
