@@ -55,6 +55,16 @@ def test_odometry_noise_matches_the_simulators_closed_form(loop_bags):
     assert params["translation_variance_per_meter"] == pytest.approx(along_per_meter, rel=0.25)
 
 
+def test_increments_of_a_reading_interval_stay_inside_the_recording():
+    # At epoch stamps (1.7e9 s) np.arange's last point rounds past the last stamp for this
+    # bag and step; every increment must still lie inside the time both series cover.
+    bag = simulate(SimConfig())
+    assert bag.odometry.stamps[-1] - bag.odometry.stamps[0] == pytest.approx(209.4)
+    odometry_steps, true_steps, walk = calibrate.odometry_rows(bag, 0.2, 1.0)
+    # Grid points at 0, 0.2, ..., 209.2 s (the end, 209.4 s, excluded): 1,046 increments.
+    assert len(odometry_steps) == len(true_steps) == len(walk) == 1046
+
+
 def test_detection_probability_clutter_and_a_narrow_sensor():
     bag = simulate(SimConfig(scenario="clutter", seed=3, world_seed=3, max_range=20.0))
     # Keep only what a +-0.8 rad sensor sees.

@@ -324,6 +324,7 @@ def odometry_rows(bag, step: float, max_gap: float) -> tuple[np.ndarray, np.ndar
     start = max(odometry.stamps[0], truth.stamps[0])
     end = min(odometry.stamps[-1], truth.stamps[-1])
     grid = np.arange(start, end, step)
+    grid = grid[grid <= end]  # at epoch stamps the last point can round past the end
     if len(grid) < 3:
         raise CalibrationError(f"odometry and ground truth overlap for less than 3 increments "
                                f"of {step} s")
