@@ -501,6 +501,26 @@ def test_two_tracks_on_one_person_are_published_as_one_that_keeps_its_id():
     assert tracker.published_people().keys.tolist() == published
 
 
+def test_of_two_tracks_on_one_person_the_continuing_one_is_published():
+    """Fault injection: the key of a person published before (and now removed elsewhere)
+    turns up on a second track 0.3 m from a continuously published person. The continuing
+    track is published under its id; the older id on the new track is not."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 7.5)], 5)
+    (older,) = tracker.published_people().keys.tolist()
+    t = run(tracker, grid, pose, [(6.0, 7.5), (6.0, 5.0)], 5, t)
+    people = tracker.published_people()
+    (continuing,) = people.keys[people.keys != older].tolist()
+    other = np.flatnonzero(tracker.alive[0] & (tracker.keys[0] != older))[0]
+    moved = np.flatnonzero(tracker.keys[0] == older)[0]
+    tracker.people[:, moved] = tracker.people[:, other] + (0.0, 0.3)   # the older key's track
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 1, t)
+    assert older in tracker.people_of().keys.tolist()             # tracked, 0.3 m off
+    assert tracker.published_people().keys.tolist() == [continuing]
+
+
 def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_published():
     """Hidden behind a wall, a person's Brownian cloud grows: published while its position
     standard deviation is below publish_spread, kept (not published) beyond it, and published

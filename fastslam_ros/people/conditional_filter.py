@@ -37,7 +37,7 @@ particles' position standard deviation is at most ``publish_spread``: a person u
 while is still tracked, but where it is has become too uncertain to report. A person within
 PUBLISHED_GATE of one published at the previous reading keeps that one's published id,
 whatever key the (new) best particle gives it, and of two people within PUBLISHED_GATE of
-each other only the one published longer is reported.
+each other only one is reported (the one continuing, else the one published longer).
 
 Without an initial pose the robot particles start uniform over the free space
 (``global_particles`` of them) and are reduced to ``num_particles`` once their spread is below
@@ -96,9 +96,9 @@ of its robot particle (tentative or confirmed, already detected in this scan or 
 part of that person (a person cut into several segments) or of a pair seen as one."""
 PUBLISHED_GATE = 0.4
 """Two people to publish within this distance (m) of each other are one person (two tracks on
-it: the one published longer is reported), and a person within it of one published at the
-previous reading is that person (keeps its id). Below the 0.6 m two people's centres keep
-apart, as the tracks of a close pair may come nearer each other than their people."""
+it: one is reported), and a person within it of one published at the previous reading is
+that person (keeps its id). Below the 0.6 m two people's centres keep apart, as the tracks of
+a close pair may come nearer each other than their people."""
 
 
 @dataclass
@@ -634,19 +634,21 @@ class PeopleTracker:
         (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
         stale track would be a false positive, and catch whoever walks by. The ids are the
         published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
-        other only the one whose id was published first is reported (two tracks on one
-        person). Computed once per reading."""
+        other (two tracks on one person) only one is reported: the one that continues a
+        person published at the previous reading, else the one whose id was published first.
+        Computed once per reading."""
         if self._published is not None and self._published[0] == self._updates:
             return self._published[1]
         people = self.people_of()
         keep = np.flatnonzero(np.trace(people.covariances, axis1=1, axis2=2)
                               <= 2.0 * self.settings.publish_spread ** 2)
-        ids = self._published_ids(people.keys[keep], people.means[keep])
+        ids, kept = self._published_ids(people.keys[keep], people.means[keep])
         now = self.last_stamp if self.last_stamp is not None else 0.0
         for i in ids.tolist():
             self._first_published.setdefault(i, now)
+        first = np.array([self._first_published[i] for i in ids.tolist()])
         shown: list[int] = []
-        for i in np.argsort([self._first_published[i] for i in ids.tolist()], kind="stable"):
+        for i in np.lexsort((first, ~kept)):
             if all(np.linalg.norm(people.means[keep[i]] - people.means[keep[j]])
                    >= PUBLISHED_GATE for j in shown):
                 shown.append(int(i))
@@ -658,13 +660,15 @@ class PeopleTracker:
         self._published = (self._updates, estimate)
         return estimate
 
-    def _published_ids(self, keys: np.ndarray, means: np.ndarray) -> np.ndarray:
+    def _published_ids(self, keys: np.ndarray, means: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """Published ids of the people ``keys`` at ``means`` (K, 2): paired by least total
         distance with the people published at the previous reading, a person within
         PUBLISHED_GATE of one keeps its id, whatever key its robot particle gives it (the best
         particle changed, or the person was lost and created again in place); an unpaired
         one takes its key's last published id (a fresh one if that is taken), else its key.
-        The key then publishes that id until continuity hands it another."""
+        The key then publishes that id until continuity hands it another. Returns the ids
+        (K,) and whether each continues a person of the previous reading (K,)."""
         ids = np.array([self._id_of_key.get(k, k) for k in keys.tolist()], dtype=np.int64)
         previous_ids, previous_means = self._last_published
         kept = np.zeros(len(keys), dtype=bool)
@@ -681,7 +685,7 @@ class PeopleTracker:
                 self.next_key += 1
             used.add(int(ids[i]))
         self._id_of_key.update(zip(keys.tolist(), ids.tolist()))
-        return ids
+        return ids, kept
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
