@@ -450,6 +450,77 @@ def test_ids_are_voted_across_robot_particles():
     assert 11 in tracker.people_of(2).keys.tolist()
 
 
+def test_a_published_person_keeps_its_id_when_its_key_changes():
+    """Fault injection: every robot particle's key of a tracked person is replaced (as when a
+    particle with another key becomes the best). Published without a break, the person keeps
+    its published id; a person walking in elsewhere gets an id of its own."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 5)
+    published = tracker.published_people().keys.tolist()
+    assert len(published) == 1
+    tracker.keys[tracker.alive] = tracker.next_key
+    tracker.next_key += 1
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 3, t)
+    assert tracker.people_of().keys.tolist() != published      # the key changed
+    assert tracker.published_people().keys.tolist() == published
+    run(tracker, grid, pose, [(6.0, 5.0), (6.0, 8.0)], 5, t)
+    people = tracker.published_people()
+    assert len(people.keys) == 2 and len(set(people.keys.tolist())) == 2
+    assert people.keys[np.argmin(np.linalg.norm(people.means - (6.0, 5.0), axis=1))] \
+        == published[0]
+
+
+def test_two_tracks_on_one_person_are_published_as_one_that_keeps_its_id():
+    """Fault injection: a second confirmed track 0.3 m from a published person (within
+    DUPLICATE_GATE) in every robot particle. One person is published, under the id published
+    first; when that track is then removed, the other one carries on under the same id."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 5)
+    published = tracker.published_people().keys.tolist()
+    assert len(published) == 1
+    first = np.argmax(tracker.alive[0])
+    slot = first + 1
+    tracker.alive[:, slot] = tracker.confirmed[:, slot] = True
+    tracker.logodds[:, slot] = 3.0
+    tracker.keys[:, slot] = tracker.next_key
+    tracker.next_key += 1
+    tracker.people[:, slot] = tracker.people[:, first] + (0.0, 0.3)
+    tracker.last_seen[:, slot] = t
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 1, t)
+    assert len(tracker.people_of().keys) == 2                   # two tracks
+    assert tracker.published_people().keys.tolist() == published
+    tracker.alive[:, first] = False
+    tracker.keys[:, first] = -1
+    tracker.confirmed[:, first] = False
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 1, t)
+    assert len(tracker.people_of().keys) == 1
+    assert tracker.published_people().keys.tolist() == published
+
+
+def test_of_two_tracks_on_one_person_the_continuing_one_is_published():
+    """Fault injection: the key of a person published before (and now removed elsewhere)
+    turns up on a second track 0.3 m from a continuously published person. The continuing
+    track is published under its id; the older id on the new track is not."""
+    grid = room()
+    pose = np.array([2.0, 5.0, 0.0])
+    tracker = tracker_at(grid, pose)
+    t = run(tracker, grid, pose, [(6.0, 7.5)], 5)
+    (older,) = tracker.published_people().keys.tolist()
+    t = run(tracker, grid, pose, [(6.0, 7.5), (6.0, 5.0)], 5, t)
+    people = tracker.published_people()
+    (continuing,) = people.keys[people.keys != older].tolist()
+    other = np.flatnonzero(tracker.alive[0] & (tracker.keys[0] != older))[0]
+    moved = np.flatnonzero(tracker.keys[0] == older)[0]
+    tracker.people[:, moved] = tracker.people[:, other] + (0.0, 0.3)   # the older key's track
+    t = run(tracker, grid, pose, [(6.0, 5.0)], 1, t)
+    assert older in tracker.people_of().keys.tolist()             # tracked, 0.3 m off
+    assert tracker.published_people().keys.tolist() == [continuing]
+
+
 def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_published():
     """Hidden behind a wall, a person's Brownian cloud grows: published while its position
     standard deviation is below publish_spread, kept (not published) beyond it, and published

@@ -34,7 +34,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
 
 Published (``published_people``) are the best robot particle's confirmed people whose
 particles' position standard deviation is at most ``publish_spread``: a person unseen for a
-while is still tracked, but where it is has become too uncertain to report.
+while is still tracked, but where it is has become too uncertain to report. A person within
+PUBLISHED_GATE of one published at the previous reading keeps that one's published id,
+whatever key the (new) best particle gives it, and of two people within PUBLISHED_GATE of
+each other only one is reported (the one continuing, else the one published longer).
 
 Without an initial pose the robot particles start uniform over the free space
 (``global_particles`` of them) and are reduced to ``num_particles`` once their spread is below
@@ -46,6 +49,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.existence import (existence_probability, in_perceptual_range, removed,
                                          update_logodds)
@@ -90,6 +94,11 @@ DUPLICATE_GATE = 0.5
 """A detection no person explains starts no new person within this distance (m) of a person
 of its robot particle (tentative or confirmed, already detected in this scan or not): it is
 part of that person (a person cut into several segments) or of a pair seen as one."""
+PUBLISHED_GATE = 0.4
+"""Two people to publish within this distance (m) of each other are one person (two tracks on
+it: one is reported), and a person within it of one published at the previous reading is
+that person (keeps its id). Below the 0.6 m two people's centres keep apart, as the tracks of
+a close pair may come nearer each other than their people."""
 
 
 @dataclass
@@ -144,6 +153,11 @@ class PeopleTracker:
         self.grid: OccupancyMap | None = None
         self.globally_localizing = True
         self.next_key = 0
+        self._updates = 0
+        self._published: tuple[int, PeopleEstimate] | None = None
+        self._id_of_key: dict[int, int] = {}
+        self._first_published: dict[int, float] = {}
+        self._last_published = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self.last_stamp: float | None = None
         self._allocate(np.zeros((0, 3)))
         if grid is not None:
@@ -202,6 +216,8 @@ class PeopleTracker:
                                                  s.num_particles, self.rng))
             self.globally_localizing = False
         self.last_stamp = None
+        self._published = None
+        self._last_published = (np.zeros(0, np.int64), np.zeros((0, 2)))
 
     # --- prediction ---------------------------------------------------------------------------
 
@@ -262,6 +278,8 @@ class PeopleTracker:
             removed=int(removed_count[best_before]), effective_sample_size=0.0,
             resampled=False, converged=not self.globally_localizing)
         self._finish(report)
+        self._updates += 1
+        self.published_people()  # every reading: the ids' continuity is reading to reading
         return report
 
     def _localize_globally(self, scan: Scan, returns: np.ndarray, max_range: float
@@ -614,12 +632,60 @@ class PeopleTracker:
         """The people to publish: the best robot particle's confirmed people but those whose
         particles' position standard deviation exceeds ``publish_spread``. Unseen for a while
         (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
-        stale track would be a false positive, and catch whoever walks by."""
+        stale track would be a false positive, and catch whoever walks by. The ids are the
+        published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
+        other (two tracks on one person) only one is reported: the one that continues a
+        person published at the previous reading, else the one whose id was published first.
+        Computed once per reading."""
+        if self._published is not None and self._published[0] == self._updates:
+            return self._published[1]
         people = self.people_of()
-        keep = (np.trace(people.covariances, axis1=1, axis2=2)
-                <= 2.0 * self.settings.publish_spread ** 2)
-        return PeopleEstimate(people.keys[keep], people.means[keep], people.covariances[keep],
-                              people.existence[keep])
+        keep = np.flatnonzero(np.trace(people.covariances, axis1=1, axis2=2)
+                              <= 2.0 * self.settings.publish_spread ** 2)
+        ids, kept = self._published_ids(people.keys[keep], people.means[keep])
+        now = self.last_stamp if self.last_stamp is not None else 0.0
+        for i in ids.tolist():
+            self._first_published.setdefault(i, now)
+        first = np.array([self._first_published[i] for i in ids.tolist()])
+        shown: list[int] = []
+        for i in np.lexsort((first, ~kept)):
+            if all(np.linalg.norm(people.means[keep[i]] - people.means[keep[j]])
+                   >= PUBLISHED_GATE for j in shown):
+                shown.append(int(i))
+        shown.sort(key=lambda i: ids[i])
+        rows = keep[shown]
+        self._last_published = (ids[shown], people.means[rows])
+        estimate = PeopleEstimate(ids[shown], people.means[rows], people.covariances[rows],
+                                  people.existence[rows])
+        self._published = (self._updates, estimate)
+        return estimate
+
+    def _published_ids(self, keys: np.ndarray, means: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """Published ids of the people ``keys`` at ``means`` (K, 2): paired by least total
+        distance with the people published at the previous reading, a person within
+        PUBLISHED_GATE of one keeps its id, whatever key its robot particle gives it (the best
+        particle changed, or the person was lost and created again in place); an unpaired
+        one takes its key's last published id (a fresh one if that is taken), else its key.
+        The key then publishes that id until continuity hands it another. Returns the ids
+        (K,) and whether each continues a person of the previous reading (K,)."""
+        ids = np.array([self._id_of_key.get(k, k) for k in keys.tolist()], dtype=np.int64)
+        previous_ids, previous_means = self._last_published
+        kept = np.zeros(len(keys), dtype=bool)
+        if len(keys) and len(previous_ids):
+            apart = np.linalg.norm(means[:, None] - previous_means[None], axis=2)
+            rows, cols = linear_sum_assignment(np.where(apart < PUBLISHED_GATE, apart, 1e6))
+            near = apart[rows, cols] < PUBLISHED_GATE
+            kept[rows[near]] = True
+            ids[rows[near]] = previous_ids[cols[near]]
+        used = set(ids[kept].tolist())
+        for i in np.flatnonzero(~kept):  # an id continuity gave another: a fresh one
+            if ids[i] in used:
+                ids[i] = self.next_key
+                self.next_key += 1
+            used.add(int(ids[i]))
+        self._id_of_key.update(zip(keys.tolist(), ids.tolist()))
+        return ids, kept
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
