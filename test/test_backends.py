@@ -35,13 +35,9 @@ def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association
                                                    ("fastslam2", "ml")])
 def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association,
                                                           monkeypatch):
-    """The reading split into chunks of particles on two threads (what M >= 500 runs) gives
-    the numpy reference's results too."""
-    import numba
-
+    """The reading split into chunks of particles on two threads (what M >= 500 runs with
+    two cores) gives the numpy reference's results too."""
     from fastslam_ros.core import kernels
-    if numba.config.NUMBA_NUM_THREADS < 2:
-        pytest.skip("one numba thread (NUMBA_NUM_THREADS): the parallel kernel never runs")
     monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: 2)
     assert_same_run(algorithm, association)
 

@@ -12,8 +12,11 @@ draws (drawn by the caller from its ``numpy.random.Generator`` in the numpy path
 
 Each stage is a loop over particles. Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the
 reading runs on the calling thread; from there on its two per-particle phases run as one chunk
-of particles per thread (``prange``): a parallel loop costs a thread hand-off (tens of
-microseconds on a busy machine), which only pays off at large M.
+of particles per thread: the calling thread takes the first chunk and a pool of Python threads
+the others, each in the same compiled serial code (the kernels release the GIL). A hand-off
+costs tens of microseconds on a busy machine, which only pays off at large M. (numba's own
+``prange`` compiled the chunks' code for generic array layouts, about 25 % slower per
+particle, and gained little from the second core.)
 
 numba is optional (``pip install fastslam_ros[fast]``); importing this module without it raises
 ImportError, and the filter then runs on numpy. ``warm_up`` compiles the kernels (or loads them
@@ -24,13 +27,13 @@ this file when its folder is writable and in numba's user cache folder otherwise
 from __future__ import annotations
 
 import math
-import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
 import numba
-from numba import njit, prange
+from numba import njit
 
 from .landmark_store import LandmarkStore, WorkingSet
 
@@ -42,13 +45,7 @@ LOG2 = math.log(2.0)
 MODE_CODES = {"known": 0, "ml": 1, "monte_carlo": 2, "two_gate": 3}
 NEW, IGNORE = -1, -2
 
-if "NUMBA_THREADING_LAYER" not in os.environ:
-    # Threads that sleep while they wait: OpenMP's spinning threads stall every reading when
-    # the other cores are busy (measured 5x slower at M = 1,000 on a shared 2-core machine).
-    numba.config.THREADING_LAYER = "workqueue"
-
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
-_PARALLEL = dict(_JIT, parallel=True)
 
 # Cofactor C_ij = a[p] a[q] - a[r] a[s] of a row-major 3x3 matrix (as in ``proposal``).
 _COF_P = np.array([4, 5, 3, 2, 0, 1, 1, 2, 0])
@@ -808,26 +805,48 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
                        new_keys)
 
 
-@njit(**_PARALLEL)
-def _reading_parallel(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
+def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, chunks):
     """``_reading_serial`` with the two per-particle phases split into ``chunks`` chunks of
-    particles run in parallel."""
+    particles: the first on the calling thread, the others on the pool (``_chunk_pool``).
+    Chunks write disjoint particles, so the results are those of the serial reading."""
     num_particles = poses.shape[0]
     noise_r, choice, factor, poses_out, weights_out = _reading_buffers(ranges, num_particles, fp)
-    for c in prange(chunks):
-        _observe_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
-                       ident, valid, existing, mean, cov, poses, ranges, bearings, labels,
-                       noise_r, draws, normals, log_weights, fp, ip, choice, factor,
-                       poses_out, weights_out)
+    bounds = [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
+              for c in range(chunks)]
+    _run_chunks(_observe_chunk, bounds, (
+        state, ident, valid, existing, mean, cov, poses, ranges, bearings, labels, noise_r,
+        draws, normals, log_weights, fp, ip, choice, factor, poses_out, weights_out))
     creating, column, keys, taken, new_keys, finite = _columns(choice, labels, existing, ip)
     if ip[I_LOCALIZATION] == 0:
-        for c in prange(chunks):
-            _map_chunk(c * num_particles // chunks, (c + 1) * num_particles // chunks, state,
-                       ident, valid, dirty, is_new, existing, choice, creating, column, keys,
-                       poses_out, ranges, bearings, labels, noise_r, fp, finite)
+        _run_chunks(_map_chunk, bounds, (
+            state, ident, valid, dirty, is_new, existing, choice, creating, column, keys,
+            poses_out, ranges, bearings, labels, noise_r, fp, finite))
     return _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken,
                        new_keys)
+
+
+_pool: ThreadPoolExecutor | None = None
+
+
+def _chunk_pool() -> ThreadPoolExecutor:
+    """The worker threads of ``_reading_threaded`` (made on first use, as many as the
+    threads beyond the calling one)."""
+    global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(max_workers=max(1, _max_threads - 1),
+                                   thread_name_prefix="fastslam_kernel")
+    return _pool
+
+
+def _run_chunks(kernel, bounds, args) -> None:
+    """``kernel(lo, hi, *args)`` for every (lo, hi) of ``bounds``: the first on this thread,
+    the others on the pool; returns when all are done (a worker's exception is raised
+    here)."""
+    pending = [_chunk_pool().submit(kernel, lo, hi, *args) for lo, hi in bounds[1:]]
+    kernel(bounds[0][0], bounds[0][1], *args)
+    for future in pending:
+        future.result()
 
 
 @njit(**_JIT)
@@ -942,9 +961,7 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     threads = _threads_for(poses.shape[0])
     if threads == 1:
         return _reading_serial(*args)
-    if numba.get_num_threads() != threads:
-        numba.set_num_threads(threads)
-    return _reading_parallel(*args, threads)
+    return _reading_threaded(*args, threads)
 
 
 # ---------------------------------------------------------------------------- motion
@@ -1422,12 +1439,6 @@ def warm_up() -> float:
             update_reading(ws, poses, pose_cov, poses, ranges, bearings, labels,
                            np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0,
                            0, pose_cov is not None)
-            if _max_threads > 1:
-                args = (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot,
-                        poses, cov if pose_cov is not None else _NO_COV, poses, ranges,
-                        bearings, labels, np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m),
-                        *settings)
-                _reading_parallel(*args, 2)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
@@ -1463,7 +1474,11 @@ def _threads_for(num_particles: int) -> int:
 
 
 def set_threads(count: int) -> None:
-    """At most ``count`` threads in the parallel kernels (<= ``NUMBA_NUM_THREADS``, which
-    defaults to the machine's cores)."""
-    global _max_threads
-    _max_threads = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
+    """At most ``count`` threads for a reading (<= ``NUMBA_NUM_THREADS``, which defaults to
+    the machine's cores)."""
+    global _max_threads, _pool
+    count = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
+    if count != _max_threads and _pool is not None:
+        _pool.shutdown()
+        _pool = None
+    _max_threads = count
