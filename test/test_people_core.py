@@ -450,16 +450,23 @@ def test_ids_are_voted_across_robot_particles():
     assert 11 in tracker.people_of(2).keys.tolist()
 
 
-def test_a_published_person_keeps_its_id_when_its_key_changes():
-    """Fault injection: every robot particle's key of a tracked person is replaced (as when a
-    particle with another key becomes the best). Published without a break, the person keeps
-    its published id; a person walking in elsewhere gets an id of its own."""
+def one_published_person():
+    """A tracker that has published one person at (6, 5) for 5 scans from (2, 5): (grid,
+    pose, tracker, time, published ids)."""
     grid = room()
     pose = np.array([2.0, 5.0, 0.0])
     tracker = tracker_at(grid, pose)
     t = run(tracker, grid, pose, [(6.0, 5.0)], 5)
     published = tracker.published_people().keys.tolist()
     assert len(published) == 1
+    return grid, pose, tracker, t, published
+
+
+def test_a_published_person_keeps_its_id_when_its_key_changes():
+    """Fault injection: every robot particle's key of a tracked person is replaced (as when a
+    particle with another key becomes the best). Published without a break, the person keeps
+    its published id; a person walking in elsewhere gets an id of its own."""
+    grid, pose, tracker, t, published = one_published_person()
     tracker.keys[tracker.alive] = tracker.next_key
     tracker.next_key += 1
     t = run(tracker, grid, pose, [(6.0, 5.0)], 3, t)
@@ -476,12 +483,7 @@ def test_two_tracks_on_one_person_are_published_as_one_that_keeps_its_id():
     """Fault injection: a second confirmed track 0.3 m from a published person (within
     DUPLICATE_GATE) in every robot particle. One person is published, under the id published
     first; when that track is then removed, the other one carries on under the same id."""
-    grid = room()
-    pose = np.array([2.0, 5.0, 0.0])
-    tracker = tracker_at(grid, pose)
-    t = run(tracker, grid, pose, [(6.0, 5.0)], 5)
-    published = tracker.published_people().keys.tolist()
-    assert len(published) == 1
+    grid, pose, tracker, t, published = one_published_person()
     first = np.argmax(tracker.alive[0])
     slot = first + 1
     tracker.alive[:, slot] = tracker.confirmed[:, slot] = True
