@@ -320,3 +320,39 @@ def test_compiled_backend_runs_with_an_unwritable_cache_folder():
     subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
                    env={**os.environ, "PYTHONPATH": str(REPO_ROOT),
                         "NUMBA_CACHE_DIR": "/proc/self/unwritable-numba-cache"})
+
+
+@needs_numba
+@pytest.mark.parametrize("particles", [50, 600])
+def test_no_kernel_compiles_on_a_reading_after_warm_up(particles):
+    """Compilation never lands on a message: in a fresh interpreter, after ``warm_up``, a run
+    of every association rule (on the calling thread, and split over two threads from
+    PARALLEL_MIN_PARTICLES on) adds no compiled signature to any kernel."""
+    script = (
+        "from numba.core.registry import CPUDispatcher\n"
+        "from fastslam_ros.core import FastSLAM, FastSLAMConfig, kernels\n"
+        "from fastslam_ros.tools.synthetic import make_world\n"
+        "kernels.warm_up()\n"
+        "kernels._threads_for = lambda m: 1 if m < kernels.PARALLEL_MIN_PARTICLES else 2\n"
+        "def compiled():\n"
+        "    return {name: len(value.signatures) for name, value in vars(kernels).items()\n"
+        "            if isinstance(value, CPUDispatcher)}\n"
+        "before = compiled()\n"
+        "world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=15, max_range=9.0)\n"
+        "for association in ('known', 'ml', 'monte_carlo', 'two_gate'):\n"
+        "    for algorithm in ('fastslam1', 'fastslam2'):\n"
+        f"        slam = FastSLAM(FastSLAMConfig(num_particles={particles}, algorithm=algorithm,\n"
+        "                        association=association, max_range=9.0, seed=1,\n"
+        "                        backend='numba', resample_threshold=1.0),\n"
+        "                        initial_pose=world.steps[0].truth)\n"
+        "        previous = world.steps[0].odometry\n"
+        "        for step in world.steps[1:]:\n"
+        "            slam.predict(previous, step.odometry)\n"
+        "            previous = step.odometry\n"
+        "            slam.update(step.ranges, step.bearings, step.ids)\n"
+        "after = compiled()\n"
+        "grown = {name: (before[name], count) for name, count in after.items()\n"
+        "         if count != before.get(name)}\n"
+        "assert not grown, grown\n")
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
+                   env={**os.environ, "PYTHONPATH": str(REPO_ROOT)})

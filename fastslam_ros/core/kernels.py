@@ -945,6 +945,18 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
     underflow, the reported particle, working-set columns taken, keys taken, all finite).
     """
+    args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
+                         log_weights, settings, reach, first_key, propose)
+    threads = _threads_for(poses.shape[0])
+    if threads == 1:
+        return _reading_serial(*args)
+    return _reading_threaded(*args, threads)
+
+
+def _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
+                  settings: ReadingSettings, reach: float, first_key: int, propose: bool):
+    """The arguments of ``_reading_serial`` / ``_reading_threaded`` (the reading's entries
+    of the settings filled in)."""
     fp, ip = settings
     has_cov = cov is not None
     fp[F_REACH] = reach
@@ -954,14 +966,10 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     # FastSLAM 2.0 weighs the associated observations by the proposal's joint likelihood,
     # and without an outlier test nothing needs the likelihood of a known id's landmark.
     ip[I_SCORE_KNOWN] = not (has_cov and fp[F_EPS] == 0.0)
-    args = (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot, mean,
+    return (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot, mean,
             cov if has_cov else _NO_COV, poses, np.ascontiguousarray(ranges),
             np.ascontiguousarray(bearings), np.ascontiguousarray(labels), draws, normals,
             log_weights, fp, ip)
-    threads = _threads_for(poses.shape[0])
-    if threads == 1:
-        return _reading_serial(*args)
-    return _reading_threaded(*args, threads)
 
 
 # ---------------------------------------------------------------------------- motion
@@ -1439,6 +1447,11 @@ def warm_up() -> float:
             update_reading(ws, poses, pose_cov, poses, ranges, bearings, labels,
                            np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0,
                            0, pose_cov is not None)
+            # The chunk kernels of a reading split over threads (M >= PARALLEL_MIN_PARTICLES),
+            # which Python calls one by one.
+            _reading_threaded(*_reading_args(
+                ws, poses, pose_cov, poses, ranges, bearings, labels, np.full(2 * m, 0.5),
+                np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0, pose_cov is not None), 2)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)

@@ -167,7 +167,8 @@ class ResampledTable:
             self.data = self.data[self.lineage()[0]]
         else:
             ancestors = self.lineage()[self.epoch]                         # (C, M)
-            self.data = np.take_along_axis(self.data, ancestors.T, axis=0)
+            # C order, as every other table: the compiled kernels are compiled for one layout.
+            self.data = np.ascontiguousarray(np.take_along_axis(self.data, ancestors.T, axis=0))
         self.epoch[:] = 0
         self._steps = []
         self._lineage = None
