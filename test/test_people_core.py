@@ -537,3 +537,15 @@ def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_publishe
     assert tracker.published_people().keys.tolist() == []     # not published
     run(tracker, grid, pose, [(6.0, 1.5)], 3, t)              # back in view
     assert tracker.published_people().keys.tolist() == key
+
+
+def test_the_published_id_tables_forget_people_no_robot_particle_can_bring_back():
+    """A whole shift of people coming and going: the key -> id and first-published tables
+    hold only people some robot particle tracks or may re-identify."""
+    grid, pose, tracker, t, published = one_published_person()
+    assert list(tracker._id_of_key.values()) == published
+    tracker.alive[:] = False                                    # gone everywhere, unrecoverable
+    tracker.keys[:] = -1
+    tracker.lost_keys[:] = -1
+    run(tracker, grid, pose, [], 1, t)
+    assert tracker._id_of_key == {} and tracker._first_published == {}

@@ -685,6 +685,13 @@ class PeopleTracker:
                 self.next_key += 1
             used.add(int(ids[i]))
         self._id_of_key.update(zip(keys.tolist(), ids.tolist()))
+        # Only a key some robot particle tracks or may re-identify (its lost people) can be
+        # published again: the tables keep those, not every person of a whole shift.
+        live = set(self.keys[self.alive].tolist()) | set(self.lost_keys[self.lost_keys >= 0]
+                                                          .tolist())
+        self._id_of_key = {k: i for k, i in self._id_of_key.items() if k in live}
+        in_use = set(self._id_of_key.values())
+        self._first_published = {i: s for i, s in self._first_published.items() if i in in_use}
         return ids, kept
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
