@@ -125,11 +125,12 @@ def test_find_pose_recovers_the_pose_from_one_reading_among_clutter():
 
 
 def kidnapped_errors(config: FastSLAMConfig, offset=(4.0, -3.0, 0.6),
-                     sigmas=(0.01, 0.01, 0.001)) -> tuple[np.ndarray, int]:
+                     sigmas=(0.01, 0.01, 0.001), given: bool = False) -> tuple[np.ndarray, int]:
     """Localize on the true map; after 40 readings (0.2 s apart) the particles are redrawn
     around a pose ``offset`` (m, m, rad) off (standard deviations ``sigmas``; by default the
-    filter is made certain of a pose 5 m and 0.6 rad off); the best particle's position
-    errors after that and the number of relocalizations."""
+    filter is made certain of a pose 5 m and 0.6 rad off): by the filter itself (a loss), or
+    with ``given`` as a user's ``initialize_pose``; the best particle's position errors after
+    that and the number of relocalizations."""
     scene = world()
     slam = FastSLAM(config.replace(mode="localization"), initial_pose=scene.steps[0].truth)
     slam.seed_map(*truth_map(scene.landmarks))
@@ -138,7 +139,12 @@ def kidnapped_errors(config: FastSLAMConfig, offset=(4.0, -3.0, 0.6),
         slam.predict(previous, step.odometry)
         previous = step.odometry
         if index == 40:
-            slam.initialize_pose(step.truth + offset, np.diag(np.square(sigmas)))
+            mean, covariance = step.truth + offset, np.diag(np.square(sigmas))
+            if given:
+                slam.initialize_pose(mean, covariance)
+            else:
+                slam.poses = mean + np.asarray(sigmas) * slam.rng.standard_normal(
+                    (slam.num_particles, 3))
         slam.update(step.ranges, step.bearings, stamp=0.2 * index)
         if index > 40:
             errors.append(np.hypot(*(slam.best_pose()[:2] - step.truth[:2])))
@@ -193,10 +199,14 @@ def test_a_loss_that_drifts_away_from_the_found_pose_is_not_waited_out():
     assert errors[-40:].max() < 0.3
 
 
+LOSS = ((3.0, 0.0, 0.1), (0.5, 0.5, 0.05))
+"""A loss that keeps its distance to the pose the readings give: offset and spread (m, m, rad)."""
+
+
 def test_a_loss_that_keeps_its_distance_to_the_found_pose_is_waited_out(monkeypatch):
-    """2 m off along the heading, with a spread that does not reach the truth: lost and
-    searching, but the found pose stays within a gate of the closest one, so nothing is
-    redrawn before the delay; without the delay the same loss is ended."""
+    """The filter's own loss, 3 m off along the heading, with a spread that does not reach
+    the truth: lost and searching, but the found pose stays within a gate of the closest one,
+    so nothing is redrawn before the delay; without the delay the same loss is ended."""
     from fastslam_ros.core import fastslam
     searches = []
 
@@ -204,11 +214,22 @@ def test_a_loss_that_keeps_its_distance_to_the_found_pose_is_waited_out(monkeypa
         searches.append(args)
         return find_pose(*args)
     monkeypatch.setattr(fastslam, "find_pose", counted)
-    offset, sigmas = (2.0, 0.0, 0.1), (1.0, 1.0, 0.1)
+    offset, sigmas = LOSS
     _, waited = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0), offset, sigmas)
     assert waited == 0 and len(searches) >= 5
     _, ended = kidnapped_errors(CONFIG.replace(relocalization_delay=0.0), offset, sigmas)
     assert ended >= 1
+
+
+def test_a_given_pose_off_the_map_is_corrected_at_the_first_search():
+    """The same loss as above, but from an initialpose: a pose the user guessed, not a filter
+    that may find the map by itself; the pose the reading gives is taken at once."""
+    config = CONFIG.replace(relocalization_delay=100.0)
+    errors, relocalizations = kidnapped_errors(config, *LOSS, given=True)
+    assert relocalizations == 1
+    assert errors[:3].max() < 0.5 and errors[-40:].max() < 0.3
+    waited, none = kidnapped_errors(config, *LOSS)
+    assert none == 0 and waited[:3].min() > 2.0
 
 
 def test_a_pose_search_that_finds_nothing_waits_before_the_next(monkeypatch):

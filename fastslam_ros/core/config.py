@@ -73,7 +73,8 @@ class FastSLAMConfig:
         15.0, "localization: seconds the best particle must have been lost (at most half of "
         "each reading's observations near a landmark) before the pose found from the readings "
         "is taken while it stays within relocalization_gate of the closest found in this loss; "
-        "shorter losses pass by themselves.", low=0.0, high=1e6)
+        "shorter losses pass by themselves. After an initialpose it is taken at once, until "
+        "the map is found.", low=0.0, high=1e6)
     alpha1: float = parameter(0.05, "Odometry noise: rotation from rotation (rad^2/rad^2).",
                               low=0.0, high=10.0)
     alpha2: float = parameter(0.001, "Odometry noise: rotation from translation (rad^2/m^2).",

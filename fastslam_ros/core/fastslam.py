@@ -162,6 +162,9 @@ class FastSLAM:
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self._best = 0
         self._lost_since: float | None = None
+        self._placed = False
+        """A pose was given (``initialize_pose``) and the map not found since: a pose found
+        from a reading is taken at once."""
         self._searched = -math.inf
         """Stamp of the latest pose search of the current loss."""
         self._closest = math.inf
@@ -222,6 +225,7 @@ class FastSLAM:
         self._pending = NO_MOTION
         self._has_pending = False
         self._lost_since = None
+        self._placed = True
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -392,7 +396,9 @@ class FastSLAM:
         ``MIN_RELOCALIZATION_INLIERS`` is taken once the loss has lasted
         ``relocalization_delay`` s, or earlier once it lies ``relocalization_gate`` farther
         from the best particle than the closest such pose of this loss (the filter is drifting
-        away from the map, not finding it by itself). Taking it redraws the
+        away from the map, not finding it by itself), or at once while the map has not been
+        found since an ``initialize_pose`` (a pose a user guessed, not a filter that may find
+        the map by itself). Taking it redraws the
         ``relocalization_fraction`` lightest particles (among equal weights, as after
         resampling, the first ones) around it (weights uniform, as after resampling)."""
         usable = (np.isfinite(ranges) & np.isfinite(bearings)
@@ -415,6 +421,7 @@ class FastSLAM:
         hits = int(explained(world_points(pose, points), near, gate).sum())
         if 2 * hits > count:
             self._lost_since = None
+            self._placed = False
             return
         if self._lost_since is None:
             self._lost_since, self._searched, self._closest = stamp, -math.inf, math.inf
@@ -429,7 +436,7 @@ class FastSLAM:
             return
         apart = float(np.hypot(*(found[:2] - pose[:2])))
         self._closest = min(self._closest, apart)
-        if (stamp - self._lost_since < self.config.relocalization_delay
+        if (not self._placed and stamp - self._lost_since < self.config.relocalization_delay
                 and apart < self._closest + gate):
             # Within the delay the filter may find the map by itself; once the pose the
             # readings give has drifted a gate farther from it than it was, it will not.
@@ -443,6 +450,7 @@ class FastSLAM:
         self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
         self._best = int(redrawn[0])
         self._lost_since = None
+        self._placed = False
         self.num_relocalizations += 1
 
     def _noise(self, ranges):
