@@ -622,12 +622,33 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
 
 # ---------------------------------------------------------------------------- the reading
 @njit(**_JIT)
-def _reading_chunk(lo, hi, state, ident, valid, dirty, existing, mean, cov, poses, ranges,
-                   bearings, labels, noise_r, draws, normals, log_weights, fp, ip, creator,
-                   choice, factor, poses_out, weights_out, fresh, finite):
-    """Particles [lo, hi), each in turn: association, outlier test, (FastSLAM 2.0) proposal and
-    draw, the new log weight (before normalisation), then its map (``_map_particle``, the new
-    landmarks left to ``_place_new``); ``finite[m]`` False for a non-finite update."""
+def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new):
+    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
+    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
+    row, slot and block arrays taking them."""
+    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
+        source
+    row, slot, block = moved
+    for j in range(valid.shape[1]):
+        row[m, j], slot[m, j], block[m, j] = (src_row[origin, j], src_slot[origin, j],
+                                              src_block[origin, j])
+        for i in range(state.shape[2]):
+            state[m, j, i] = src_state[origin, j, i]
+        ident[m, j, 0], ident[m, j, 1] = src_ident[origin, j, 0], src_ident[origin, j, 1]
+        valid[m, j], dirty[m, j] = src_valid[origin, j], src_dirty[origin, j]
+        is_new[m, j] = src_is_new[origin, j]
+
+
+@njit(**_JIT)
+def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, cov, poses,
+                   ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+                   resampled, source, moved, creator, choice, factor, poses_out, weights_out,
+                   fresh, finite):
+    """Particles [lo, hi), each in turn: its working-set entries taken from row ``resampled[m]``
+    of ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
+    association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
+    normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
+    ``finite[m]`` False for a non-finite update."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -648,7 +669,10 @@ def _reading_chunk(lo, hi, state, ident, valid, dirty, existing, mean, cov, pose
     scored = ip[I_MODE] != 0
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
+    ordered = resampled.shape[0] > 0
     for m in range(lo, hi):
+        if ordered:
+            _take_particle(m, resampled[m], source, moved, state, ident, valid, dirty, is_new)
         _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
                             labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
                             log_lik, mahalanobis, pick, value, order, cumulative, terms,
@@ -841,20 +865,22 @@ def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh
 
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip):
+                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _reading_chunk(0, num_particles, state, ident, valid, dirty, existing, mean, cov, poses,
-                   ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
-                   creator, choice, factor, poses_out, weights_out, fresh, finite)
+    _reading_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, mean, cov,
+                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+                   order, source, moved, creator, choice, factor, poses_out, weights_out, fresh,
+                   finite)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                      bearings, labels, draws, normals, log_weights, fp, ip, chunks):
+                      bearings, labels, draws, normals, log_weights, fp, ip, order, source,
+                      moved, chunks):
     """``_reading_serial`` with its per-particle work split into ``chunks`` chunks of
     particles: the first on the calling thread, the others on the pool (``_chunk_pool``), one
     hand-off per reading. Chunks write disjoint particles, so the results are those of the
@@ -865,9 +891,9 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
     bounds = [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
               for c in range(chunks)]
     _run_chunks(_reading_chunk, bounds, (
-        state, ident, valid, dirty, existing, mean, cov, poses, ranges, bearings, labels,
-        noise_r, draws, normals, log_weights, fp, ip, creator, choice, factor, poses_out,
-        weights_out, fresh, finite))
+        state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges, bearings,
+        labels, noise_r, draws, normals, log_weights, fp, ip, order, source, moved, creator,
+        choice, factor, poses_out, weights_out, fresh, finite))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -976,12 +1002,15 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
 
 
 _NO_COV = np.zeros((1, 3, 3))
+_NO_ORDER = np.zeros(0, np.int64)
 
 
 def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                    log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool):
-    """One reading for every particle, on the working set ``ws`` (updated in place).
+                   propose: bool, order: np.ndarray | None = None):
+    """One reading for every particle, on the working set ``ws`` (updated in place), or, with
+    ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
+    entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
 
     ``mean`` (M, 3) and ``cov`` (M, 3, 3) or None: the pose the observations are scored at and
     its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
@@ -989,14 +1018,29 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
     store's next landmark key. Returns (the reported particle's ``UpdateReport``
     associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
-    underflow, the reported particle, working-set columns taken, keys taken, all finite).
+    underflow, the reported particle, working-set columns taken, keys taken, all finite, the
+    working set read).
     """
+    return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
+                   settings, reach, first_key, propose, order, _threads_for(poses.shape[0]))
+
+
+def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
+            settings: ReadingSettings, reach: float, first_key: int, propose: bool, order,
+            threads: int):
+    """``update_reading`` on ``threads`` threads."""
+    source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
+    if order is None:
+        order = _NO_ORDER
+    else:
+        ws = WorkingSet(*(np.empty_like(array) for array in source[:3]), ws.columns[order],
+                        *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
-                         log_weights, settings, reach, first_key, propose)
-    threads = _threads_for(poses.shape[0])
+                         log_weights, settings, reach, first_key, propose) + (
+        order, source, (ws.row, ws.slot, ws.block))
     if threads == 1:
-        return _reading_serial(*args)
-    return _reading_threaded(*args, threads)
+        return _reading_serial(*args) + (ws,)
+    return _reading_threaded(*args, threads) + (ws,)
 
 
 def _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
@@ -1490,14 +1534,12 @@ def warm_up() -> float:
                             valid=np.array([[True, True, False, False, False]] * m),
                             dirty=np.zeros((m, width), bool),
                             is_new=np.zeros((m, width), bool), first_new_slot=2)
-            update_reading(ws, poses, pose_cov, poses, ranges, bearings, labels,
-                           np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0,
-                           0, pose_cov is not None)
-            # The chunk kernels of a reading split over threads (M >= PARALLEL_MIN_PARTICLES),
-            # which Python calls one by one.
-            _reading_threaded(*_reading_args(
-                ws, poses, pose_cov, poses, ranges, bearings, labels, np.full(2 * m, 0.5),
-                np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0, pose_cov is not None), 2)
+            # On the calling thread and split over threads (M >= PARALLEL_MIN_PARTICLES; its
+            # chunk kernel is called by Python), with and without a pending resampling.
+            for threads, order in ((1, None), (2, np.array([1, 0]))):
+                _update(ws, poses, pose_cov, poses, ranges, bearings, labels,
+                        np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0,
+                        pose_cov is not None, order, threads)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
