@@ -356,8 +356,10 @@ class FastSLAM:
         self._advance_motion()
         mean, cov = self._prior if self._prior is not None else (self.poses, None)
         reach = self._reach_of(farthest)
+        # Split over threads, the reading's chunks make a pending resampling's working-set copy
+        # as they go; on one thread the copy in one call is the cheaper.
         ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None,
-                                      lazy=True)
+                                      lazy=self.kernels.splits(count))
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
         propose = cov is not None and config.algorithm == "fastslam2"

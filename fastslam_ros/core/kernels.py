@@ -1574,6 +1574,11 @@ def _threads_for(num_particles: int) -> int:
     return 1 if num_particles < PARALLEL_MIN_PARTICLES else _max_threads
 
 
+def splits(num_particles: int) -> bool:
+    """A reading of this many particles runs on several threads."""
+    return _threads_for(num_particles) > 1
+
+
 def set_threads(count: int) -> None:
     """At most ``count`` threads for a reading (<= ``NUMBA_NUM_THREADS``, which defaults to
     the machine's cores)."""
