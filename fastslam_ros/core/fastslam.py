@@ -360,15 +360,20 @@ class FastSLAM:
         self._advance_motion()
         mean, cov = self._prior if self._prior is not None else (self.poses, None)
         reach = self._reach_of(farthest)
-        ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None)
+        # Split over threads, the reading's chunks make a pending resampling's working-set copy
+        # as they go; on one thread the copy in one call is the cheaper.
+        ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None,
+                                      lazy=self.kernels.splits(count))
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
         propose = cov is not None and config.algorithm == "fastslam2"
         normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
         (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
-         finite) = self.kernels.update_reading(
+         finite, ws) = self.kernels.update_reading(
             ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
-            self.log_weights, self._settings, reach, self.landmarks.next_key, propose)
+            self.log_weights, self._settings, reach, self.landmarks.next_key, propose,
+            self.working.pending)
+        self.working.took(ws)
         if propose:
             self._prior = None
         self.poses = poses
@@ -827,13 +832,13 @@ class FastSLAM:
     def particle_map(self, particle: int):
         """(mean (N,2), cov packed (N,3), logodds (N,), label (N,), key (N,)) of one particle's
         landmarks: the store's, with the working set's in place of the cells it holds."""
-        ws = self.working.current
+        ws, row = self.working.entries_of(particle)
         if ws is None:
             return self.landmarks.particle_map(particle)
-        stored = self.landmarks.particle_map(particle, skip_columns=ws.columns[particle])
-        live = ws.valid[particle]
-        working = (ws.mean[particle, live], ws.cov[particle, live], ws.logodds[particle, live],
-                   ws.label[particle, live], ws.key[particle, live])
+        stored = self.landmarks.particle_map(particle, skip_columns=ws.columns[row])
+        live = ws.valid[row]
+        working = (ws.mean[row, live], ws.cov[row, live], ws.logodds[row, live],
+                   ws.label[row, live], ws.key[row, live])
         return tuple(np.concatenate([a, b]) for a, b in zip(stored, working))
 
     def best_path(self) -> tuple[np.ndarray, np.ndarray]:

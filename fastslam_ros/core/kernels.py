@@ -10,10 +10,13 @@ normalisation, N_eff and the reported particle. The results are those of the num
 ``resampling``): the same discrete choices and floats equal to round-off, on the same random
 draws (drawn by the caller from its ``numpy.random.Generator`` in the numpy path's order).
 
-Each stage is a loop over particles. Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the
-reading runs on the calling thread; from there on its two per-particle phases run as one chunk
-of particles per thread: the calling thread takes the first chunk and a pool of Python threads
-the others, each in the same compiled serial code (the kernels release the GIL). A hand-off
+The per-particle work is one loop over particles (``_reading_chunk``: each particle's
+association, proposal, weight and map in turn), then a short serial pass (``_settle``: the
+columns and keys of the new landmarks, which need every particle's choices, the weight
+normalisation and the report). Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the reading
+runs on the calling thread; from there on the loop runs as one chunk of particles per thread:
+the calling thread takes the first chunk and a pool of Python threads the others, each in the
+same compiled serial code (the kernels release the GIL), one hand-off per reading. A hand-off
 costs tens of microseconds on a busy machine, which only pays off at large M. (numba's own
 ``prange`` compiled the chunks' code for generic array layouts, about 25 % slower per
 particle, and gained little from the second core.)
@@ -459,12 +462,56 @@ def _draw_pose(mx, my, mt, c00, c01, c02, c11, c12, c22, normals, m, out):
 
 # ---------------------------------------------------------------------------- map
 @njit(**_JIT)
-def _map_particle(m, state, ident, valid, dirty, is_new, existing, choice, creating, column,
-                  keys, poses, ranges, bearings, labels, noise_r, fp, observed):
-    """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m: its new landmarks,
-    the Joseph-form updates of its associated ones (observations in turn), then the log-odds
-    of the landmarks in the perceptual range it did not observe. False if an updated
-    landmark is not finite (``FastSLAM.check_state`` then repairs)."""
+def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r, noise_b,
+            logodds_observed, logodds_max):
+    """Joseph-form EKF update (``update_landmarks``) of particle m's landmark ``slot`` by
+    observation k, its log-odds raised; False if the result is not finite."""
+    mx, my = state[m, slot, 0], state[m, slot, 1]
+    sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
+    dx = mx - (px + lx)
+    dy = my - (py + ly)
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    r0, r1 = noise_r[k], noise_b
+    g00, g01 = dx / r, dy / r
+    g10, g11 = -dy / q, dx / q
+    a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
+    b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
+    s00 = g00 * a0 + g01 * a1 + r0
+    s01 = g10 * a0 + g11 * a1
+    s11 = g10 * b0 + g11 * b1 + r1
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
+    k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
+    nu0 = ranges[k] - r
+    nu1 = _wrap(bearings[k] + heading - math.atan2(dy, dx))
+    state[m, slot, 0] = mx + (k00 * nu0 + k01 * nu1)
+    state[m, slot, 1] = my + (k10 * nu0 + k11 * nu1)
+    a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
+    a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
+    m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
+    m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
+    state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
+    state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
+    state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
+    state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
+    finite = True
+    for i in range(6):
+        if not math.isfinite(state[m, slot, i]):
+            finite = False
+    return finite
+
+
+@njit(**_JIT)
+def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, ranges, bearings,
+                  noise_r, fp, observed, fresh):
+    """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m, but for placing
+    its new landmarks: the mean and packed covariance of each landmark it creates into
+    ``fresh[k, m]`` (``_place_new`` puts them in their columns, known once every particle
+    has chosen), the Joseph-form updates of its associated landmarks (observations in turn),
+    then the log-odds of the landmarks in the perceptual range it did not observe. False if an
+    updated landmark is not finite (``FastSLAM.check_state`` then repairs)."""
     count = choice.shape[0]
     ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
     logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
@@ -475,9 +522,8 @@ def _map_particle(m, state, ident, valid, dirty, is_new, existing, choice, creat
     for j in range(existing):
         observed[j] = False
     for k in range(count):
-        if not creating[k, m]:
+        if choice[k, m] != NEW or creator[k] != k:
             continue
-        slot = column[k]
         # Mean g^-1(z, s), covariance G_m^-1 R G_m^-T (``initialize_landmarks``).
         c, s = math.cos(pth), math.sin(pth)
         sensor_x = px + c * ox - s * oy
@@ -492,57 +538,20 @@ def _map_particle(m, state, ident, valid, dirty, is_new, existing, choice, creat
         inv00, inv01 = r * dx / q, -dy
         inv10, inv11 = r * dy / q, dx
         r0 = noise_r[k]
-        state[m, slot, 0], state[m, slot, 1] = mx, my
-        state[m, slot, 2] = inv00 * inv00 * r0 + inv01 * inv01 * noise_b
-        state[m, slot, 3] = inv00 * inv10 * r0 + inv01 * inv11 * noise_b
-        state[m, slot, 4] = inv10 * inv10 * r0 + inv11 * inv11 * noise_b
-        state[m, slot, 5] = logodds_observed
-        ident[m, slot, 0] = labels[k]
-        ident[m, slot, 1] = keys[k, m]
-        valid[m, slot] = True
-        is_new[m, slot] = True
-        choice[k, m] = slot
+        fresh[k, m, 0], fresh[k, m, 1] = mx, my
+        fresh[k, m, 2] = inv00 * inv00 * r0 + inv01 * inv01 * noise_b
+        fresh[k, m, 3] = inv00 * inv10 * r0 + inv01 * inv11 * noise_b
+        fresh[k, m, 4] = inv10 * inv10 * r0 + inv11 * inv11 * noise_b
     for k in range(count):
+        # Before ``_place_new`` every landmark chosen existed before this reading.
         slot = choice[k, m]
-        if slot < 0 or creating[k, m]:
+        if slot < 0:
             continue
-        # Joseph-form EKF update (``update_landmarks``), observations in turn.
-        mx, my = state[m, slot, 0], state[m, slot, 1]
-        sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
-        dx = mx - (px + lx)
-        dy = my - (py + ly)
-        q = dx * dx + dy * dy
-        r = math.sqrt(q)
-        r0, r1 = noise_r[k], noise_b
-        g00, g01 = dx / r, dy / r
-        g10, g11 = -dy / q, dx / q
-        a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
-        b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
-        s00 = g00 * a0 + g01 * a1 + r0
-        s01 = g10 * a0 + g11 * a1
-        s11 = g10 * b0 + g11 * b1 + r1
-        det = s00 * s11 - s01 * s01
-        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-        k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
-        k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
-        nu0 = ranges[k] - r
-        nu1 = _wrap(bearings[k] + heading - math.atan2(dy, dx))
-        state[m, slot, 0] = mx + (k00 * nu0 + k01 * nu1)
-        state[m, slot, 1] = my + (k10 * nu0 + k11 * nu1)
-        a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
-        a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
-        m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
-        m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
-        state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
-        state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
-        state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
-        state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
-        for i in range(6):
-            if not math.isfinite(state[m, slot, i]):
-                finite = False
+        if not _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r,
+                       noise_b, logodds_observed, logodds_max):
+            finite = False
         dirty[m, slot] = True
-        if slot < existing:
-            observed[slot] = True
+        observed[slot] = True
     logodds_missed = fp[F_LOGODDS_MISSED]
     if logodds_missed == 0.0:
         return finite
@@ -570,13 +579,76 @@ def _map_particle(m, state, ident, valid, dirty, is_new, existing, choice, creat
     return finite
 
 
+@njit(**_JIT)
+def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, creating, column,
+               keys, fresh, poses, ranges, bearings, labels, noise_r, fp, finite):
+    """The new landmarks into their columns (``fresh``, from ``_map_particle``), then, with
+    known ids, the updates of each by the later observations of its id in this reading
+    (``choice`` points them at its column); ``finite[m]`` False for a non-finite update."""
+    count, num_particles = choice.shape
+    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    repeated = False
+    for k in range(count):
+        repeated = repeated or creator[k] != k
+        slot = column[k]
+        if slot < 0:
+            continue
+        for m in range(num_particles):
+            if not creating[k, m]:
+                continue
+            for i in range(5):
+                state[m, slot, i] = fresh[k, m, i]
+            state[m, slot, 5] = logodds_observed
+            ident[m, slot, 0] = labels[k]
+            ident[m, slot, 1] = keys[k, m]
+            valid[m, slot] = True
+            is_new[m, slot] = True
+            choice[k, m] = slot
+    if not repeated:
+        return
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    for m in range(num_particles):
+        for k in range(count):
+            slot = choice[k, m]
+            if slot < existing or creating[k, m]:
+                continue
+            px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
+            lx, ly = _lever(pth, ox, oy)
+            if not _joseph(m, slot, k, state, px, py, lx, ly, pth + oyaw, ranges, bearings,
+                           noise_r, noise_b, logodds_observed, logodds_max):
+                finite[m] = False
+            dirty[m, slot] = True
+
+
 # ---------------------------------------------------------------------------- the reading
 @njit(**_JIT)
-def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, ranges, bearings,
-                   labels, noise_r, draws, normals, log_weights, fp, ip, choice, factor,
-                   poses_out, weights_out):
-    """Particles [lo, hi): association, outlier test, (FastSLAM 2.0) proposal and draw, and
-    the new log weights (before normalisation)."""
+def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new):
+    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
+    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
+    row, slot and block arrays taking them."""
+    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
+        source
+    row, slot, block = moved
+    for j in range(valid.shape[1]):
+        row[m, j], slot[m, j], block[m, j] = (src_row[origin, j], src_slot[origin, j],
+                                              src_block[origin, j])
+        for i in range(state.shape[2]):
+            state[m, j, i] = src_state[origin, j, i]
+        ident[m, j, 0], ident[m, j, 1] = src_ident[origin, j, 0], src_ident[origin, j, 1]
+        valid[m, j], dirty[m, j] = src_valid[origin, j], src_dirty[origin, j]
+        is_new[m, j] = src_is_new[origin, j]
+
+
+@njit(**_JIT)
+def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, cov, poses,
+                   ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+                   resampled, source, moved, creator, choice, factor, poses_out, weights_out,
+                   fresh, finite):
+    """Particles [lo, hi), each in turn: its working-set entries taken from row ``resampled[m]``
+    of ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
+    association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
+    normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
+    ``finite[m]`` False for a non-finite update."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -593,10 +665,14 @@ def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, rang
     cof, full, sigma = np.empty(9), np.empty(9), np.empty(9)
     terms = np.empty((width, 5))
     picked = np.empty(count, np.int64)
+    observed = np.empty(width, np.bool_)
     scored = ip[I_MODE] != 0
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
+    ordered = resampled.shape[0] > 0
     for m in range(lo, hi):
+        if ordered:
+            _take_particle(m, resampled[m], source, moved, state, ident, valid, dirty, is_new)
         _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
                             labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
                             log_lik, mahalanobis, pick, value, order, cumulative, terms,
@@ -626,6 +702,9 @@ def _observe_chunk(lo, hi, state, ident, valid, existing, mean, cov, poses, rang
             factor[k, m] = factor[k, m] + robust[k]
             total += factor[k, m]
         weights_out[m] = log_weights[m] + total
+        finite[m] = localization or _map_particle(m, state, valid, dirty, existing, choice,
+                                                  creator, poses_out, ranges, bearings,
+                                                  noise_r, fp, observed, fresh)
 
 
 @njit(**_JIT)
@@ -664,17 +743,6 @@ def _assign_columns(choice, labels, known, existing, first_key, creating, column
                 keys[k, m] = first_key + new_keys
                 new_keys += 1
     return taken, new_keys
-
-
-@njit(**_JIT)
-def _map_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, choice, creating, column,
-               keys, poses, ranges, bearings, labels, noise_r, fp, finite):
-    """Particles [lo, hi): ``_map_particle``; ``finite[m]`` False for a non-finite update."""
-    observed = np.empty(max(existing, 1), np.bool_)
-    for m in range(lo, hi):
-        finite[m] = _map_particle(m, state, ident, valid, dirty, is_new, existing, choice,
-                                  creating, column, keys, poses, ranges, bearings, labels,
-                                  noise_r, fp, observed)
 
 
 @njit(**_JIT)
@@ -757,29 +825,37 @@ def _noise_ranges(ranges, fp):
 
 
 @njit(**_JIT)
-def _reading_buffers(ranges, num_particles, fp):
-    """Range variances and the per-reading outputs of the observation phase."""
+def _reading_buffers(ranges, labels, num_particles, fp, ip):
+    """Range variances, the observation whose landmark each observation creates (itself; with
+    known ids the first of its id) and the per-reading outputs of the chunks."""
     count = ranges.shape[0]
-    return (_noise_ranges(ranges, fp), np.empty((count, num_particles), np.int64),
+    creator = np.arange(count)
+    if ip[I_MODE] == 0:
+        for k in range(count):
+            for other in range(k):
+                if labels[other] == labels[k]:
+                    creator[k] = other
+                    break
+    return (_noise_ranges(ranges, fp), creator, np.empty((count, num_particles), np.int64),
             np.empty((count, num_particles)), np.empty((num_particles, 3)),
-            np.empty(num_particles))
+            np.empty(num_particles), np.empty((count, num_particles, 5)),
+            np.ones(num_particles, np.bool_))
 
 
 @njit(**_JIT)
-def _columns(choice, labels, existing, ip):
-    """Columns and keys of the landmarks this reading creates (between the two phases)."""
+def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh, poses_out,
+            weights_out, ranges, bearings, labels, noise_r, fp, ip, finite):
+    """After every chunk: the columns and keys of the new landmarks, which are put in place,
+    the weights normalised, N_eff, the reported particle and its report."""
     count, num_particles = choice.shape
     creating = np.empty((count, num_particles), np.bool_)
     column = np.empty(count, np.int64)
     keys = np.empty((count, num_particles), np.int64)
     taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
                                       ip[I_FIRST_KEY], creating, column, keys)
-    return creating, column, keys, taken, new_keys, np.ones(num_particles, np.bool_)
-
-
-@njit(**_JIT)
-def _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken, new_keys):
-    """Weights normalised, N_eff, the reported particle and its report."""
+    if ip[I_LOCALIZATION] == 0:
+        _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, creating,
+                   column, keys, fresh, poses_out, ranges, bearings, labels, noise_r, fp, finite)
     n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
                                                  finite)
     report_ids, report_new = _report(choice, creating, ident, best)
@@ -789,41 +865,37 @@ def _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, tak
 
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip):
+                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
-    noise_r, choice, factor, poses_out, weights_out = _reading_buffers(ranges, num_particles, fp)
-    _observe_chunk(0, num_particles, state, ident, valid, existing, mean, cov, poses, ranges,
-                   bearings, labels, noise_r, draws, normals, log_weights, fp, ip, choice,
-                   factor, poses_out, weights_out)
-    creating, column, keys, taken, new_keys, finite = _columns(choice, labels, existing, ip)
-    if ip[I_LOCALIZATION] == 0:
-        _map_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, choice,
-                   creating, column, keys, poses_out, ranges, bearings, labels, noise_r, fp,
+    noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
+        ranges, labels, num_particles, fp, ip)
+    _reading_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, mean, cov,
+                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+                   order, source, moved, creator, choice, factor, poses_out, weights_out, fresh,
                    finite)
-    return _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken,
-                       new_keys)
+    return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
+                   poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                      bearings, labels, draws, normals, log_weights, fp, ip, chunks):
-    """``_reading_serial`` with the two per-particle phases split into ``chunks`` chunks of
-    particles: the first on the calling thread, the others on the pool (``_chunk_pool``).
-    Chunks write disjoint particles, so the results are those of the serial reading."""
+                      bearings, labels, draws, normals, log_weights, fp, ip, order, source,
+                      moved, chunks):
+    """``_reading_serial`` with its per-particle work split into ``chunks`` chunks of
+    particles: the first on the calling thread, the others on the pool (``_chunk_pool``), one
+    hand-off per reading. Chunks write disjoint particles, so the results are those of the
+    serial reading."""
     num_particles = poses.shape[0]
-    noise_r, choice, factor, poses_out, weights_out = _reading_buffers(ranges, num_particles, fp)
+    noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
+        ranges, labels, num_particles, fp, ip)
     bounds = [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
               for c in range(chunks)]
-    _run_chunks(_observe_chunk, bounds, (
-        state, ident, valid, existing, mean, cov, poses, ranges, bearings, labels, noise_r,
-        draws, normals, log_weights, fp, ip, choice, factor, poses_out, weights_out))
-    creating, column, keys, taken, new_keys, finite = _columns(choice, labels, existing, ip)
-    if ip[I_LOCALIZATION] == 0:
-        _run_chunks(_map_chunk, bounds, (
-            state, ident, valid, dirty, is_new, existing, choice, creating, column, keys,
-            poses_out, ranges, bearings, labels, noise_r, fp, finite))
-    return _conclusion(choice, creating, ident, poses_out, weights_out, ip, finite, taken,
-                       new_keys)
+    _run_chunks(_reading_chunk, bounds, (
+        state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges, bearings,
+        labels, noise_r, draws, normals, log_weights, fp, ip, order, source, moved, creator,
+        choice, factor, poses_out, weights_out, fresh, finite))
+    return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
+                   poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 _pool: ThreadPoolExecutor | None = None
@@ -930,12 +1002,15 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
 
 
 _NO_COV = np.zeros((1, 3, 3))
+_NO_ORDER = np.zeros(0, np.int64)
 
 
 def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                    log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool):
-    """One reading for every particle, on the working set ``ws`` (updated in place).
+                   propose: bool, order: np.ndarray | None = None):
+    """One reading for every particle, on the working set ``ws`` (updated in place), or, with
+    ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
+    entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
 
     ``mean`` (M, 3) and ``cov`` (M, 3, 3) or None: the pose the observations are scored at and
     its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
@@ -943,14 +1018,29 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
     store's next landmark key. Returns (the reported particle's ``UpdateReport``
     associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
-    underflow, the reported particle, working-set columns taken, keys taken, all finite).
+    underflow, the reported particle, working-set columns taken, keys taken, all finite, the
+    working set read).
     """
+    return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
+                   settings, reach, first_key, propose, order, _threads_for(poses.shape[0]))
+
+
+def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
+            settings: ReadingSettings, reach: float, first_key: int, propose: bool, order,
+            threads: int):
+    """``update_reading`` on ``threads`` threads."""
+    source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
+    if order is None:
+        order = _NO_ORDER
+    else:
+        ws = WorkingSet(*(np.empty_like(array) for array in source[:3]), ws.columns[order],
+                        *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
-                         log_weights, settings, reach, first_key, propose)
-    threads = _threads_for(poses.shape[0])
+                         log_weights, settings, reach, first_key, propose) + (
+        order, source, (ws.row, ws.slot, ws.block))
     if threads == 1:
-        return _reading_serial(*args)
-    return _reading_threaded(*args, threads)
+        return _reading_serial(*args) + (ws,)
+    return _reading_threaded(*args, threads) + (ws,)
 
 
 def _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
@@ -1444,14 +1534,12 @@ def warm_up() -> float:
                             valid=np.array([[True, True, False, False, False]] * m),
                             dirty=np.zeros((m, width), bool),
                             is_new=np.zeros((m, width), bool), first_new_slot=2)
-            update_reading(ws, poses, pose_cov, poses, ranges, bearings, labels,
-                           np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0,
-                           0, pose_cov is not None)
-            # The chunk kernels of a reading split over threads (M >= PARALLEL_MIN_PARTICLES),
-            # which Python calls one by one.
-            _reading_threaded(*_reading_args(
-                ws, poses, pose_cov, poses, ranges, bearings, labels, np.full(2 * m, 0.5),
-                np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0, pose_cov is not None), 2)
+            # On the calling thread and split over threads (M >= PARALLEL_MIN_PARTICLES; its
+            # chunk kernel is called by Python), with and without a pending resampling.
+            for threads, order in ((1, None), (2, np.array([1, 0]))):
+                _update(ws, poses, pose_cov, poses, ranges, bearings, labels,
+                        np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0,
+                        pose_cov is not None, order, threads)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
@@ -1484,6 +1572,11 @@ _max_threads = numba.config.NUMBA_NUM_THREADS
 
 def _threads_for(num_particles: int) -> int:
     return 1 if num_particles < PARALLEL_MIN_PARTICLES else _max_threads
+
+
+def splits(num_particles: int) -> bool:
+    """A reading of this many particles runs on several threads."""
+    return _threads_for(num_particles) > 1
 
 
 def set_threads(count: int) -> None:

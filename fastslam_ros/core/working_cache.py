@@ -27,18 +27,32 @@ class WorkingSetCache:
         self.store = store
         self.track_labels = track_labels
         """Known ids: the store keeps the column of each label (``LandmarkStore.scatter``)."""
-        self.current: WorkingSet | None = None
+        self._ws: WorkingSet | None = None
+        self.pending: np.ndarray | None = None
+        """Compiled backend: the resampling (particle m takes the entries of particle
+        ``pending[m]``) not yet applied to the working set; the next reading's kernels apply
+        it on their way (``kernels.update_reading``), anything else through ``current``."""
         self._box = (0, 0, 0, 0)
         self._labels: set[int] = set()
 
-    def for_reading(self, poses: np.ndarray, reach: float, count: int, labels) -> WorkingSet:
+    @property
+    def current(self) -> WorkingSet | None:
+        """The working set of the latest reading (resampled), or None."""
+        if self.pending is not None:
+            self._ws = self.store.kernels.take(self._ws, self.pending)
+            self.pending = None
+        return self._ws
+
+    def for_reading(self, poses: np.ndarray, reach: float, count: int, labels,
+                    lazy: bool = False) -> WorkingSet:
         """Every particle's landmarks in the cells within ``reach`` of ``poses``, with free
         columns for the ``count`` observations' new landmarks; ``labels``: the observed ids
         (known association) or None.
 
         The previous working set is reused while it still holds those cells (and the cells of
         the observed ids) and has free columns; otherwise it is written back and a new one
-        gathered.
+        gathered. ``lazy``: a reused working set comes without the resampling ``pending``,
+        which the caller applies and hands back (``took``).
         """
         store = self.store
         if store.kernels is None:
@@ -50,7 +64,7 @@ class WorkingSetCache:
         # Python ints: a reading holds a handful of ids, and np.unique costs more than this.
         label_set = (sorted(set(labels.tolist())) if labels is not None and len(labels)
                      else None)
-        ws = self.current
+        ws = self._ws
         if ws is not None:
             # Cells are only registered when the working set is written back, so a box of
             # cells inside the gathered box holds no cell the working set lacks.
@@ -58,7 +72,7 @@ class WorkingSetCache:
             inside = (box[0] >= gathered[0] and box[1] >= gathered[1]
                       and box[2] <= gathered[2] and box[3] <= gathered[3])
             if inside and ws.free_slots >= count and self._holds_labels(ws, label_set):
-                return ws
+                return self._ws if lazy else self.current
             # Writing back registers the cells of new landmarks: look the region up after it.
             self.flush()
         region = store.columns_in_box(low, high)
@@ -73,11 +87,11 @@ class WorkingSetCache:
             extra = np.sort(extra, axis=1)
             extra[:, 1:][extra[:, 1:] == extra[:, :-1]] = -1
             columns = np.concatenate([columns, extra], axis=1)
-        self.current = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
-                                    * max(count, 1))
+        self._ws = store.gather(columns, num_new_slots=NEW_SLOTS_PER_OBSERVATION
+                                * max(count, 1))
         self._box = box
         self._labels = set() if label_set is None else set(label_set)
-        return self.current
+        return self._ws
 
     def _holds_labels(self, ws: WorkingSet, label_set) -> bool:
         """Known ids: every particle's landmark with one of these labels is in the working set
@@ -87,24 +101,38 @@ class WorkingSetCache:
         unseen = [label for label in label_set if label not in self._labels]
         if not unseen:
             return True
+        if self.pending is not None:
+            ws = self.current
         if not ws.covers(self.store.label_columns(np.array(unseen, np.int64))):
             return False
         self._labels.update(unseen)
         return True
+
+    def entries_of(self, particle: int) -> tuple[WorkingSet | None, int]:
+        """(the working set, the row holding particle ``particle``'s entries, ``pending``
+        considered): one particle's entries without applying the resampling."""
+        return self._ws, particle if self.pending is None else int(self.pending[particle])
+
+    def took(self, ws: WorkingSet) -> None:
+        """A lazy reading's working set, the pending resampling applied."""
+        self._ws, self.pending = ws, None
 
     def created(self, columns: int) -> None:
         """This reading's first ``columns`` new-landmark columns now hold landmarks."""
         self.current.first_new_slot += columns
 
     def resample(self, indices: np.ndarray) -> None:
-        """Particle m takes the working-set entries of particle ``indices[m]``."""
-        if self.current is not None:
-            kernels = self.store.kernels
-            self.current = (self.current.take(indices) if kernels is None
-                            else kernels.take(self.current, indices))
+        """Particle m takes the working-set entries of particle ``indices[m]`` (with the
+        compiled backend at the next reading, ``pending``)."""
+        if self._ws is None:
+            return
+        if self.store.kernels is None:
+            self._ws = self._ws.take(indices)
+        else:
+            self.pending = indices if self.pending is None else self.pending[indices]
 
     def flush(self) -> None:
         """Write the working set back into the store and drop it."""
         if self.current is not None:
-            self.store.scatter(self.current, track_labels=self.track_labels)
-            self.current = None
+            self.store.scatter(self._ws, track_labels=self.track_labels)
+            self._ws = None
