@@ -25,7 +25,9 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    ``lost_spread`` (out of view for long, the person is lost: its Brownian cloud would cover
    half the map and catch anyone's detection); a new person is tentative, not published,
    until its log-odds reach ``logodds_confirm``, and removed as a duplicate within
-   DUPLICATE_GATE of a confirmed one;
+   DUPLICATE_GATE of a confirmed one; negative information in the particles of a person not
+   detected: those in seen free space are weighed down and resampled away, so a hidden
+   person's cloud stays in the shadow of what hides it (the others are left alone);
 7. vote the ids across the robot particles: a person near the weighted centroid of an id more
    weight holds than its own takes that id (the published ids survive a change of the best
    particle);
@@ -94,6 +96,11 @@ DUPLICATE_GATE = 0.5
 """A detection no person explains starts no new person within this distance (m) of a person
 of its robot particle (tentative or confirmed, already detected in this scan or not): it is
 part of that person (a person cut into several segments) or of a pair seen as one."""
+SEEN_FREE_LIKELIHOOD = 0.1
+"""Weight of a particle of a person not detected that lies in seen free space (the laser's
+beam passed through it: no person there), against 1 for one the laser could not see. A
+particle left there k readings weighs 0.1^k; soft, the weight keeps more particles of a
+narrow shadow apart than a near-zero one (which gave as much MOTA, more identity switches)."""
 PUBLISHED_GATE = 0.4
 """Two people to publish within this distance (m) of each other are one person (two tracks on
 it: one is reported), and a person within it of one published at the previous reading is
@@ -523,6 +530,7 @@ class PeopleTracker:
             fraction = seen_free.mean(axis=1)
             missed = np.zeros_like(observed)
             missed[m, n] = fraction >= MISSED_FRACTION
+            self._confine_to_unseen(m, n, seen_free, fraction)
         else:
             missed = np.zeros_like(observed)
         self.logodds = update_logodds(self.logodds, observed, missed, s.logodds_observed,
@@ -545,6 +553,23 @@ class PeopleTracker:
         self.keys[gone] = -1
         self.confirmed &= self.alive
         return gone.sum(axis=1)
+
+    def _confine_to_unseen(self, m: np.ndarray, n: np.ndarray, seen_free: np.ndarray,
+                           fraction: np.ndarray) -> None:
+        """Negative information in the people's particles (Montemerlo, Thrun and Whittaker):
+        a person not detected is not where the laser saw free space. Its particles there
+        (``seen_free`` (K, M_p)) weigh SEEN_FREE_LIKELIHOOD, the others (behind a wall or
+        another person, out of range) 1, and are resampled: the cloud of a hidden person
+        stays in the shadow of its occluder and follows it. A person with every particle
+        in seen free space is left alone (the existence rule judges it)."""
+        rows = np.flatnonzero((fraction > 0.0) & (fraction < 1.0))
+        if len(rows) == 0:
+            return
+        m, n = m[rows], n[rows]
+        w = np.where(seen_free[rows], SEEN_FREE_LIKELIHOOD, 1.0)
+        w /= w.sum(axis=1, keepdims=True)
+        index = batched_systematic_resample(w, self.rng)
+        self.people[m, n] = np.take_along_axis(self.people[m, n], index[..., None], axis=1)
 
     def _remember(self, gone: np.ndarray, mean: np.ndarray) -> None:
         """Keep the removed confirmed people ``gone`` (M, N) for re-identification: each
