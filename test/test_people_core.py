@@ -11,6 +11,7 @@ from fastslam_ros.core.existence import (LOGODDS_MAX, in_perceptual_range, remov
                                          update_logodds)
 from fastslam_ros.people import OccupancyMap, PeopleTracker, Scan, TrackerSettings
 from fastslam_ros.people.conditional_filter import batched_systematic_resample
+from fastslam_ros.people.localization import roughen
 from fastslam_ros.tools.people_sim import cast_scan
 
 BEAMS = 360
@@ -344,6 +345,45 @@ def test_global_localization_converges_in_an_asymmetric_room():
     mean, _ = tracker.mean_pose_and_covariance()
     assert np.linalg.norm(mean[:2] - pose[:2]) < TrackerSettings().converged_spread
     assert abs(mean[2] - pose[2]) < 0.1
+
+
+def test_roughening_spread_matches_gordons_rule():
+    rng = np.random.default_rng(4)
+    count = 8000
+    poses = np.column_stack([rng.uniform(0.0, 4.0, count), rng.uniform(1.0, 3.0, count),
+                             math.pi + rng.uniform(-0.2, 0.2, count)])   # headings across +-pi
+    extent = np.array([np.ptp(poses[:, 0]), np.ptp(poses[:, 1]),
+                       np.ptp(poses[:, 2])])                           # before wrapping
+    poses[:, 2] = np.arctan2(np.sin(poses[:, 2]), np.cos(poses[:, 2]))
+    moved = roughen(poses, 0.2, rng)
+    step = moved - poses
+    step[:, 2] = np.arctan2(np.sin(step[:, 2]), np.cos(step[:, 2]))
+    np.testing.assert_allclose(step.std(axis=0), 0.2 * extent * count ** (-1.0 / 3.0),
+                               rtol=0.05)
+    assert np.all(np.abs(moved[:, 2]) <= math.pi)
+
+
+def test_global_localization_refines_sparse_candidates():
+    """Copies of a first-reading candidate near the true pose spread (roughening) and the
+    next readings find the true pose: it ends within sigma_hit of it, driving straight, where
+    the odometry's noise does not move the particles sideways."""
+    grid = room([(6.0, 6.2, 2.0, 5.0), (1.0, 3.0, 7.5, 8.0)])
+    for seed in range(1, 6):
+        settings = TrackerSettings(**{**SMALL, "global_particles": 3000, "seed": seed})
+        tracker = PeopleTracker(settings, grid)
+        pose = np.array([2.0, 4.0, 0.0])
+        for k in range(60):
+            if k:
+                tracker.predict(np.array([0.05 * (k - 1), 0.0, 0.0]),
+                                np.array([0.05 * k, 0.0, 0.0]))
+                pose = pose + [0.05, 0.0, 0.0]
+            tracker.update(0.1 * k, scan_at(grid, pose, []))
+            if not tracker.globally_localizing:
+                break
+        assert not tracker.globally_localizing
+        mean, _ = tracker.mean_pose_and_covariance()
+        assert np.linalg.norm(mean[:2] - pose[:2]) < settings.sigma_hit, seed
+        assert abs(mean[2] - pose[2]) < 0.02, seed
 
 
 def test_settings_name_the_bad_field():

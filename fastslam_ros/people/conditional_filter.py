@@ -62,8 +62,8 @@ from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_w
 from fastslam_ros.people.detection import Scan, detect_people, segment_scan
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
-                                              sample_free_poses, sample_gaussian_poses,
-                                              sensor_poses)
+                                              roughen, sample_free_poses,
+                                              sample_gaussian_poses, sensor_poses)
 from fastslam_ros.people.settings import TrackerSettings
 
 MISSED_FRACTION = 0.5
@@ -75,6 +75,12 @@ MIN_CONVERGED_FIT = 0.6
 """Global localization converges only on a pose where at least this fraction of the beams ends
 within 2 sigma_hit of a mapped obstacle; a single hypothesis that fits worse is replaced, half
 of the particles drawn again over the free space."""
+GLOBAL_ROUGHENING = 0.2
+"""Roughening factor K (Gordon, Salmond and Smith's 0.2) of the robot particles at every
+resampling while localizing globally. Even the first reading's denser candidates hold none
+within sigma_hit of the true pose (about one per 0.2 m and 0.05 rad), and copies of one
+candidate never move sideways (the odometry's noise is along the path): unroughened, a near
+miss at the true place loses to a better-aligned candidate at a place that looks alike."""
 GLOBAL_CANDIDATES = 10
 """The first reading of a global localization weighs this many times global_particles poses."""
 CONVERGED_UPDATES = 20
@@ -331,7 +337,7 @@ class PeopleTracker:
             report.resampled = report.converged = True
         elif report.effective_sample_size < s.resample_threshold * self.num_particles:
             index = systematic_resample(weights, self.rng)
-            self.poses = self.poses[index]
+            self.poses = roughen(self.poses[index], GLOBAL_ROUGHENING, self.rng)
             self.log_weights = np.full(len(index), -math.log(len(index)))
             report.resampled = True
         return report
@@ -353,7 +359,8 @@ class PeopleTracker:
         weights = np.exp(normalize_log_weights(log_weights)[0])
         index = systematic_resample(weights, self.rng)
         start = int(self.rng.integers(GLOBAL_CANDIDATES))
-        self.poses = candidates[index[start::GLOBAL_CANDIDATES][:count]]
+        self.poses = roughen(candidates[index[start::GLOBAL_CANDIDATES][:count]],
+                             GLOBAL_ROUGHENING, self.rng)
         self.log_weights = np.full(count, -math.log(count))
 
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:

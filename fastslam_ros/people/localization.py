@@ -47,6 +47,22 @@ def sample_free_poses(grid: OccupancyMap, count: int, rng: np.random.Generator) 
     return np.column_stack([chosen + jitter, heading])
 
 
+def roughen(poses: np.ndarray, factor: float, rng: np.random.Generator) -> np.ndarray:
+    """Roughening (Gordon, Salmond and Smith 1993): poses (M, 3) each moved by
+    N(0, (factor E_d M^(-1/3))^2) in x, y and heading, E_d the poses' extent in dimension d
+    (heading: about the circular mean), so that copies of one resampled pose spread over the
+    gap between the samples and the next readings can pick the best of them."""
+    count = len(poses)
+    if count < 2:
+        return poses.copy()
+    mean_heading = math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())
+    offsets = wrap_angle(poses[:, 2] - mean_heading)
+    extent = np.array([np.ptp(poses[:, 0]), np.ptp(poses[:, 1]), np.ptp(offsets)])
+    moved = poses + rng.standard_normal(poses.shape) * (factor * extent * count ** (-1.0 / 3.0))
+    moved[:, 2] = wrap_angle(moved[:, 2])
+    return moved
+
+
 def sample_gaussian_poses(mean: np.ndarray, covariance: np.ndarray, count: int,
                           rng: np.random.Generator) -> np.ndarray:
     """``count`` poses from N(mean, covariance) over (x, y, theta), theta wrapped."""
