@@ -26,7 +26,8 @@ import numpy as np
 
 from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
-from .geometry import compose, compose_floats, pose_floats, relative_pose_floats, wrap_angle
+from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
+                       relative_pose_floats, wrap_angle)
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .working_cache import WorkingSetCache
@@ -812,12 +813,7 @@ class FastSLAM:
 
     def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean pose (circular mean of theta) and the particle spread around it."""
-        poses, weights = self.particle_poses(), self.weights()
-        theta = np.arctan2(weights @ np.sin(poses[:, 2]), weights @ np.cos(poses[:, 2]))
-        mean = np.array([weights @ poses[:, 0], weights @ poses[:, 1], theta])
-        deviation = poses - mean
-        deviation[:, 2] = wrap_angle(deviation[:, 2])
-        return mean, (deviation * weights[:, None]).T @ deviation
+        return mean_pose_and_covariance(self.particle_poses(), self.weights())
 
     def best_map(self, min_existence: float = 0.0) -> LandmarkMap:
         """The best particle's landmarks with covariances and existence probabilities.

@@ -55,6 +55,24 @@ def wrap_angle(angle):
     return np.minimum(turns, np.pi, out=turns)
 
 
+def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None) -> float:
+    """Mean direction of ``angles`` (rad), weighted by ``weights`` (summing to 1) if given."""
+    if weights is None:
+        return math.atan2(np.sin(angles).mean(), np.cos(angles).mean())
+    return math.atan2(weights @ np.sin(angles), weights @ np.cos(angles))
+
+
+def mean_pose_and_covariance(poses: np.ndarray, weights: np.ndarray
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean of poses (M, 3) (circular mean heading) and their weighted covariance
+    around it (heading deviations wrapped); ``weights`` (M,) sum to 1."""
+    mean = np.array([weights @ poses[:, 0], weights @ poses[:, 1],
+                     circular_mean(poses[:, 2], weights)])
+    deviation = poses - mean
+    deviation[:, 2] = wrap_angle(deviation[:, 2])
+    return mean, (deviation * weights[:, None]).T @ deviation
+
+
 def pose_floats(pose) -> list[float] | None:
     """A single pose (3,) as plain floats, or None for a stack of poses (..., 3): the scalar
     paths below are ~10x faster than numpy on one pose (every odometry message)."""

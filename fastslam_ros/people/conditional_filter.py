@@ -55,7 +55,7 @@ from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.existence import (existence_probability, in_perceptual_range, removed,
                                          update_logodds)
-from fastslam_ros.core.geometry import relative_pose, wrap_angle
+from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, wrap_angle
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
@@ -654,12 +654,7 @@ class PeopleTracker:
 
     def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean pose (circular mean heading) and covariance of the robot particles."""
-        weights = np.exp(self.log_weights)
-        heading = math.atan2(weights @ np.sin(self.poses[:, 2]), weights @ np.cos(self.poses[:, 2]))
-        mean = np.array([weights @ self.poses[:, 0], weights @ self.poses[:, 1], heading])
-        centred = self.poses - mean
-        centred[:, 2] = wrap_angle(centred[:, 2])
-        return mean, (centred * weights[:, None]).T @ centred
+        return mean_pose_and_covariance(self.poses, np.exp(self.log_weights))
 
     def published_people(self) -> PeopleEstimate:
         """The people to publish: the best robot particle's confirmed people but those whose

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from fastslam_ros.core.geometry import compose, wrap_angle
+from fastslam_ros.core.geometry import circular_mean, compose, wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 
 
@@ -55,8 +55,7 @@ def roughen(poses: np.ndarray, factor: float, rng: np.random.Generator) -> np.nd
     count = len(poses)
     if count < 2:
         return poses.copy()
-    mean_heading = math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())
-    offsets = wrap_angle(poses[:, 2] - mean_heading)
+    offsets = wrap_angle(poses[:, 2] - circular_mean(poses[:, 2]))
     extent = np.array([np.ptp(poses[:, 0]), np.ptp(poses[:, 1]), np.ptp(offsets)])
     moved = poses + rng.standard_normal(poses.shape) * (factor * extent * count ** (-1.0 / 3.0))
     moved[:, 2] = wrap_angle(moved[:, 2])
