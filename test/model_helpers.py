@@ -84,3 +84,26 @@ def edit_box(store: LandmarkStore, low: np.ndarray, change: np.ndarray, move_sha
                for m, s, g in zip(particle[pick], slot[pick], gone[pick])]
     store.scatter(ws, track_labels=True)
     return touched
+
+
+def drifting_loop(seed: int, heading_bias: float = 3e-4, laps: float = 1.2,
+                  max_range: float = 8.0):
+    """A loop whose odometry turns ``heading_bias`` rad too far each step (a systematic drift
+    no motion noise of the filter covers), driven ``laps`` times round a circle of radius 15 m
+    through 60 landmarks: (truth poses (T, 3), odometry poses (T, 3), landmarks (N, 2), the
+    sensor, its random generator)."""
+    from fastslam_ros.core.geometry import relative_pose
+    from fastslam_ros.core.motion import apply_control
+    from fastslam_ros.tools.world import RangeBearingSensor, circle_path, scatter_landmarks
+
+    rng = np.random.default_rng(seed)
+    truth = circle_path(15.0, int(300 * laps), laps)
+    odometry = np.empty_like(truth)
+    odometry[0] = truth[0]
+    for k, delta in enumerate(relative_pose(truth[:-1], truth[1:])):
+        control = OdometryControl.from_delta(delta)
+        odometry[k + 1] = apply_control(odometry[k:k + 1], control.rot1 + heading_bias,
+                                        control.trans, control.rot2)[0]
+    landmarks = scatter_landmarks(rng, 60, (-22.0, -22.0), (22.0, 22.0), 2.5)
+    sensor = RangeBearingSensor(max_range, 0.05, 0.01)
+    return truth, odometry, landmarks, sensor, rng

@@ -42,6 +42,23 @@ def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association
     assert_same_run(algorithm, association)
 
 
+@needs_numba
+@pytest.mark.parametrize("association", ["ml", "monte_carlo"])
+def test_loop_closure_shifts_the_same_particles_on_both_backends(association):
+    """The loop-closure step (a numpy step after either backend's reading) sees identical
+    states, so it closes the same loops: poses and weights equal at every step."""
+    from test_loop_closure import run_drifting_loop
+    runs = [run_drifting_loop(2, backend, association=association)
+            for backend in ("numpy", "numba")]
+    assert [slam.backend for slam, *_ in runs] == ["numpy", "numba"]
+    assert runs[0][0].loop.num_closures == runs[1][0].loop.num_closures > 0
+    for (poses, log_weights), (other_poses, other_log_weights) in zip(runs[0][3], runs[1][3]):
+        np.testing.assert_allclose(poses, other_poses, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(log_weights, other_log_weights, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(runs[0][0].best_map().means, runs[1][0].best_map().means,
+                               atol=1e-9, rtol=0)
+
+
 def assert_same_run(algorithm: str, association: str) -> None:
     """Run numpy and numba side by side on one synthetic world and compare every step."""
     world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=60, max_range=9.0,

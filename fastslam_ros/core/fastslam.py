@@ -30,6 +30,7 @@ from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_f
                        relative_pose_floats, wrap_angle)
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
+from .loop_closure import LoopClosure
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
@@ -202,6 +203,12 @@ class FastSLAM:
         self.landmarks = LandmarkStore(count, self.config.cell_size, kernels=self.kernels)
         self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
         """The landmarks near the robot that readings work on (kept across readings)."""
+        config = self.config
+        self.loop = (LoopClosure(count, config.loop_closure_matches, config.map_min_existence,
+                                 config.max_range)
+                     if config.loop_closure_matches > 0 and not self._localization
+                     and config.association != "known" else None)
+        """Loop closure confirmed across readings (``loop_closure_matches``), or None."""
         if self._seed is None or len(self._seed[0]) == 0:
             return
         means, packed, labels, logodds = self._seed
@@ -211,6 +218,8 @@ class FastSLAM:
         ws.valid[0] = ws.is_new[0] = True
         self.landmarks.scatter(ws, track_labels=self.config.association == "known")
         self.landmarks.resample(np.zeros(count, np.int64))
+        if self.loop is not None:
+            self.loop.register(self.landmarks.next_key)
 
     def initialize_pose(self, mean, covariance) -> None:
         """Redraw every particle's pose from N(mean (3,), covariance (3, 3)), e.g. a pose the
@@ -237,8 +246,10 @@ class FastSLAM:
         never spans a long curve): FastSLAM 1.0 then samples it; FastSLAM 2.0 adds it to each
         particle's Gaussian prior N(s_hat, P), which its proposal uses at the next observation.
         """
-        self._pending = compose_floats(self._pending, relative_pose_floats(
-            pose_floats(odom_from), pose_floats(odom_to)))
+        step = relative_pose_floats(pose_floats(odom_from), pose_floats(odom_to))
+        self._pending = compose_floats(self._pending, step)
+        if self.loop is not None:
+            self.loop.travelled += math.hypot(step[0], step[1])
         self._has_pending = True
         x, y, theta = self._pending
         if (math.hypot(x, y) > self.config.max_pending_translation
@@ -327,6 +338,8 @@ class FastSLAM:
 
         ws = self.working.for_reading(proposal_mean, self._reach(ranges), len(ranges),
                                       labels if known else None)
+        if self.loop is not None:
+            self.loop.before_reading(ws, None)
         choices, log_factors, robust, inverse_q = self._associate(
             ws, proposal_mean, proposal_cov, ranges, bearings, labels)
         observed = np.zeros(ws.valid.shape, dtype=bool)
@@ -345,9 +358,9 @@ class FastSLAM:
             self._missed_evidence(ws, observed)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
-        report = self._finish_update(ws, choices, creating)
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self.working.created(int(creating.any(axis=1).sum()))
+        report = self._finish_update(ws, choices, creating)
         self.check_state()
         return report
 
@@ -365,6 +378,8 @@ class FastSLAM:
         # as they go; on one thread the copy in one call is the cheaper.
         ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None,
                                       lazy=self.kernels.splits(count))
+        if self.loop is not None:
+            self.loop.before_reading(ws, self.working.pending)
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
         propose = cov is not None and config.algorithm == "fastslam2"
@@ -387,6 +402,7 @@ class FastSLAM:
         self._best = int(best)
         # This reading's new-landmark columns now hold landmarks (in some particles).
         self.working.created(int(columns))
+        self._close_loops()
         self._resample_if_degenerate(report)
         if not finite:
             self.check_state()
@@ -711,8 +727,17 @@ class FastSLAM:
         report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
                               effective_sample_size(weights), underflow)
         self._best = best
+        self._close_loops()
         self._resample_if_degenerate(report)
         return report
+
+    def _close_loops(self) -> None:
+        """``loop_closure_matches``: the reading's new landmarks against old ones
+        (``loop_closure.LoopClosure``), after the map step and before resampling, the same
+        numpy step on both backends."""
+        if self.loop is not None:
+            self.poses = self.loop.after_reading(self.working.current, self.poses,
+                                                 self.landmarks.next_key)
 
     def _resample_if_degenerate(self, report: UpdateReport) -> None:
         """Resample (poses, maps, working set, history) when N_eff is below the threshold;
@@ -732,6 +757,8 @@ class FastSLAM:
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)
+        if self.loop is not None:
+            self.loop.resample(indices)
         self.log_weights = np.full(self.num_particles, self._log_uniform)
         if not heaviest:
             self._best = self._select_best()
@@ -787,6 +814,8 @@ class FastSLAM:
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)
+        if self.loop is not None:
+            self.loop.resample(indices)
         self.log_weights = np.full(count, -np.log(count))
         if bad[self._best]:
             self._best = int(good[0])

@@ -42,6 +42,9 @@ HEADING_NOISE_INFLATION = 10.0
 """Variance factor on the heading noise of the recommended parameters (see recommended_params)."""
 TRANSLATION_NOISE_INFLATION = 2.0
 """Variance factor on the translation noise of the recommended parameters."""
+LOOP_CLOSURE_MATCHES = 2
+"""``loop_closure_matches`` of the recommended parameters: old landmarks that must agree on a
+particle's shift before a loop closes (see recommended_params)."""
 
 
 def setting(default: float | int | str, help_text: str):
@@ -188,9 +191,10 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     by the squared distance travelled in it. The heading term is inflated 10x and the
     translation term 2x: with the exact values the particles are too concentrated to close the
     loop on some seeds (landmarks seen at the start are mapped again), which the inflation
-    mostly cures. The pose output is the particles' weighted mean, which does not jump between
-    hypotheses as the best particle does. Markers, path and particles are published at 0.2,
-    0.2 and 1 Hz of bag time.
+    mostly cures. The landmarks that still come back outside the gate close the loop once two
+    of them agree on one shift (``loop_closure_matches``). The pose output is the particles'
+    weighted mean, which does not jump between hypotheses as the best particle does. Markers,
+    path and particles are published at 0.2, 0.2 and 1 Hz of bag time.
     """
     config = config.resolved()
     dt = 1.0 / config.control_rate
@@ -207,6 +211,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         "alpha3": TRANSLATION_NOISE_INFLATION * translation_variance / travel**2,
         "alpha4": 0.001,
         "pose_estimate": "mean",
+        "loop_closure_matches": LOOP_CLOSURE_MATCHES,
         # Replays run many times faster than real time: throttle the heavy outputs harder
         # than the live defaults (the final map and path are always published).
         "markers_rate": 0.2,

@@ -1,0 +1,78 @@
+"""Loop closure confirmed across readings (``loop_closure_matches``, core/loop_closure.py)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from model_helpers import drifting_loop
+
+LOOP_CONFIG = FastSLAMConfig(num_particles=30, sigma_range=0.05, sigma_bearing=0.01,
+                             max_range=8.0, alpha1=1e-4, alpha2=1e-5, alpha3=1e-4, alpha4=1e-5,
+                             cell_size=5.0)
+
+
+def run_drifting_loop(matches: int, backend: str = "numpy", seed: int = 1,
+                      association: str = "ml"):
+    """The filter over ``drifting_loop(seed)``: (filter, true final pose, duplicated ids of
+    the best map, the per-step (poses, log weights))."""
+    truth, odometry, landmarks, sensor, rng = drifting_loop(seed, heading_bias=1e-3)
+    slam = FastSLAM(LOOP_CONFIG.replace(loop_closure_matches=matches, backend=backend,
+                                        association=association),
+                    rng=np.random.default_rng(5), initial_pose=truth[0])
+    steps = []
+    for t in range(1, len(truth)):
+        slam.predict(odometry[t - 1], odometry[t])
+        reading = sensor.observe(truth[t], landmarks, rng)
+        slam.update(reading.ranges, reading.bearings, reading.labels, stamp=float(t))
+        steps.append((slam.poses.copy(), slam.log_weights.copy()))
+    ids, counts = np.unique(slam.best_map().ids, return_counts=True)
+    return slam, truth[-1], ids[counts > 1], steps
+
+
+def test_a_drifted_loop_closes_on_old_landmarks_instead_of_mapping_them_twice():
+    """Odometry 4.6 m off after 1.2 laps: without the step the filter maps five landmarks of
+    the start a second time and ends 0.7 m from the truth; two agreeing old landmarks shift
+    it back onto its old map."""
+    plain, truth, plain_duplicates, _ = run_drifting_loop(0)
+    assert len(plain_duplicates) >= 4
+    assert math.dist(plain.best_pose()[:2], truth[:2]) > 0.5
+    slam, truth, duplicates, _ = run_drifting_loop(2)
+    assert slam.loop.num_closures > 0
+    assert math.dist(slam.best_pose()[:2], truth[:2]) < 0.3
+    assert len(duplicates) < len(plain_duplicates)
+
+
+def drive_away_and_back(matches: int) -> FastSLAM:
+    """A loaded map of one landmark at (-5, 0), 20 m of odometry without detections (out
+    10 m along +x, turn round, back), then one detection 1 m beyond the landmark: outside
+    the association gate, inside the drift-widened one."""
+    config = LOOP_CONFIG.replace(loop_closure_matches=matches, min_translation_sigma=1e-4,
+                                 min_rotation_sigma=1e-5, alpha1=0.0, alpha2=0.0, alpha3=0.0,
+                                 alpha4=0.0)
+    slam = FastSLAM(config, rng=np.random.default_rng(2))
+    slam.seed_map([[-5.0, 0.0]], [np.eye(2) * 0.01])
+    odometry = [(0.5 * k, 0.0, 0.0) for k in range(21)]
+    odometry += [(10.0, 0.0, math.pi * k / 8) for k in range(1, 9)]
+    odometry += [(10.0 - 0.5 * k, 0.0, math.pi) for k in range(1, 21)]
+    for k in range(1, len(odometry)):
+        slam.predict(odometry[k - 1], odometry[k])
+        slam.update([], [], stamp=float(k))
+    slam.update([6.0], [0.0], stamp=float(len(odometry)))
+    return slam
+
+
+def test_a_single_wide_match_does_not_shift_the_pose():
+    """One old landmark disagreeing with a detection leaves the filter as it is without the
+    step (the same draws: the same poses and map); only k = 1 would move it by the 1 m."""
+    plain, guarded, eager = (drive_away_and_back(k) for k in (0, 2, 1))
+    np.testing.assert_array_equal(guarded.poses, plain.poses)
+    np.testing.assert_array_equal(guarded.best_map().means, plain.best_map().means)
+    assert len(plain.best_map()) == 2
+    assert guarded.loop.num_closures == 0 and (guarded.loop.support == 1).all()
+    assert eager.loop.num_closures == eager.num_particles
+    np.testing.assert_allclose(eager.poses[:, :2] - plain.poses[:, :2],
+                               np.broadcast_to([1.0, 0.0], plain.poses[:, :2].shape),
+                               atol=0.05)
+    assert len(eager.best_map()) == 1
