@@ -45,21 +45,22 @@ def test_a_drifted_loop_closes_on_old_landmarks_instead_of_mapping_them_twice():
 
 
 def drive_away_and_back(matches: int) -> FastSLAM:
-    """A loaded map of one landmark at (-5, 0), 20 m of odometry without detections (out
-    10 m along +x, turn round, back), then one detection 1 m beyond the landmark: outside
-    the association gate, inside the drift-widened one."""
+    """A loaded map of one landmark at (-5, 0), 40 m of odometry without detections (out
+    20 m along +x, turn round, back), then a landmark detected 1 m beyond it: outside the
+    association gate, inside the drift-widened one."""
     config = LOOP_CONFIG.replace(loop_closure_matches=matches, min_translation_sigma=1e-4,
                                  min_rotation_sigma=1e-5, alpha1=0.0, alpha2=0.0, alpha3=0.0,
-                                 alpha4=0.0)
+                                 alpha4=0.0, logodds_missed=0.0)
     slam = FastSLAM(config, rng=np.random.default_rng(2))
     slam.seed_map([[-5.0, 0.0]], [np.eye(2) * 0.01])
-    odometry = [(0.5 * k, 0.0, 0.0) for k in range(21)]
-    odometry += [(10.0, 0.0, math.pi * k / 8) for k in range(1, 9)]
-    odometry += [(10.0 - 0.5 * k, 0.0, math.pi) for k in range(1, 21)]
+    odometry = [(0.5 * k, 0.0, 0.0) for k in range(41)]
+    odometry += [(20.0, 0.0, math.pi * k / 8) for k in range(1, 9)]
+    odometry += [(20.0 - 0.5 * k, 0.0, math.pi) for k in range(1, 41)]
     for k in range(1, len(odometry)):
         slam.predict(odometry[k - 1], odometry[k])
         slam.update([], [], stamp=float(k))
-    slam.update([6.0], [0.0], stamp=float(len(odometry)))
+    for k in range(3):  # three detections confirm the new landmark (existence 0.95)
+        slam.update([6.0], [0.0], stamp=float(len(odometry) + k))
     return slam
 
 

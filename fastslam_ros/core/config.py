@@ -150,11 +150,12 @@ class FastSLAMConfig:
         "~/save_map writes (a new landmark starts at sigmoid(logodds_observed), 0.73 for "
         "1.0; 0.9 takes about three detections). 0 shows every landmark.", low=0.0, high=1.0)
     loop_closure_matches: int = parameter(
-        0, "k: landmarks created where old confirmed landmarks (not observed for two sensor "
-        "ranges of travel) lie within a drift-widened gate propose a shift of the particle; once "
-        "k distinct old landmarks agree on one shift over the readings, the particle's pose and "
-        "recent landmarks move by it and the duplicates are removed (0: off; mapping with "
-        "unknown association only).", low=0, high=10)
+        0, "k: a new landmark, once confirmed (map_min_existence), that lies within a "
+        "drift-widened gate of an old confirmed landmark (not observed for two sensor ranges of "
+        "travel) proposes a shift of its particle; once k distinct old landmarks agree on one "
+        "shift over the readings, the particle's pose and nearby recent landmarks move by it and "
+        "the duplicates are removed: a drifted loop closes instead of mapping its start twice "
+        "(0: off; mapping with unknown association only).", low=0, high=10)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",

@@ -4,13 +4,14 @@ Before a loop closes, the particles have usually collapsed to one or two ancesto
 carry the odometry's drift, so when landmarks mapped long ago come back into view they lie
 outside the association gate and every rule maps them a second time. This step runs after the
 reading's filter update (on either backend, on the working set both leave identical) and looks
-at the landmarks the reading has just created:
+at the young landmarks the reading has just confirmed (existence reaching
+``map_min_existence``; a clutter detection seldom gets there):
 
-1. A new landmark is matched *wide* to the particle's old confirmed landmarks (existence >=
-   ``map_min_existence``, not observed for ``OLD_AFTER_RANGES`` sensor ranges of travel): the
-   gate is their covariances plus an isotropic drift of ``DRIFT_PER_METER`` times the distance
-   travelled since the old landmark was last observed.
-2. Each wide match proposes a translation of the particle (old landmark minus new one). A
+1. Such a landmark is matched *wide* to the particle's old confirmed landmarks (not observed
+   for ``OLD_AFTER_RANGES`` sensor ranges of travel): the gate is their covariances plus an
+   isotropic drift of ``DRIFT_PER_METER`` times the distance travelled since the old landmark
+   was last observed.
+2. Each wide match proposes a translation of the particle (old landmark minus young one). A
    particle keeps one such offset hypothesis across readings: a match consistent with it
    (within ``AGREEMENT_GATE`` of the landmarks' own covariances, no drift) from an old landmark
    it does not hold yet joins it (information-weighted mean); any other wide match replaces
@@ -18,7 +19,8 @@ at the landmarks the reading has just created:
 3. Once ``matches`` distinct old landmarks agree, the particle's pose and its recent landmarks
    in the working set (created since its supporting old landmarks were last observed) are
    shifted by the offset, and the duplicates that supported it are removed: the loop is
-   closed, and the next readings associate the old landmarks as usual.
+   closed, and the next readings associate the old landmarks as usual. Recent landmarks
+   outside the working set (far from the robot) keep their place.
 
 A single wrong wide match never moves a particle. "Last observed" is kept per landmark key
 (shared by a landmark's copies in every particle): a landmark is observed when the reading
@@ -30,10 +32,12 @@ import math
 
 import numpy as np
 
-from .landmark_store import WorkingSet
+from .landmark_store import COV, LOGODDS, WorkingSet
 
-DRIFT_PER_METER = 0.02
-"""Standard deviation (m per m travelled) of the odometry drift the wide match allows for."""
+DRIFT_PER_METER = 0.01
+"""Standard deviation (m per m travelled) of the odometry drift the wide match allows for (the
+default world drifts about 0.5 %; 1 % and 2 % give the same runs there and in the clutter
+world)."""
 WIDE_GATE = 9.21
 """Squared Mahalanobis distance of a wide match (chi-square, 2 dof, 99 %)."""
 AGREEMENT_GATE = 9.21
@@ -42,7 +46,8 @@ OLD_AFTER_RANGES = 2.0
 """A landmark not observed for this many ``max_range`` of travel is old (the robot has left
 it and come back)."""
 LIFETIME_RANGES = 1.0
-"""An offset hypothesis expires after this many ``max_range`` of travel."""
+"""An offset hypothesis expires after this many ``max_range`` of travel; a landmark is young
+(may propose one) for as long after its creation."""
 
 
 def _mahalanobis(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -85,6 +90,7 @@ class LoopClosure:
         """Per landmark key: ``travelled`` when some particle last observed it."""
         self._created = np.zeros(0)
         """Per landmark key: ``travelled`` when it was created."""
+        self._num_keys = 0
         count = num_particles
         self.support = np.zeros(count, np.int64)
         """Distinct old landmarks agreeing on each particle's offset (0: no hypothesis)."""
@@ -100,49 +106,56 @@ class LoopClosure:
 
     def register(self, next_key: int) -> None:
         """Keys below ``next_key`` not registered yet were created (and observed) now."""
-        known = len(self._seen)
+        known = self._num_keys
         if next_key <= known:
             return
-        stamp = np.full(next_key - known, self.travelled)
-        self._seen = np.concatenate([self._seen, stamp])
-        self._created = np.concatenate([self._created, stamp])
+        if next_key > len(self._seen):
+            # Doubling: a reading creates up to one key per particle and new landmark.
+            grow = max(next_key, 2 * len(self._seen)) - len(self._seen)
+            self._seen = np.concatenate([self._seen, np.zeros(grow)])
+            self._created = np.concatenate([self._created, np.zeros(grow)])
+        self._seen[known:next_key] = self._created[known:next_key] = self.travelled
+        self._num_keys = next_key
 
     def before_reading(self, ws: WorkingSet, pending: np.ndarray | None) -> None:
-        """Remember the covariances of the working set's landmarks (``pending``: the
-        resampling the reading applies to it first), to tell which the reading observes."""
-        cov = ws.cov[:, :ws.first_new_slot]
-        self._before = cov[pending] if pending is not None else cov.copy()
+        """Remember the covariances and log-odds of the working set's landmarks (``pending``:
+        the resampling the reading applies to it first), to tell which the reading observes
+        and which it confirms."""
+        kept = ws.state[:, :ws.first_new_slot, COV.start:LOGODDS + 1]
+        self._before = kept[pending] if pending is not None else kept.copy()
         self._first_new = ws.first_new_slot
 
     def after_reading(self, ws: WorkingSet, poses: np.ndarray, next_key: int) -> np.ndarray:
         """Update observation times, match this reading's new landmarks, close confirmed
         loops; returns the poses (shifted where a loop closed)."""
-        first = self._first_new
-        changed = ws.valid[:, :first] & (ws.cov[:, :first] != self._before).any(axis=2)
+        first, before = self._first_new, self._before
         self._before = None
+        changed = ws.valid[:, :first] & (ws.cov[:, :first] != before[..., :3]).any(axis=2)
         self._seen[ws.key[:, :first][changed]] = self.travelled
         self.register(next_key)
         self.support[self.travelled - self._started > self.lifetime] = 0
-        if ws.first_new_slot > first:
+        # Landmarks this reading confirmed: their log-odds reached the bound now.
+        confirmed = ws.valid & (ws.logodds >= self.min_logodds)
+        confirmed[:, :first] &= before[..., 3] < self.min_logodds
+        confirmed &= (self.travelled - self._created[np.maximum(ws.key, 0)]) <= self.lifetime
+        if confirmed.any():
             key = np.maximum(ws.key[:, :first], 0)
             stale = self.travelled - self._seen[key]
             old = (ws.valid[:, :first] & (ws.logodds[:, :first] >= self.min_logodds)
                    & (stale >= self.old_after))
             if old.any():
-                for column in range(first, ws.first_new_slot):
-                    self._match(ws, column, old, key, stale)
+                for column in np.flatnonzero(confirmed.any(axis=0)).tolist():
+                    self._match(ws, column, confirmed[:, column], old, key, stale)
         closing = self.support >= self.matches
         if closing.any():
             poses = self._close(ws, poses, closing.nonzero()[0])
         return poses
 
-    def _match(self, ws: WorkingSet, column: int, old: np.ndarray, key: np.ndarray,
-               stale: np.ndarray) -> None:
-        """Fold the wide matches of the landmarks created in ``column`` into the hypotheses."""
+    def _match(self, ws: WorkingSet, column: int, created: np.ndarray, old: np.ndarray,
+               key: np.ndarray, stale: np.ndarray) -> None:
+        """Fold the wide matches of the landmarks just confirmed in ``column`` (the particles
+        ``created``) into the hypotheses."""
         first = old.shape[1]
-        created = ws.valid[:, column] & ws.is_new[:, column]
-        if not created.any():
-            return
         offsets = ws.mean[:, :first] - ws.mean[:, column, None]                  # (M, E, 2)
         match_cov = ws.cov[:, :first] + ws.cov[:, column, None]                  # (M, E, 3)
         drift = (DRIFT_PER_METER * stale) ** 2
