@@ -736,7 +736,7 @@ class FastSLAM:
         (``loop_closure.LoopClosure``), after the map step and before resampling, the same
         numpy step on both backends."""
         if self.loop is not None:
-            self.poses = self.loop.after_reading(self.working.current, self.poses,
+            self.poses = self.loop.after_reading(self.working, self.poses,
                                                  self.landmarks.next_key)
 
     def _resample_if_degenerate(self, report: UpdateReport) -> None:

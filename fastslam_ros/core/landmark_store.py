@@ -443,6 +443,38 @@ class LandmarkStore(RecordViews):
         self._write_existing(ws, track_labels)
         self._insert_new(ws, track_labels)
 
+    def gather_maps(self, particles: np.ndarray) -> WorkingSet:
+        """A working set of every cell of the ``particles``' maps (the other particles' rows
+        empty), for a rare change of whole maps (a loop closure)."""
+        columns = np.full((self.num_particles, self.num_cells), -1, np.int64)
+        columns[particles] = np.arange(self.num_cells)
+        return self.gather(columns, num_new_slots=0)
+
+    def scatter_moved(self, ws: WorkingSet, track_labels: bool) -> None:
+        """``scatter``, where gathered entries may have moved to another cell: those leave
+        their block and are inserted in the blocks of the cells they now lie in."""
+        ix, iy = self.cell_of(ws.mean)
+        column = ws.columns[np.arange(ws.valid.shape[0])[:, None], np.maximum(ws.block, 0)]
+        moved = (ws.valid & (ws.row >= 0)
+                 & ((self.cell_ix[column] != ix) | (self.cell_iy[column] != iy)))
+        owner, entry = np.nonzero(moved)
+        counts = np.bincount(owner, minlength=ws.valid.shape[0])
+        shape = (ws.valid.shape[0], int(counts.max(initial=0)))
+        rank = np.arange(len(owner)) - (np.cumsum(counts) - counts)[owner]
+        state = np.zeros(shape + (STATE_WIDTH,))
+        ident = np.full(shape + (2,), -1, np.int64)
+        state[owner, rank], ident[owner, rank] = ws.state[owner, entry], ws.ident[owner, entry]
+        placed = np.zeros(shape, bool)
+        placed[owner, rank] = True
+        moving = WorkingSet(row=np.full(shape, -1, np.int64), slot=np.zeros(shape, np.int64),
+                            block=np.full(shape, -1, np.int64), columns=ws.columns,
+                            state=state, ident=ident, valid=placed,
+                            dirty=np.zeros(shape, bool), is_new=placed, first_new_slot=0)
+        ws.valid[moved] = False
+        ws.dirty[moved] = True
+        self._write_existing(ws, track_labels)
+        self._insert_new(moving, track_labels)
+
     def _write_existing(self, ws: WorkingSet, track_labels: bool) -> None:
         if self.kernels is not None:
             pair_particle, pair_block = self.kernels.dirty_pairs(ws)

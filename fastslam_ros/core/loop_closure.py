@@ -32,7 +32,9 @@ import math
 
 import numpy as np
 
+from .geometry import wrap_angle
 from .landmark_store import COV, LOGODDS, WorkingSet
+from .working_cache import WorkingSetCache
 
 DRIFT_PER_METER = 0.01
 """Standard deviation (m per m travelled) of the odometry drift the wide match allows for (the
@@ -42,6 +44,11 @@ WIDE_GATE = 9.21
 """Squared Mahalanobis distance of a wide match (chi-square, 2 dof, 99 %)."""
 AGREEMENT_GATE = 9.21
 """Squared Mahalanobis distance within which two wide matches' offsets agree (99 %)."""
+ROTATION_SIGMA = 0.05
+"""Prior standard deviation (rad) of the heading correction: the fit shrinks the rotation two
+pairs a few metres apart determine poorly (small-angle maximum a posteriori)."""
+MAX_ROTATION = 0.2
+"""Largest heading correction (rad) a closure may make."""
 OLD_AFTER_RANGES = 2.0
 """A landmark not observed for this many ``max_range`` of travel is old (the robot has left
 it and come back)."""
@@ -71,6 +78,49 @@ def _times(packed: np.ndarray, d: np.ndarray) -> np.ndarray:
                      packed[..., 1] * d[..., 0] + packed[..., 2] * d[..., 1]], axis=-1)
 
 
+def _rotate_cov(cov: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
+    """R S R^T for packed covariances (..., 3) and rotations given by cos, sin (...)."""
+    sxx, sxy, syy = cov[..., 0], cov[..., 1], cov[..., 2]
+    cc, ss, cs = cos * cos, sin * sin, cos * sin
+    return np.stack([cc * sxx - 2.0 * cs * sxy + ss * syy,
+                     cs * (sxx - syy) + (cc - ss) * sxy,
+                     ss * sxx + 2.0 * cs * sxy + cc * syy], axis=-1)
+
+
+def _fit(old: np.ndarray, new: np.ndarray, cov: np.ndarray,
+         used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted least-squares rigid motion (rotation (...), translation (..., 2)) taking the
+    points ``new`` (..., n, 2) onto ``old``, over the pairs ``used`` (..., n), each weighted by
+    the inverse mean variance of its covariance ``cov`` (..., n, 3), the rotation shrunk by its
+    prior ``ROTATION_SIGMA`` (closed-form 2-D Procrustes; one pair gives the pure
+    translation)."""
+    weight = np.where(used, 2.0 / (cov[..., 0] + cov[..., 2]), 0.0)
+    total = weight.sum(axis=-1)[..., None]
+    centre_old = (weight[..., None] * old).sum(axis=-2) / total
+    centre_new = (weight[..., None] * new).sum(axis=-2) / total
+    a, b = new - centre_new[..., None, :], old - centre_old[..., None, :]
+    dot = (weight * (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1])).sum(axis=-1)
+    cross = (weight * (a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0])).sum(axis=-1)
+    rotation = np.arctan2(cross, dot + ROTATION_SIGMA ** -2)
+    cos, sin = np.cos(rotation), np.sin(rotation)
+    translation = centre_old - np.stack([cos * centre_new[..., 0] - sin * centre_new[..., 1],
+                                         sin * centre_new[..., 0] + cos * centre_new[..., 1]],
+                                        axis=-1)
+    return rotation, translation
+
+
+def _fit_residuals(old: np.ndarray, new: np.ndarray, cov: np.ndarray,
+                   used: np.ndarray) -> np.ndarray:
+    """Largest squared Mahalanobis residual (...) of the used pairs under their rigid fit
+    (``_fit``); the fitted rotation must also stay within ``MAX_ROTATION``."""
+    rotation, translation = _fit(old, new, cov, used)
+    cos, sin = np.cos(rotation)[..., None], np.sin(rotation)[..., None]
+    fitted = np.stack([cos * new[..., 0] - sin * new[..., 1],
+                       sin * new[..., 0] + cos * new[..., 1]], axis=-1) + translation[..., None, :]
+    d2 = np.where(used, _mahalanobis(fitted - old, cov), 0.0).max(axis=-1)
+    return np.where(np.abs(rotation) <= MAX_ROTATION, d2, np.inf)
+
+
 class LoopClosure:
     """Per-particle offset hypotheses and per-key observation times (module docstring)."""
 
@@ -94,8 +144,12 @@ class LoopClosure:
         count = num_particles
         self.support = np.zeros(count, np.int64)
         """Distinct old landmarks agreeing on each particle's offset (0: no hypothesis)."""
-        self.offset = np.zeros((count, 2))
-        self.offset_cov = np.ones((count, 3))
+        self._pair_old = np.zeros((count, matches, 2))
+        """Per particle and supporting match: the old landmark's mean when it matched."""
+        self._pair_new = np.zeros((count, matches, 2))
+        """Per particle and supporting match: the young landmark's mean when it matched."""
+        self._pair_cov = np.ones((count, matches, 3))
+        """Per particle and supporting match: the two landmarks' summed covariances."""
         self._started = np.zeros(count)
         self._since = np.zeros(count)
         """Latest time (``travelled``) a supporting old landmark was observed."""
@@ -125,9 +179,12 @@ class LoopClosure:
         self._before = kept[pending] if pending is not None else kept.copy()
         self._first_new = ws.first_new_slot
 
-    def after_reading(self, ws: WorkingSet, poses: np.ndarray, next_key: int) -> np.ndarray:
-        """Update observation times, match this reading's new landmarks, close confirmed
-        loops; returns the poses (shifted where a loop closed)."""
+    def after_reading(self, cache: WorkingSetCache, poses: np.ndarray,
+                      next_key: int) -> np.ndarray:
+        """Update observation times, match the new landmarks of the reading's working set
+        (``cache.current``), close confirmed loops; returns the poses (moved where a loop
+        closed)."""
+        ws = cache.current
         first, before = self._first_new, self._before
         self._before = None
         changed = ws.valid[:, :first] & (ws.cov[:, :first] != before[..., :3]).any(axis=2)
@@ -148,7 +205,7 @@ class LoopClosure:
                     self._match(ws, column, confirmed[:, column], old, key, stale)
         closing = self.support >= self.matches
         if closing.any():
-            poses = self._close(ws, poses, closing.nonzero()[0])
+            poses = self._close(cache, poses, closing.nonzero()[0])
         return poses
 
     def _match(self, ws: WorkingSet, column: int, created: np.ndarray, old: np.ndarray,
@@ -164,59 +221,96 @@ class LoopClosure:
         wide = old & created[:, None] & (wide_d2 <= WIDE_GATE)
         if not wide.any():
             return
-        agree_d2 = _mahalanobis(offsets - self.offset[:, None],
-                                match_cov + self.offset_cov[:, None])
+        # Agreement: the rigid fit of the held pairs plus this one leaves every residual
+        # within the gate of its pair's covariance.
+        count, held_count = len(self.support), self.matches
+        used = np.arange(held_count)[None, :] < np.minimum(self.support, held_count)[:, None]
+        shape = (count, first, held_count + 1)
+        pair_old = np.concatenate([np.broadcast_to(self._pair_old[:, None], shape[:2] + (
+            held_count, 2)), ws.mean[:, :first, None]], axis=2)
+        pair_new = np.concatenate([np.broadcast_to(self._pair_new[:, None], shape[:2] + (
+            held_count, 2)), np.broadcast_to(ws.mean[:, column, None, None], shape[:2] + (1, 2))],
+            axis=2)
+        pair_cov = np.concatenate([np.broadcast_to(self._pair_cov[:, None], shape[:2] + (
+            held_count, 3)), match_cov[:, :, None]], axis=2)
+        in_fit = np.concatenate([np.broadcast_to(used[:, None], shape[:2] + (held_count,)),
+                                 np.ones(shape[:2] + (1,), bool)], axis=2)
+        agree_d2 = _fit_residuals(pair_old, pair_new, pair_cov, in_fit)
         held = (key[:, :, None] == self._old_keys[:, None, :]).any(axis=2)
         agree = wide & (self.support > 0)[:, None] & (agree_d2 <= AGREEMENT_GATE) & ~held
         joins = agree.any(axis=1)
         rows = joins.nonzero()[0]
         if len(rows):
             pick = np.where(agree[rows], agree_d2[rows], np.inf).argmin(axis=1)
-            info_old = _inverse(self.offset_cov[rows])
-            info_new = _inverse(match_cov[rows, pick])
-            cov = _inverse(info_old + info_new)
-            self.offset[rows] = _times(cov, _times(info_old, self.offset[rows])
-                                       + _times(info_new, offsets[rows, pick]))
-            self.offset_cov[rows] = cov
             slot = np.minimum(self.support[rows], self.matches - 1)
-            self._old_keys[rows, slot] = key[rows, pick]
-            self._new_keys[rows, slot] = ws.key[rows, column]
+            self._store(ws, rows, slot, column, pick, key, match_cov)
             self._since[rows] = np.maximum(self._since[rows], self._seen[key[rows, pick]])
             self.support[rows] += 1
         rows = (wide.any(axis=1) & ~joins).nonzero()[0]
         if len(rows):
             pick = np.where(wide[rows], wide_d2[rows], np.inf).argmin(axis=1)
-            self.offset[rows] = offsets[rows, pick]
-            self.offset_cov[rows] = match_cov[rows, pick]
             self._old_keys[rows] = -1
             self._new_keys[rows] = -1
-            self._old_keys[rows, 0] = key[rows, pick]
-            self._new_keys[rows, 0] = ws.key[rows, column]
+            self._store(ws, rows, np.zeros(len(rows), np.int64), column, pick, key, match_cov)
             self._since[rows] = self._seen[key[rows, pick]]
             self._started[rows] = self.travelled
             self.support[rows] = 1
 
-    def _close(self, ws: WorkingSet, poses: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """Shift the poses and recent landmarks of particles ``rows`` by their offsets and
-        remove the duplicates that confirmed them."""
-        shift = self.offset[rows]
+    def _store(self, ws: WorkingSet, rows: np.ndarray, slot: np.ndarray, column: int,
+               pick: np.ndarray, key: np.ndarray, match_cov: np.ndarray) -> None:
+        """Hold the match of old landmark ``pick`` to young ``column`` in ``slot`` of particles
+        ``rows``."""
+        self._old_keys[rows, slot] = key[rows, pick]
+        self._new_keys[rows, slot] = ws.key[rows, column]
+        self._pair_old[rows, slot] = ws.mean[rows, pick]
+        self._pair_new[rows, slot] = ws.mean[rows, column]
+        self._pair_cov[rows, slot] = match_cov[rows, pick]
+
+    def _close(self, cache: WorkingSetCache, poses: np.ndarray,
+               rows: np.ndarray) -> np.ndarray:
+        """Correct particles ``rows`` by the rigid fit of their supporting pairs (young onto
+        old): the pose fully, each recent landmark by the share of the travel since the
+        supporting old landmarks were last observed that had passed at its creation (the
+        drift grew along the way); remove the duplicates that confirmed the closure. The
+        working set goes back to the store first; the closing particles' whole maps are
+        gathered, corrected and written back (landmarks now in another cell move there)."""
+        rotation, translation = _fit(self._pair_old[rows], self._pair_new[rows],
+                                     self._pair_cov[rows],
+                                     np.ones(self._pair_old[rows].shape[:2], bool))
+        cos, sin = np.cos(rotation), np.sin(rotation)
+        robot = poses[rows, :2]
+        # The correction as a rotation about the robot's position and a shift of it.
+        shift = np.stack([cos * robot[:, 0] - sin * robot[:, 1],
+                          sin * robot[:, 0] + cos * robot[:, 1]], axis=-1) + translation - robot
+        cache.flush()
+        store = cache.store
+        ws = store.gather_maps(rows)
         valid = ws.valid[rows]
         key = ws.key[rows]
-        recent = valid & (self._created[np.maximum(key, 0)] > self._since[rows, None])
-        mean = ws.mean[rows]
-        mean += np.where(recent[..., None], shift[:, None], 0.0)
-        ws.mean[rows] = mean
+        since = self._since[rows, None]
+        created = self._created[np.maximum(key, 0)]
+        share = np.where(valid, np.clip((created - since) / np.maximum(
+            self.travelled - since, 1e-9), 0.0, 1.0), 0.0)
+        angle = share * rotation[:, None]
+        lcos, lsin = np.cos(angle), np.sin(angle)
+        mean = ws.mean[rows] - robot[:, None]
+        ws.mean[rows] = (np.stack([lcos * mean[..., 0] - lsin * mean[..., 1],
+                                   lsin * mean[..., 0] + lcos * mean[..., 1]], axis=-1)
+                         + robot[:, None] + share[..., None] * shift[:, None])
+        ws.cov[rows] = _rotate_cov(ws.cov[rows], lcos, lsin)
         duplicate = valid & (key[:, :, None] == self._new_keys[rows, None, :]).any(axis=2)
         ws.valid[rows] = valid & ~duplicate
-        ws.dirty[rows] |= recent | duplicate
+        ws.dirty[rows] |= (share > 0.0) | duplicate
+        store.scatter_moved(ws, cache.track_labels)
         poses = poses.copy()
-        poses[rows, :2] += shift
+        poses[rows, :2] = robot + shift
+        poses[rows, 2] = wrap_angle(poses[rows, 2] + rotation)
         self.support[rows] = 0
         self.num_closures += len(rows)
         return poses
 
     def resample(self, indices: np.ndarray) -> None:
         """Particle m takes the hypothesis of particle ``indices[m]``."""
-        for name in ("support", "offset", "offset_cov", "_started", "_since", "_old_keys",
-                     "_new_keys"):
+        for name in ("support", "_pair_old", "_pair_new", "_pair_cov", "_started", "_since",
+                     "_old_keys", "_new_keys"):
             setattr(self, name, getattr(self, name)[indices])
