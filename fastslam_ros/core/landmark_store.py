@@ -444,8 +444,9 @@ class LandmarkStore(RecordViews):
         """Write changed and new working-set entries back, copying shared blocks first.
 
         ``order``: a resampling not yet applied to ``ws`` (particle m's entries are those of
-        its particle ``order[m]``); the compiled write-back reads through it (but with known
-        ids), the numpy one applies it first (``WorkingSet.take``)."""
+        its particle ``order[m]``); the compiled write-back reads through it, the numpy one
+        (and the compiled one with known ids, whose labels are tracked per particle) applies
+        it first (``WorkingSet.take``)."""
         if order is not None and (self.kernels is None or track_labels):
             ws = ws.take(order) if self.kernels is None else self.kernels.take(ws, order)
             order = None
