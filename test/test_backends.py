@@ -221,10 +221,13 @@ def test_compiled_gather_matches_the_store_gather():
     rng = np.random.default_rng(6)
     for _ in range(5):
         columns = rng.integers(-1, store.num_cells, (30, 6))
-        expected, got = store.gather(columns, 4), kernels.gather(store, columns, 4)
-        assert got.first_new_slot == expected.first_new_slot > 0
-        for name in vars(expected):
-            np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+        expected = store.gather(columns, 4)
+        # On the calling thread and in chunks of particles on two threads.
+        for threads in (1, 2):
+            got = kernels._gather(store, columns, 4, threads)
+            assert got.first_new_slot == expected.first_new_slot > 0
+            for name in vars(expected):
+                np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
     # One particle's stored map, read back compiled: the same records in the same order.
     for particle in range(30):
         rows = store.tables.row(particle, store.num_cells)
@@ -265,6 +268,56 @@ def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
         store.apply_resampling()
     for name in ("table", "refcount", "label_column"):
         np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
+
+
+@needs_numba
+def test_compiled_write_back_reads_through_a_pending_resampling():
+    """A working set written back with a resampling not applied to it (particle m's entries
+    are particle ``order[m]``'s, some copied twice, none of some): the compiled write-back,
+    which reads through ``order``, leaves the store of the numpy one, which applies it first;
+    copies of a keyless new landmark get a key each."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(5)
+    count = 8
+    stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
+                                                                   kernels=kernels)]
+    keyless = 0
+    for step in range(60):
+        low = rng.uniform(-20.0, 10.0, 2)
+        order = np.sort(rng.integers(0, count, count))
+        creators = rng.random(count) < 0.5
+        points = rng.uniform(-20.0, 20.0, (count, 2, 2))
+        keys = np.where(rng.random((count, 2)) < 0.5, -1,
+                        10 ** 6 + 100 * step + np.arange(2 * count).reshape(count, 2))
+        shuffle = np.sort(rng.integers(0, count, count))
+        change = rng.random(1000)
+        for store in stores:
+            columns = store.columns_in_box(low, low + 10.0)
+            ws = store.gather(np.broadcast_to(columns, (count, len(columns))), 2)
+            particle, slot = ws.valid.nonzero()
+            moved = change[:len(particle)] < 0.4
+            ws.mean[particle[moved], slot[moved]] += 0.01
+            ws.dirty[particle[moved], slot[moved]] = True
+            gone = change[:len(particle)] < 0.1
+            ws.valid[particle[gone], slot[gone]] = False
+            new = slice(ws.first_new_slot, None)
+            ws.mean[creators, new] = points[creators]
+            ws.cov[creators, new] = (0.1, 0.0, 0.1)
+            ws.key[creators, new] = keys[creators]
+            ws.valid[creators, new] = ws.is_new[creators, new] = True
+            # Resampled as the filter does it: the store's tables now, the working set's
+            # entries pending.
+            store.resample(order)
+            store.scatter(ws, track_labels=False, order=order)
+            if step % 3 == 0:
+                store.resample(shuffle)
+        keyless += int((keys[order][creators[order]] < 0).sum())
+        for name in ("state", "ident", "occupied", "refcount", "table", "next_key"):
+            np.testing.assert_array_equal(getattr(stores[1], name), getattr(stores[0], name))
+    assert keyless > 0
+    for particle in range(count):
+        keys = stores[1].particle_map(particle)[4]
+        assert len(np.unique(keys)) == len(keys)
 
 
 @needs_numba

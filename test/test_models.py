@@ -355,3 +355,45 @@ def test_mean_pose_across_pi_against_a_rotated_frame():
     np.testing.assert_allclose(wrap_angle(mean[2] - np.pi - expected_mean[2]), 0.0, atol=1e-4)
     np.testing.assert_allclose(mean[:2], expected_mean[:2], atol=1e-12)
     np.testing.assert_allclose(cov, (deviation * weights[:, None]).T @ deviation, atol=1e-6)
+
+
+@pytest.mark.parametrize("offset", OFFSETS[:2])
+def test_proposal_matches_the_sampled_nonlinear_posterior_of_one_reading(offset):
+    """FastSLAM 2.0's Gaussian proposal for one reading against the exact posterior
+    p(s | z) ~ p(s) p(z | s) with the landmark marginalised, by importance sampling from the
+    prior with the nonlinear h: the same mean, a spread that has not collapsed, and a log
+    weight equal to the log evidence log p(z) (what the filter multiplies into the weight)."""
+    rng = np.random.default_rng(11)
+    mean = np.array([[1.0, -0.5, 0.3]])
+    cov = np.diag([0.15, 0.10, 0.05]) ** 2
+    cov[0, 1] = cov[1, 0] = 0.4 * 0.15 * 0.10
+    sigma_m = np.array([[0.04, 0.01], [0.01, 0.03]])
+    landmarks = np.array([[[5.0, 2.0, *pack(sigma_m[None])[0]],
+                           [0.0, 4.5, *pack(0.5 * sigma_m[None])[0]]]]).transpose(1, 0, 2)
+    noise = np.array([0.05, 0.02]) ** 2
+    true_pose = mean[0] + [0.1, -0.05, 0.04]
+    z = observe(true_pose, landmarks[:, 0, :2], offset) + [0.02, -0.01]
+    used = np.ones((2, 1), bool)
+    got_mean, got_cov, got_log_w = observation_proposal(
+        mean, cov[None], landmarks, z[:, :1], z[:, 1:], used, offset, noise)
+
+    n = 400_000
+    poses = mean[0] + rng.normal(size=(n, 3)) @ np.linalg.cholesky(cov).T
+    log_lik = np.zeros(n)
+    for k in range(2):
+        points = landmarks[k, 0, :2] + rng.normal(size=(n, 2)) @ np.linalg.cholesky(
+            unpack(landmarks[k, :, 2:])[0]).T
+        nu = z[k] - observe(poses, points, offset)
+        nu[:, 1] = wrap_angle(nu[:, 1])
+        log_lik -= 0.5 * ((nu ** 2 / noise).sum(axis=1) + np.log(noise).sum()) + np.log(2 * np.pi)
+    peak = log_lik.max()
+    w = np.exp(log_lik - peak)
+    log_evidence = peak + np.log(w.mean())
+    w /= w.sum()
+    want_mean = w @ poses
+    centred = poses - want_mean
+    want_cov = (w[:, None] * centred).T @ centred
+    sigma = np.sqrt(np.diag(want_cov))
+    assert np.all(np.abs(wrap_angle(got_mean[0] - want_mean)) <= 0.1 * sigma)
+    np.testing.assert_allclose(np.sqrt(np.diag(got_cov[0])), sigma, rtol=0.1)
+    assert got_log_w[0] == pytest.approx(log_evidence, abs=0.1)

@@ -294,6 +294,35 @@ def test_ids_do_not_swap_when_people_cross():
             assert on_people == keys, f"step {k}, particle {m}: ids {on_people}, were {keys}"
 
 
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_ids_do_not_swap_when_people_walk_side_by_side(seed):
+    """Two people walking side by side 0.6 m apart at 1 m/s (their outlines 0.2 m apart),
+    diagonally past the robot, the second behind the first at the start: once tracked, each
+    keeps one key in every robot particle, and at the end every particle tracks both.
+    Associating in scan order, a detection could take the neighbour that the next
+    detection fits far better, and the two swapped."""
+    grid = room()
+    pose = (1.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose, num_particles=30, seed=seed)
+    keys = None
+    apart = 0.6 * np.array([1.0, -1.0]) / math.sqrt(2.0)          # abreast of the heading
+    for k in range(45):
+        a = np.array([3.0, 2.0]) + 0.07 * k                        # 0.99 m/s, heading 45 deg
+        b = a + apart
+        tracker.update(0.1 * k, scan_at(grid, pose, [a, b]))
+        for m in range(tracker.num_particles):
+            people = tracker.people_of(m)
+            if len(people.keys) < 2:
+                assert k < 30, f"step {k}, particle {m}: {len(people.keys)} people"
+                continue
+            assert len(people.keys) == 2
+            near_a = np.linalg.norm(people.means - a, axis=1)
+            near_b = np.linalg.norm(people.means - b, axis=1)
+            on_people = (int(people.keys[np.argmin(near_a)]), int(people.keys[np.argmin(near_b)]))
+            keys = on_people if keys is None else keys
+            assert on_people == keys, f"step {k}, particle {m}: ids {on_people}, were {keys}"
+
+
 def test_a_person_hidden_for_a_while_keeps_its_id_and_one_lost_is_removed():
     """Behind a wall the person's Brownian cloud spreads as q sqrt(t): back in view after 2 s
     (spread about 0.6 m < lost_spread) it keeps its id; hidden for 20 s, far beyond

@@ -20,6 +20,7 @@ packed as (xx, xy, yy), so they are symmetric by construction.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -356,11 +357,11 @@ class LandmarkStore(RecordViews):
         """
         if self.kernels is not None:
             self.tables.refresh(columns)
-            rows, needed = self.kernels.claim_plan(self.table, particles, columns,
-                                                   self.refcount)
-            if not needed.any():
+            rows, needed, count = self.kernels.claim_plan(self.table, particles, columns,
+                                                          self.refcount)
+            if count == 0:
                 return rows
-            fresh = self._allocate_rows(int(needed.sum()))
+            fresh = self._allocate_rows(count)
             return self.kernels.claim(self.table, particles, columns, rows, needed, fresh,
                                       self.refcount, self.state, self.ident, self.occupied)
         self._count_columns(columns)
@@ -438,10 +439,20 @@ class LandmarkStore(RecordViews):
         ws.valid.flat[target] = True
         return ws
 
-    def scatter(self, ws: WorkingSet, track_labels: bool) -> None:
-        """Write changed and new working-set entries back, copying shared blocks first."""
-        self._write_existing(ws, track_labels)
-        self._insert_new(ws, track_labels)
+    def scatter(self, ws: WorkingSet, track_labels: bool,
+                order: np.ndarray | None = None) -> None:
+        """Write changed and new working-set entries back, copying shared blocks first.
+
+        ``order``: a resampling not yet applied to ``ws`` (particle m's entries are those of
+        its particle ``order[m]``); the compiled write-back reads through it, the numpy one
+        (and the compiled one with known ids, whose labels are tracked per particle) applies
+        it first (``WorkingSet.take``)."""
+        if order is not None and (self.kernels is None or track_labels):
+            ws = ws.take(order) if self.kernels is None else self.kernels.take(ws, order)
+            order = None
+        origin = np.arange(self.num_particles) if order is None else order
+        self._write_existing(ws, track_labels, origin)
+        self._insert_new(ws, track_labels, origin)
 
     def gather_maps(self, particles: np.ndarray) -> WorkingSet:
         """A working set of every cell of the ``particles``' maps (the other particles' rows
@@ -472,17 +483,18 @@ class LandmarkStore(RecordViews):
                             dirty=np.zeros(shape, bool), is_new=placed, first_new_slot=0)
         ws.valid[moved] = False
         ws.dirty[moved] = True
-        self._write_existing(ws, track_labels)
-        self._insert_new(moving, track_labels)
+        origin = np.arange(self.num_particles)
+        self._write_existing(ws, track_labels, origin)
+        self._insert_new(moving, track_labels, origin)
 
-    def _write_existing(self, ws: WorkingSet, track_labels: bool) -> None:
+    def _write_existing(self, ws: WorkingSet, track_labels: bool, origin: np.ndarray) -> None:
         if self.kernels is not None:
-            pair_particle, pair_block = self.kernels.dirty_pairs(ws)
+            pair_particle, pair_block = self.kernels.dirty_pairs(ws, origin)
             if len(pair_particle) == 0:
                 return
-            rows = self._own_rows(pair_particle, ws.columns[pair_particle, pair_block])
+            rows = self._own_rows(pair_particle, ws.columns[origin[pair_particle], pair_block])
             self.kernels.write_back(ws, pair_particle, pair_block, rows, self.state,
-                                    self.occupied)
+                                    self.occupied, origin)
             if track_labels:
                 self._forget_labels(ws, *np.nonzero(ws.dirty & (ws.row >= 0) & ~ws.valid))
             return
@@ -514,48 +526,71 @@ class LandmarkStore(RecordViews):
         self.label_tables.refresh(index[known])
         self.label_column[owner[known], index[known]] = -1
 
-    def _insert_new(self, ws: WorkingSet, track_labels: bool) -> None:
-        """Put new landmarks in their cell's block, opening another column when it is full."""
-        owner, entry = np.nonzero(ws.is_new & ws.valid)
+    def _insert_new(self, ws: WorkingSet, track_labels: bool, origin: np.ndarray) -> None:
+        """Put new landmarks in their cell's block, opening another column when it is full
+        (the keyless ones get their keys first); ``origin``: as in ``_write_existing``
+        (the identity on the numpy path)."""
+        if self.kernels is not None:
+            owner, entry, ix, iy, keys, taken = self.kernels.new_entries(
+                ws, self.cell_size, self.next_key, origin)
+            self.next_key += taken
+            place = functools.partial(self._place_compiled, keys, origin)
+        else:
+            owner, entry = np.nonzero(ws.is_new & ws.valid)
+            keyless = ws.key[owner, entry] < 0
+            ws.key[owner[keyless], entry[keyless]] = self.new_keys(int(keyless.sum()))
+            ix, iy = self.cell_of(ws.mean[owner, entry])
+            place = self._place_numpy
         if len(owner) == 0:
             return
-        ix, iy = self.cell_of(ws.mean[owner, entry])
         columns = self._columns_for_cells(ix, iy)
-        placed_rows = np.empty(len(owner), np.int64)
-        placed_slots = np.empty(len(owner), np.int64)
         pending = np.arange(len(owner))
         while len(pending):
-            width = self.table.shape[1]
-            pair_key = owner[pending] * width + columns[pending]
-            pairs, first, inverse = np.unique(pair_key, return_index=True, return_inverse=True)
-            inverse = inverse.reshape(-1)
-            order = np.argsort(pair_key, kind="stable")
-            rank = np.empty(len(pending), np.int64)
-            rank[order] = np.arange(len(pending)) - np.searchsorted(pair_key[order],
-                                                                     pair_key[order])
-            pair_particle, pair_column = np.divmod(pairs, width)
-            rows = self._own_rows(pair_particle, pair_column)[inverse]
-            position = np.cumsum(~self.occupied[rows], axis=1)
-            fits = position[:, -1] > rank
-            slots = np.argmax(position > rank[:, None], axis=1)
-            done = pending[fits]
-            placed_rows[done], placed_slots[done] = rows[fits], slots[fits]
-            self.occupied[rows[fits], slots[fits]] = True
-            pending = pending[~fits]
+            pending = pending[~place(ws, owner, entry, columns, pending)]
             if len(pending):
                 # Full blocks: the cells get a fresh insertion column for everyone.
                 for cx, cy in np.unique(np.stack([ix[pending], iy[pending]], 1), axis=0).tolist():
                     self._register_cell(cx, cy)
                 columns[pending] = self._columns_for_cells(ix[pending], iy[pending])
-        keyless = ws.key[owner, entry] < 0
-        ws.key[owner[keyless], entry[keyless]] = self.new_keys(int(keyless.sum()))
-        self.state[placed_rows, placed_slots] = ws.state[owner, entry]
-        self.ident[placed_rows, placed_slots] = ws.ident[owner, entry]
         if track_labels:
             labels = ws.label[owner, entry]
             index = self._label_indices(labels, create=True)
             self.label_tables.refresh(index)
             self.label_column[owner, index] = columns
+
+    def _place_numpy(self, ws: WorkingSet, owner: np.ndarray, entry: np.ndarray,
+                     columns: np.ndarray, pending: np.ndarray) -> np.ndarray:
+        """Put the ``pending`` new entries (owner, entry) in a free slot of their particle's
+        block of their insertion column (made private first), in order; which fitted."""
+        width = self.table.shape[1]
+        pair_key = owner[pending] * width + columns[pending]
+        pairs, inverse = np.unique(pair_key, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        order = np.argsort(pair_key, kind="stable")
+        rank = np.empty(len(pending), np.int64)
+        rank[order] = np.arange(len(pending)) - np.searchsorted(pair_key[order],
+                                                                 pair_key[order])
+        pair_particle, pair_column = np.divmod(pairs, width)
+        rows = self._own_rows(pair_particle, pair_column)[inverse]
+        position = np.cumsum(~self.occupied[rows], axis=1)
+        fits = position[:, -1] > rank
+        slots = np.argmax(position > rank[:, None], axis=1)
+        rows, slots, done = rows[fits], slots[fits], pending[fits]
+        self.occupied[rows, slots] = True
+        self.state[rows, slots] = ws.state[owner[done], entry[done]]
+        self.ident[rows, slots] = ws.ident[owner[done], entry[done]]
+        return fits
+
+    def _place_compiled(self, keys: np.ndarray, origin: np.ndarray, ws: WorkingSet,
+                        owner: np.ndarray, entry: np.ndarray, columns: np.ndarray,
+                        pending: np.ndarray) -> np.ndarray:
+        """``_place_numpy`` with the compiled backend (the entries' ``keys`` given, ``ws``
+        read through ``origin``): the insertion pairs and the placing each in one call."""
+        pair_particle, pair_column, inverse, rank = self.kernels.insertion_pairs(
+            owner, columns, pending, self.table.shape[1])
+        rows = self._own_rows(pair_particle, pair_column)
+        return self.kernels.place(ws, owner, entry, keys, origin, pending, rows, inverse, rank,
+                                  self.state, self.ident, self.occupied)
 
     def new_keys(self, count: int) -> np.ndarray:
         """``count`` store-wide landmark keys never handed out before."""

@@ -132,7 +132,8 @@ class WorkingSetCache:
             self.pending = indices if self.pending is None else self.pending[indices]
 
     def flush(self) -> None:
-        """Write the working set back into the store and drop it."""
-        if self.current is not None:
-            self.store.scatter(self._ws, track_labels=self.track_labels)
-            self._ws = None
+        """Write the working set back into the store and drop it (a pending resampling is
+        read through, not applied)."""
+        if self._ws is not None:
+            self.store.scatter(self._ws, self.track_labels, self.pending)
+            self._ws = self.pending = None

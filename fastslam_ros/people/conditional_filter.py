@@ -9,13 +9,14 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    Brownian motion, theta_t ~ N(theta_{t-1}, sigma^2 I) with sigma = person_diffusion sqrt(dt);
 2. weigh the robot particles by the likelihood field of the map (localization);
 3. detect people per robot particle (beams ending in free space away from obstacles);
-4. associate, per robot particle, each detection to the person most likely to have made it,
-   under the Gaussian summary of the person's particles N(z; mean, cov + R); below p0 the
-   detection starts a new person (its key is shared by every robot particle that starts one for
-   that detection, and it takes the key most of the particles' weight associated that
-   detection to, so a person one particle lost and found again keeps its id and ids stay
-   stable when another particle becomes the best, or else the id of a hidden or removed person
-   of that particle who could have walked there since last seen: re-identification); no new
+4. associate, per robot particle, detections to people under the Gaussian summary of each
+   person's particles N(z; mean, cov + R), likeliest (detection, person) pair first; a
+   detection left with no person above p0 starts a new person (its key is shared by every
+   robot particle that starts one for that detection, and it takes the key most of the
+   particles' weight associated that detection to, so a person one particle lost and found
+   again keeps its id and ids stay stable when another particle becomes the best, or else the
+   id of a hidden or removed person of that particle who could have walked there since last
+   seen and no other detection of this reading was associated to: re-identification); no new
    person within DUPLICATE_GATE of a person of that robot particle; the robot particle's
    weight is multiplied by max(likelihood, p0);
 5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
@@ -385,9 +386,11 @@ class PeopleTracker:
 
     def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
                                                                    np.ndarray]:
-        """Associate detections per robot particle, create people, update the associated ones
-        and weigh the robot particles; returns (observed (M, N), created (M,), unexplained
-        (M,))."""
+        """Associate detections per robot particle (``_likeliest_pairs``), then create people
+        for the detections left over, in scan order (a person already associated in this
+        reading is neither re-identified nor given a second detection), update the associated
+        ones and weigh the robot particles; returns (observed (M, N), created (M,),
+        unexplained (M,))."""
         s = self.settings
         count = self.num_particles
         observed = np.zeros_like(self.alive)
@@ -399,31 +402,24 @@ class PeopleTracker:
         points = np.stack([sensors[:, 0:1] + detections.ranges * np.cos(heading),
                            sensors[:, 1:2] + detections.ranges * np.sin(heading)], axis=-1)
         mean, cov = self._person_summaries()
-        innovation_cov = cov + s.detection_sigma ** 2 * np.eye(2)
-        a, b, d = innovation_cov[..., 0, 0], innovation_cov[..., 0, 1], innovation_cov[..., 1, 1]
-        det = a * d - b * b
         rows = np.arange(count)
-        updates = []  # (particles, slots, detection points) of associated people
-        key_of_detection = {}
         p0 = s.new_person_likelihood
+        slot_of, likelihood_of = self._likeliest_pairs(points, detections.valid, mean, cov)
         weights = np.exp(self.log_weights - self.log_weights.max())
+        self.log_weights = self.log_weights + np.sum(
+            np.where(detections.valid, np.log(np.maximum(likelihood_of, p0)), 0.0), axis=1)
+        associated_m, associated_j = np.nonzero(slot_of >= 0)
+        associated_n = slot_of[associated_m, associated_j]
+        observed[associated_m, associated_n] = True
+        key_of_detection = {}
         for j in range(detections.valid.shape[1]):
             valid = detections.valid[:, j]
             if not valid.any():
                 continue
+            associate = slot_of[:, j] >= 0
+            best = np.maximum(slot_of[:, j], 0)
             dx = points[:, j, None, 0] - mean[..., 0]
             dy = points[:, j, None, 1] - mean[..., 1]
-            mahalanobis = (d * dx * dx - 2.0 * b * dx * dy + a * dy * dy) / det
-            likelihood = np.exp(-0.5 * mahalanobis) / (2.0 * math.pi * np.sqrt(det))
-            likelihood = np.where(self.alive & ~observed, likelihood, 0.0)
-            best = np.argmax(likelihood, axis=1)
-            best_likelihood = likelihood[rows, best]
-            associate = valid & (best_likelihood >= p0)
-            self.log_weights = self.log_weights + np.where(
-                valid, np.log(np.maximum(best_likelihood, p0)), 0.0)
-            m = np.flatnonzero(associate)
-            observed[m, best[m]] = True
-            updates.append((m, best[m], points[m, j]))
             duplicate = np.any(self.alive & (np.hypot(dx, dy) < DUPLICATE_GATE), axis=1)
             new = valid & ~associate & ~duplicate
             free = ~self.alive
@@ -461,10 +457,9 @@ class PeopleTracker:
             self.last_seen[m, slot] = self.last_stamp
             observed[m, slot] = True
         self.next_key += len(key_of_detection)
-        m = np.concatenate([u[0] for u in updates]) if updates else np.zeros(0, np.intp)
-        if len(m):
-            n = np.concatenate([u[1] for u in updates])
-            z = np.concatenate([u[2] for u in updates])
+        if len(associated_m):
+            m, n = associated_m, associated_n
+            z = points[m, associated_j]
             particles = self.people[m, n]                      # (K, M_p, 2)
             squared = np.sum((particles - z[:, None, :]) ** 2, axis=2)
             log_w = -0.5 * squared / s.detection_sigma ** 2
@@ -474,6 +469,43 @@ class PeopleTracker:
             self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
             self.last_seen[m, n] = self.last_stamp
         return observed, created, unexplained
+
+    def _likeliest_pairs(self, points: np.ndarray, valid: np.ndarray, mean: np.ndarray,
+                         cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per robot particle, associate the detections at ``points`` (M, J, 2) (``valid``
+        (M, J)) to its live people (summaries ``mean`` (M, N, 2), ``cov`` (M, N, 2, 2)) under
+        N(z; mean, cov + R), likeliest (detection, person) pair first, down to p0: in scan
+        order, a detection between two people could take the one that a later detection fits
+        far better (two people side by side, or crossing). Returns the slot of each detection
+        (M, J) (-1: none) and its likelihood (M, J) (0: none)."""
+        s = self.settings
+        count, detections = valid.shape
+        innovation_cov = cov + s.detection_sigma ** 2 * np.eye(2)
+        a, b, d = innovation_cov[..., 0, 0], innovation_cov[..., 0, 1], innovation_cov[..., 1, 1]
+        det = a * d - b * b                                             # (M, N)
+        dx = points[:, :, None, 0] - mean[:, None, :, 0]                # (M, J, N)
+        dy = points[:, :, None, 1] - mean[:, None, :, 1]
+        mahalanobis = (d[:, None] * dx * dx - 2.0 * b[:, None] * dx * dy
+                       + a[:, None] * dy * dy) / det[:, None]
+        likelihood = np.exp(-0.5 * mahalanobis) / (2.0 * math.pi * np.sqrt(det[:, None]))
+        likelihood = np.where(valid[:, :, None] & self.alive[:, None, :], likelihood, 0.0)
+        slot_of = np.full((count, detections), -1, dtype=np.intp)
+        likelihood_of = np.zeros((count, detections))
+        slots = likelihood.shape[2]
+        rows = np.arange(count)
+        for _ in range(min(detections, slots)):
+            flat = likelihood.reshape(count, -1)
+            pair = np.argmax(flat, axis=1)
+            best = flat[rows, pair]
+            m = np.flatnonzero(best >= s.new_person_likelihood)
+            if len(m) == 0:
+                break
+            j, n = np.divmod(pair[m], slots)
+            slot_of[m, j] = n
+            likelihood_of[m, j] = best[m]
+            likelihood[m, j, :] = 0.0
+            likelihood[m, :, n] = 0.0
+        return slot_of, likelihood_of
 
     def _reidentify(self, m: np.ndarray, points: np.ndarray, mean: np.ndarray,
                     observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
