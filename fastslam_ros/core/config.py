@@ -152,10 +152,11 @@ class FastSLAMConfig:
     loop_closure_matches: int = parameter(
         0, "k: a new landmark, once confirmed (map_min_existence), that lies within a "
         "drift-widened gate of an old confirmed landmark (not observed for two sensor ranges of "
-        "travel) proposes a shift of its particle; once k distinct old landmarks agree on one "
-        "shift over the readings, the particle's pose and nearby recent landmarks move by it and "
-        "the duplicates are removed: a drifted loop closes instead of mapping its start twice "
-        "(0: off; mapping with unknown association only).", low=0, high=10)
+        "travel) pairs with it; once k distinct old landmarks agree on one rigid motion (rotation "
+        "and translation) over the readings, the particle's pose and the landmarks near the "
+        "robot mapped since the old ones were last seen move by it, the duplicates are removed "
+        "and the rest of the map keeps its place: a drifted loop closes instead of mapping its "
+        "start twice (0: off; mapping with unknown association only).", low=0, high=10)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",

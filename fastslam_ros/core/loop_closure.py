@@ -11,16 +11,18 @@ at the young landmarks the reading has just confirmed (existence reaching
    for ``OLD_AFTER_RANGES`` sensor ranges of travel): the gate is their covariances plus an
    isotropic drift of ``DRIFT_PER_METER`` times the distance travelled since the old landmark
    was last observed.
-2. Each wide match proposes a translation of the particle (old landmark minus young one). A
-   particle keeps one such offset hypothesis across readings: a match consistent with it
-   (within ``AGREEMENT_GATE`` of the landmarks' own covariances, no drift) from an old landmark
-   it does not hold yet joins it (information-weighted mean); any other wide match replaces
-   it. A hypothesis expires after ``LIFETIME_RANGES`` sensor ranges of travel.
-3. Once ``matches`` distinct old landmarks agree, the particle's pose and its recent landmarks
-   in the working set (created since its supporting old landmarks were last observed) are
-   shifted by the offset, and the duplicates that supported it are removed: the loop is
-   closed, and the next readings associate the old landmarks as usual. Recent landmarks
-   outside the working set (far from the robot) keep their place.
+2. Each wide match is an (old, young) pair. A particle keeps one hypothesis across readings:
+   a wide match from an old landmark it does not hold yet joins it when the rigid motion
+   (rotation and translation, weighted 2-D Procrustes with the rotation shrunk by its prior
+   ``ROTATION_SIGMA`` and at most ``MAX_ROTATION``) fitted to the held pairs and the new one
+   leaves every pair within ``AGREEMENT_GATE`` of its landmarks' own covariances; any other
+   wide match replaces it. A hypothesis expires after ``LIFETIME_RANGES`` sensor ranges of
+   travel.
+3. Once ``matches`` distinct old landmarks agree, the particle's pose and the landmarks near
+   the robot (in the reading's working set) created since its supporting old landmarks were
+   last observed are moved by the fitted motion, and the duplicates that supported it are
+   removed: the loop is closed, and the next readings associate the old landmarks as usual.
+   The rest of the map keeps its place.
 
 A single wrong wide match never moves a particle. "Last observed" is kept per landmark key
 (shared by a landmark's copies in every particle): a landmark is observed when the reading
@@ -43,10 +45,13 @@ world)."""
 WIDE_GATE = 9.21
 """Squared Mahalanobis distance of a wide match (chi-square, 2 dof, 99 %)."""
 AGREEMENT_GATE = 9.21
-"""Squared Mahalanobis distance within which two wide matches' offsets agree (99 %)."""
+"""Squared Mahalanobis distance within which every held pair's residual under the rigid fit
+must lie for a new pair to join the hypothesis (99 %)."""
 ROTATION_SIGMA = 0.05
 """Prior standard deviation (rad) of the heading correction: the fit shrinks the rotation two
-pairs a few metres apart determine poorly (small-angle maximum a posteriori)."""
+pairs a few metres apart determine poorly (small-angle maximum a posteriori). Without it the
+maps of the localization bench's seed 1 lose the off start for 171 s; with it, a heading
+drift much beyond ``ROTATION_SIGMA`` between close pairs does not close."""
 MAX_ROTATION = 0.2
 """Largest heading correction (rad) a closure may make."""
 OLD_AFTER_RANGES = 2.0
@@ -58,11 +63,13 @@ LIFETIME_RANGES = 1.0
 
 
 def _mahalanobis(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """d^T S^-1 d for 2-D vectors d (..., 2) and packed covariances S (..., 3)."""
+    """d^T S^-1 d for 2-D vectors d (..., 2) and packed covariances S (..., 3); empty
+    entries (S = 0) give inf or nan, which the callers mask."""
     sxx, sxy, syy = cov[..., 0], cov[..., 1], cov[..., 2]
     det = sxx * syy - sxy * sxy
     dx, dy = d[..., 0], d[..., 1]
-    return (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
 
 
 def _inverse(cov: np.ndarray) -> np.ndarray:
@@ -269,11 +276,14 @@ class LoopClosure:
     def _close(self, cache: WorkingSetCache, poses: np.ndarray,
                rows: np.ndarray) -> np.ndarray:
         """Correct particles ``rows`` by the rigid fit of their supporting pairs (young onto
-        old): the pose fully, each recent landmark by the share of the travel since the
-        supporting old landmarks were last observed that had passed at its creation (the
-        drift grew along the way); remove the duplicates that confirmed the closure. The
-        working set goes back to the store first; the closing particles' whole maps are
-        gathered, corrected and written back (landmarks now in another cell move there)."""
+        old): the pose, and the landmarks near the robot (in the reading's working set)
+        created since the supporting old landmarks were last observed, which carry the
+        same drift; remove the duplicates that confirmed the closure. The rest of the map
+        keeps its place: the closure says nothing about where the drift grew along the way,
+        and a guess bent over the map (in proportion to the distance travelled, or along the
+        path) moved far landmarks that were right. The working set goes back to the store
+        first; the closing particles' whole maps are gathered, corrected and written back
+        (landmarks now in another cell move there)."""
         rotation, translation = _fit(self._pair_old[rows], self._pair_new[rows],
                                      self._pair_cov[rows],
                                      np.ones(self._pair_old[rows].shape[:2], bool))
@@ -282,25 +292,31 @@ class LoopClosure:
         # The correction as a rotation about the robot's position and a shift of it.
         shift = np.stack([cos * robot[:, 0] - sin * robot[:, 1],
                           sin * robot[:, 0] + cos * robot[:, 1]], axis=-1) + translation - robot
+        near = cache.current
+        span = self._num_keys + 1
+        owner, entry = np.nonzero(near.valid[rows])
+        near_codes = owner * span + near.key[rows][owner, entry]
         cache.flush()
         store = cache.store
         ws = store.gather_maps(rows)
         valid = ws.valid[rows]
         key = ws.key[rows]
-        since = self._since[rows, None]
         created = self._created[np.maximum(key, 0)]
-        share = np.where(valid, np.clip((created - since) / np.maximum(
-            self.travelled - since, 1e-9), 0.0, 1.0), 0.0)
-        angle = share * rotation[:, None]
+        codes = np.arange(len(rows))[:, None] * span + np.maximum(key, 0)
+        moved = (valid & (created > self._since[rows, None])
+                 & np.isin(codes, near_codes))
+        angle = np.where(moved, rotation[:, None], 0.0)
         lcos, lsin = np.cos(angle), np.sin(angle)
         mean = ws.mean[rows] - robot[:, None]
-        ws.mean[rows] = (np.stack([lcos * mean[..., 0] - lsin * mean[..., 1],
-                                   lsin * mean[..., 0] + lcos * mean[..., 1]], axis=-1)
-                         + robot[:, None] + share[..., None] * shift[:, None])
+        ws.mean[rows] = np.where(
+            moved[..., None],
+            np.stack([lcos * mean[..., 0] - lsin * mean[..., 1],
+                      lsin * mean[..., 0] + lcos * mean[..., 1]], axis=-1)
+            + (robot + shift)[:, None], ws.mean[rows])
         ws.cov[rows] = _rotate_cov(ws.cov[rows], lcos, lsin)
         duplicate = valid & (key[:, :, None] == self._new_keys[rows, None, :]).any(axis=2)
         ws.valid[rows] = valid & ~duplicate
-        ws.dirty[rows] |= (share > 0.0) | duplicate
+        ws.dirty[rows] |= moved | duplicate
         store.scatter_moved(ws, cache.track_labels)
         poses = poses.copy()
         poses[rows, :2] = robot + shift

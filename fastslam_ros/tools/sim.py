@@ -44,7 +44,7 @@ TRANSLATION_NOISE_INFLATION = 2.0
 """Variance factor on the translation noise of the recommended parameters."""
 LOOP_CLOSURE_MATCHES = 2
 """``loop_closure_matches`` of the recommended parameters: old landmarks that must agree on a
-particle's shift before a loop closes (see recommended_params)."""
+particle's correction before a loop closes (see recommended_params)."""
 
 
 def setting(default: float | int | str, help_text: str):
@@ -192,9 +192,9 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     translation term 2x: with the exact values the particles are too concentrated to close the
     loop on some seeds (landmarks seen at the start are mapped again), which the inflation
     mostly cures. The landmarks that still come back outside the gate close the loop once two
-    of them agree on one shift (``loop_closure_matches``). The pose output is the particles'
-    weighted mean, which does not jump between hypotheses as the best particle does. Markers,
-    path and particles are published at 0.2, 0.2 and 1 Hz of bag time.
+    of them agree on one rigid correction (``loop_closure_matches``). The pose output is the
+    particles' weighted mean, which does not jump between hypotheses as the best particle
+    does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time.
     """
     config = config.resolved()
     dt = 1.0 / config.control_rate
