@@ -132,6 +132,38 @@ def test_compiled_take_matches_the_working_set_take():
 
 
 @needs_numba
+def test_in_place_reindex_matches_the_working_set_take():
+    """The working set reindexed in place after resampling (systematic draws: sorted indices,
+    also compositions of them and collapses onto one particle; other indices are copied)
+    holds what ``WorkingSet.take`` gives, the free columns left empty as gathered."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(8)
+    for particles in (1, 7, 60):
+        store = LandmarkStore(particles, 5.0)
+        ws = store.gather(np.full((particles, 0), -1, np.int64), 12)
+        existing = 7
+        ws.first_new_slot = existing
+        used = slice(0, existing)
+        ws.row[:, used] = rng.integers(-1, 50, (particles, existing))
+        ws.slot[:, used] = rng.integers(0, 8, (particles, existing))
+        ws.block[:, used] = rng.integers(-1, 4, (particles, existing))
+        ws.state[:, used] = rng.normal(size=(particles, existing, 6))
+        ws.ident[:, used] = rng.integers(-1, 99, (particles, existing, 2))
+        for name in ("valid", "dirty", "is_new"):
+            getattr(ws, name)[:, used] = rng.random((particles, existing)) < 0.5
+        for draw in range(12):
+            indices = (np.sort(rng.integers(0, particles, particles)) if draw % 4 < 2
+                       else np.full(particles, int(rng.integers(particles))) if draw % 4 == 2
+                       else rng.permutation(particles))
+            expected = ws.take(indices)
+            got = kernels.reindex(ws, indices)
+            assert got.first_new_slot == expected.first_new_slot
+            for name in vars(expected):
+                np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+            ws = got
+
+
+@needs_numba
 def test_compiled_resampling_of_the_poses_matches_numpy():
     """``resample_poses``: the indices of ``systematic_resample`` on the same draw, the poses
     they pick and the first copy of the given particle (-1 when it has none)."""
@@ -176,10 +208,12 @@ def test_compiled_path_pruning_keeps_the_numpy_history():
                     history.resample(indices)
             reference, compiled = histories
             np.testing.assert_array_equal(compiled.leaf, reference.leaf)
-            for name in ("_parents", "_poses"):
-                assert len(getattr(compiled, name)) == len(getattr(reference, name))
-                for a, b in zip(getattr(compiled, name), getattr(reference, name)):
-                    np.testing.assert_array_equal(a, b)
+            generations = compiled.generations(), reference.generations()
+            assert len(generations[0]) == len(generations[1])
+            for (stamp, parents, kept), (stamp_ref, parents_ref, kept_ref) in zip(*generations):
+                assert stamp == stamp_ref
+                np.testing.assert_array_equal(parents, parents_ref)
+                np.testing.assert_array_equal(kept, kept_ref)
             np.testing.assert_array_equal(compiled._chain_poses, reference._chain_poses)
             np.testing.assert_array_equal(compiled._chain_stamps, reference._chain_stamps)
 

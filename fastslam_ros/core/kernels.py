@@ -36,7 +36,9 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .landmark_store import STATE_WIDTH, LandmarkStore, WorkingSet
 
@@ -96,6 +98,25 @@ def _logaddexp(x, y):
     if difference <= 0.0:
         return y + math.log1p(math.exp(difference))
     return difference
+
+
+@intrinsic
+def _claim(typingctx, counter, amount):
+    """Atomically ``counter[0] += amount``; returns the value before (the threads of a
+    reading take their particles from one counter this way)."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64
+            and isinstance(amount, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array_type = signature.args[0]
+        array = context.make_array(array_type)(context, builder, args[0])
+        pointer = cgutils.get_item_pointer(context, builder, array_type, array,
+                                           [context.get_constant(types.intp, 0)])
+        step = context.cast(builder, args[1], signature.args[1], types.int64)
+        return builder.atomic_rmw("add", pointer, step, "seq_cst")
+
+    return types.int64(counter, amount), codegen
 
 
 # ---------------------------------------------------------------------------- association
@@ -622,17 +643,27 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
 
 # ---------------------------------------------------------------------------- the reading
 @njit(**_JIT)
-def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new):
-    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
-    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
-    row, slot and block arrays taking them."""
-    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
-        source
-    row, slot, block = moved
-    for j in range(valid.shape[1]):
+def _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new):
+    """Entry (m, j) empty, as a gathered working set leaves its free columns (a unit
+    covariance, so that scoring it stays finite)."""
+    for i in range(STATE_WIDTH):
+        state[m, j, i] = 0.0
+    state[m, j, 2] = state[m, j, 4] = 1.0
+    ident[m, j, 0] = ident[m, j, 1] = -1
+    row[m, j], slot[m, j], block[m, j] = -1, 0, -1
+    valid[m, j] = dirty[m, j] = is_new[m, j] = False
+
+
+@njit(**_JIT)
+def _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
+                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
+                  dirty, is_new):
+    """Particle m's entries of the columns before ``existing`` become particle ``origin``'s
+    of the source arrays."""
+    for j in range(existing):
         row[m, j], slot[m, j], block[m, j] = (src_row[origin, j], src_slot[origin, j],
                                               src_block[origin, j])
-        for i in range(state.shape[2]):
+        for i in range(STATE_WIDTH):
             state[m, j, i] = src_state[origin, j, i]
         ident[m, j, 0], ident[m, j, 1] = src_ident[origin, j, 0], src_ident[origin, j, 1]
         valid[m, j], dirty[m, j] = src_valid[origin, j], src_dirty[origin, j]
@@ -640,12 +671,30 @@ def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new)
 
 
 @njit(**_JIT)
-def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, cov, poses,
-                   ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirty, is_new):
+    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
+    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
+    row, slot and block arrays taking them. The columns from ``existing`` on are empty in
+    every particle (new landmarks fill them in order, and ``first_new_slot`` follows), so they
+    are written empty, not copied."""
+    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
+        source
+    row, slot, block = moved
+    _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
+                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
+                  dirty, is_new)
+    for j in range(existing, valid.shape[1]):
+        _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new)
+
+
+@njit(**_JIT)
+def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
+                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
                    resampled, source, moved, creator, choice, factor, poses_out, weights_out,
                    fresh, finite):
-    """Particles [lo, hi), each in turn: its working-set entries taken from row ``resampled[m]``
-    of ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
+    """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
+    each particle in turn: its working-set entries taken from row ``resampled[m]`` of
+    ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
     association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
     normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
     ``finite[m]`` False for a non-finite update."""
@@ -670,41 +719,47 @@ def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, c
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
     ordered = resampled.shape[0] > 0
-    for m in range(lo, hi):
-        if ordered:
-            _take_particle(m, resampled[m], source, moved, state, ident, valid, dirty, is_new)
-        _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
-                            labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
-                            log_lik, mahalanobis, pick, value, order, cumulative, terms,
-                            picked)
-        _reject_outliers(m, choice, factor, robust, fp)
-        if localization:
-            # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
+    num_particles = poses.shape[0]
+    while True:
+        lo = _claim(counter, block)
+        if lo >= num_particles:
+            return
+        for m in range(lo, min(lo + block, num_particles)):
+            if ordered:
+                _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
+                               dirty, is_new)
+            _associate_particle(m, state, valid, label, existing, mean, cov, ranges,
+                                bearings, labels, noise_r, draws, fp, ip, choice, factor,
+                                inverse_q, local, log_lik, mahalanobis, pick, value, order,
+                                cumulative, terms, picked)
+            _reject_outliers(m, choice, factor, robust, fp)
+            if localization:
+                # A fixed map takes no new landmark: an unexplained observation weighs p0.
+                for k in range(count):
+                    if choice[k, m] == NEW:
+                        choice[k, m] = IGNORE
+            if propose:
+                joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r,
+                                          choice, fp, normals, poses_out, info, b, a, cof,
+                                          full, sigma, terms, picked, scored)
+                # The associated observations weigh their joint likelihood (on the first row)
+                # times 1 / q (``FastSLAM._sample_proposal``).
+                for k in range(count):
+                    if choice[k, m] >= 0:
+                        factor[k, m] = inverse_q[k]
+                if count:
+                    factor[0, m] += joint
+            else:
+                poses_out[m, 0], poses_out[m, 1], poses_out[m, 2] = (
+                    poses[m, 0], poses[m, 1], poses[m, 2])
+            total = 0.0
             for k in range(count):
-                if choice[k, m] == NEW:
-                    choice[k, m] = IGNORE
-        if propose:
-            joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice,
-                                      fp, normals, poses_out, info, b, a, cof, full, sigma,
-                                      terms, picked, scored)
-            # The associated observations weigh their joint likelihood (on the first row)
-            # times 1 / q (``FastSLAM._sample_proposal``).
-            for k in range(count):
-                if choice[k, m] >= 0:
-                    factor[k, m] = inverse_q[k]
-            if count:
-                factor[0, m] += joint
-        else:
-            poses_out[m, 0], poses_out[m, 1], poses_out[m, 2] = (poses[m, 0], poses[m, 1],
-                                                                 poses[m, 2])
-        total = 0.0
-        for k in range(count):
-            factor[k, m] = factor[k, m] + robust[k]
-            total += factor[k, m]
-        weights_out[m] = log_weights[m] + total
-        finite[m] = localization or _map_particle(m, state, valid, dirty, existing, choice,
-                                                  creator, poses_out, ranges, bearings,
-                                                  noise_r, fp, observed, fresh)
+                factor[k, m] = factor[k, m] + robust[k]
+                total += factor[k, m]
+            weights_out[m] = log_weights[m] + total
+            finite[m] = localization or _map_particle(m, state, valid, dirty, existing,
+                                                      choice, creator, poses_out, ranges,
+                                                      bearings, noise_r, fp, observed, fresh)
 
 
 @njit(**_JIT)
@@ -875,10 +930,10 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _reading_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, mean, cov,
-                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
-                   order, source, moved, creator, choice, factor, poses_out, weights_out, fresh,
-                   finite)
+    _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
+                   existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
+                   normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
+                   poses_out, weights_out, fresh, finite)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -886,17 +941,18 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
                       moved, chunks):
-    """``_reading_serial`` with its per-particle work split into ``chunks`` chunks of
-    particles: the first on the calling thread, the others on the pool (``_chunk_pool``), one
-    hand-off per reading. Chunks write disjoint particles, so the results are those of the
-    serial reading."""
+    """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
+    calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
+    blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
+    that starts late or runs slower takes fewer). Blocks write disjoint particles, so the
+    results are those of the serial reading."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _run_chunks(_reading_chunk, _chunk_bounds(num_particles, chunks), (
-        state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges, bearings,
-        labels, noise_r, draws, normals, log_weights, fp, ip, order, source, moved, creator,
-        choice, factor, poses_out, weights_out, fresh, finite))
+    _run_shared(_reading_chunk, chunks, (
+        np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
+        cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
+        source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -918,6 +974,22 @@ def _chunk_bounds(num_particles: int, chunks: int) -> list[tuple[int, int]]:
     """(lo, hi) of ``chunks`` nearly equal chunks of the particles."""
     return [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
             for c in range(chunks)]
+
+
+READING_BLOCK = 16
+"""Particles a thread of a split reading takes at a time: small enough that the threads end
+within about one block of each other (a particle costs a few microseconds), large enough that
+taking one costs nothing."""
+
+
+def _run_shared(kernel, threads: int, args) -> None:
+    """``kernel(*args)`` on this thread and on ``threads - 1`` threads of the pool at once
+    (the kernel shares the work out itself); returns when all are done (a worker's exception
+    is raised here)."""
+    pending = [_chunk_pool().submit(kernel, *args) for _ in range(threads - 1)]
+    kernel(*args)
+    for future in pending:
+        future.result()
 
 
 def _run_chunks(kernel, bounds, args) -> None:
@@ -1237,6 +1309,38 @@ def take(ws, indices: np.ndarray):
 
 
 @njit(**_JIT)
+def _reindex_kernel(indices, existing, row, slot, block, state, ident, valid, dirty, is_new):
+    """``_take_kernel`` in place for non-decreasing ``indices`` (systematic resampling's, and
+    their compositions): rows that move up are copied in ascending order, rows that move down
+    in descending order, so every source is read before it is overwritten; rows that keep
+    their place are not touched, nor are the columns from ``existing`` on (empty in every
+    particle). False, and nothing changed, for other indices."""
+    count = indices.shape[0]
+    for m in range(1, count):
+        if indices[m] < indices[m - 1]:
+            return False
+    for m in range(count):
+        if indices[m] > m:
+            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
+                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+    for m in range(count - 1, -1, -1):
+        if indices[m] < m:
+            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
+                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+    return True
+
+
+def reindex(ws, indices: np.ndarray):
+    """``take`` for a working set no longer needed as it was: in place when ``indices`` are
+    non-decreasing (``_reindex_kernel``), else a copy."""
+    if not _reindex_kernel(indices, ws.first_new_slot, ws.row, ws.slot, ws.block, ws.state,
+                           ws.ident, ws.valid, ws.dirty, ws.is_new):
+        return take(ws, indices)
+    ws.columns = ws.columns[indices]
+    return ws
+
+
+@njit(**_JIT)
 def _resample_poses_kernel(weights, offset, poses, best):
     indices = _systematic_kernel(weights, offset)
     count = indices.shape[0]
@@ -1284,40 +1388,33 @@ def _ranks(values):
 
 
 @njit(**_JIT)
-def _prune_kernel(leaf, parents, poses, sizes):
-    """``PathHistory._prune_generations_numpy`` on the generations laid end to end
-    (``sizes`` nodes each): the kept nodes of each generation at the start of its stretch."""
-    count = sizes.shape[0]
-    starts = np.zeros(count + 1, np.int64)
-    for g in range(count):
-        starts[g + 1] = starts[g] + sizes[g]
+def _prune_kernel(leaf, parents, poses, widths, count):
+    """``PathHistory._prune_generations_numpy`` in place: the kept nodes of each of the first
+    ``count`` generations moved to its start (in their order, so no node is overwritten
+    before it is read); returns the new leaf."""
     alive, new_leaf = _ranks(leaf)
-    kept_parents = np.empty(parents.shape[0], np.int64)
-    kept_poses = np.empty((parents.shape[0], 3))
-    kept = np.empty(count, np.int64)
     for g in range(count - 1, -1, -1):
-        base, width = starts[g], alive.shape[0]
+        width = alive.shape[0]
         chosen = np.empty(width, np.int64)
         for i in range(width):
-            source = base + alive[i]
-            chosen[i] = parents[source]
-            kept_poses[base + i, 0], kept_poses[base + i, 1], kept_poses[base + i, 2] = \
-                poses[source, 0], poses[source, 1], poses[source, 2]
+            source = alive[i]
+            chosen[i] = parents[g, source]
+            poses[g, i, 0], poses[g, i, 1], poses[g, i, 2] = (poses[g, source, 0],
+                                                              poses[g, source, 1],
+                                                              poses[g, source, 2])
         alive, positions = _ranks(chosen)
-        kept_parents[base:base + width] = positions
-        kept[g] = width
-    return new_leaf, kept_parents, kept_poses, starts, kept
+        for i in range(width):
+            parents[g, i] = positions[i]
+        widths[g] = width
+    return new_leaf
 
 
-def prune(leaf: np.ndarray, parents: list, poses: list):
-    """``PathHistory._prune_generations_numpy`` in one call: (the new leaf, the parents and
-    the poses of every generation, each a view into one array)."""
-    sizes = np.array([len(p) for p in parents], np.int64)
-    new_leaf, kept_parents, kept_poses, starts, kept = _prune_kernel(
-        leaf, np.concatenate(parents), np.concatenate(poses), sizes)
-    spans = list(zip(starts.tolist(), (starts[:-1] + kept).tolist()))
-    return (new_leaf, [kept_parents[a:b] for a, b in spans],
-            [kept_poses[a:b] for a, b in spans])
+def prune(leaf: np.ndarray, parents: np.ndarray, poses: np.ndarray, widths: np.ndarray,
+          count: int) -> np.ndarray:
+    """``PathHistory._prune_generations_numpy`` in one call on the history's arrays (parents
+    (G, M), poses (G, M, 3), widths (G,), changed in place; the first ``count`` generations);
+    returns the new leaf."""
+    return _prune_kernel(leaf, parents, poses, widths, count)
 
 
 @njit(**_JIT)
@@ -1716,7 +1813,10 @@ def warm_up() -> float:
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
-    prune(np.zeros(m, np.int64), [np.zeros(m, np.int64)] * 2, [poses] * 2)
+    reindex(ws, indices)
+    reindex(ws, indices[::-1].copy())
+    prune(np.zeros(m, np.int64), np.zeros((2, m), np.int64), np.zeros((2, m, 3)),
+          np.full(2, m, np.int64), 2)
     store = LandmarkStore(m, 5.0)
     for threads in (1, 2):
         _gather(store, np.zeros((m, 1), np.int64), 2, threads)
