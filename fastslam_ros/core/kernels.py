@@ -14,9 +14,10 @@ The per-particle work is one loop over particles (``_reading_chunk``: each parti
 association, proposal, weight and map in turn), then a short serial pass (``_settle``: the
 columns and keys of the new landmarks, which need every particle's choices, the weight
 normalisation and the report). Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the reading
-runs on the calling thread; from there on the loop runs as one chunk of particles per thread:
-the calling thread takes the first chunk and a pool of Python threads the others, each in the
-same compiled serial code (the kernels release the GIL), one hand-off per reading. A hand-off
+runs on the calling thread; from there on the loop runs on the calling thread and a pool of
+Python threads at once, in the same compiled serial code (the kernels release the GIL), one
+hand-off per reading, each thread taking blocks of particles from one atomic counter until none
+is left (so a thread that starts late or runs slower takes fewer). A hand-off
 costs tens of microseconds on a busy machine, which only pays off at large M. (numba's own
 ``prange`` compiled the chunks' code for generic array layouts, about 25 % slower per
 particle, and gained little from the second core.)
