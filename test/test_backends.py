@@ -80,6 +80,11 @@ def assert_same_run(algorithm: str, association: str) -> None:
         np.testing.assert_allclose(filters[0].log_weights, filters[1].log_weights, atol=1e-9,
                                    rtol=0)
     assert resampled > 0
+    # The path history: the compiled reading writes each generation's poses itself.
+    (numpy_stamps, numpy_path), (numba_stamps, numba_path) = (slam.best_path()
+                                                              for slam in filters)
+    np.testing.assert_array_equal(numpy_stamps, numba_stamps)
+    np.testing.assert_allclose(numpy_path, numba_path, atol=1e-9, rtol=0)
     for m in range(0, base.num_particles, 7):
         # Same landmarks (creations and removals), same keys, same estimates.
         numpy_map, numba_map = (slam.particle_map(m) for slam in filters)

@@ -373,13 +373,13 @@ class FastSLAM:
          finite, ws) = self.kernels.update_reading(
             ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
             self.log_weights, self._settings, reach, self.landmarks.next_key, propose,
-            self.working.pending)
+            self.history.next_generation(), self.working.pending)
         self.working.took(ws)
         if propose:
             self._prior = None
         self.poses = poses
         self.landmarks.next_key += keys
-        self.history.record(stamp, poses)
+        self.history.record(stamp, written=True)
         self.num_updates += 1
         self.num_underflows += int(underflow)
         report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),

@@ -692,13 +692,14 @@ def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirt
 def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
                    poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
                    resampled, source, moved, creator, choice, factor, poses_out, weights_out,
-                   fresh, finite):
+                   fresh, finite, recorded):
     """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
     each particle in turn: its working-set entries taken from row ``resampled[m]`` of
     ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
     association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
     normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
-    ``finite[m]`` False for a non-finite update."""
+    ``finite[m]`` False for a non-finite update; the new pose also into ``recorded[m]`` (the
+    path history's next generation)."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -761,6 +762,8 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
             finite[m] = localization or _map_particle(m, state, valid, dirty, existing,
                                                       choice, creator, poses_out, ranges,
                                                       bearings, noise_r, fp, observed, fresh)
+            recorded[m, 0], recorded[m, 1], recorded[m, 2] = (
+                poses_out[m, 0], poses_out[m, 1], poses_out[m, 2])
 
 
 @njit(**_JIT)
@@ -926,7 +929,8 @@ def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh
 
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved):
+                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved,
+                    recorded):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
@@ -934,14 +938,14 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
     _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
                    existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
                    normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
-                   poses_out, weights_out, fresh, finite)
+                   poses_out, weights_out, fresh, finite, recorded)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
-                      moved, chunks):
+                      moved, recorded, chunks):
     """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
     calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
@@ -953,7 +957,8 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
     _run_shared(_reading_chunk, chunks, (
         np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
         cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
-        source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite))
+        source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
+        recorded))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -1089,7 +1094,7 @@ _NO_ORDER = np.zeros(0, np.int64)
 
 def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                    log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool, order: np.ndarray | None = None):
+                   propose: bool, recorded: np.ndarray, order: np.ndarray | None = None):
     """One reading for every particle, on the working set ``ws`` (updated in place), or, with
     ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
     entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
@@ -1098,18 +1103,20 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
     ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
-    store's next landmark key. Returns (the reported particle's ``UpdateReport``
-    associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
-    underflow, the reported particle, working-set columns taken, keys taken, all finite, the
-    working set read).
+    store's next landmark key; ``recorded`` (M, 3): also given the new poses (the path
+    history's next generation, ``PathHistory.next_generation``). Returns (the reported
+    particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3), normalised
+    log weights (M,), N_eff, underflow, the reported particle, working-set columns taken, keys
+    taken, all finite, the working set read).
     """
     return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-                   settings, reach, first_key, propose, order, _threads_for(poses.shape[0]))
+                   settings, reach, first_key, propose, recorded, order,
+                   _threads_for(poses.shape[0]))
 
 
 def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-            settings: ReadingSettings, reach: float, first_key: int, propose: bool, order,
-            threads: int):
+            settings: ReadingSettings, reach: float, first_key: int, propose: bool, recorded,
+            order, threads: int):
     """``update_reading`` on ``threads`` threads."""
     source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
     if order is None:
@@ -1119,7 +1126,7 @@ def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                          log_weights, settings, reach, first_key, propose) + (
-        order, source, (ws.row, ws.slot, ws.block))
+        order, source, (ws.row, ws.slot, ws.block), recorded)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
@@ -1805,7 +1812,7 @@ def warm_up() -> float:
             for threads, order in ((1, None), (2, np.array([1, 0]))):
                 _update(ws, poses, pose_cov, poses, ranges, bearings, labels,
                         np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0,
-                        pose_cov is not None, order, threads)
+                        pose_cov is not None, np.empty((m, 3)), order, threads)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)

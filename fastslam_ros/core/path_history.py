@@ -56,13 +56,23 @@ class PathHistory:
     def __len__(self) -> int:
         return len(self._chain_stamps) + self._count
 
-    def record(self, stamp: float, poses: np.ndarray) -> None:
-        """Append the particles' current poses as a new generation."""
+    def next_generation(self) -> np.ndarray:
+        """(M, 3) the poses of the generation ``record`` appends next, for a caller that
+        writes them there itself (``record(stamp, written=True)``)."""
+        if self._count == len(self._stamps):
+            self._grow()
+        return self._poses[self._count]
+
+    def record(self, stamp: float, poses: np.ndarray | None = None,
+               written: bool = False) -> None:
+        """Append the particles' current poses as a new generation (``written``: already
+        written into ``next_generation()``)."""
         g = self._count
         if g == len(self._stamps):
             self._grow()
         self._stamps[g] = stamp
-        self._poses[g] = poses
+        if not written:
+            self._poses[g] = poses
         self._parents[g] = self.leaf
         self._widths[g] = self.num_particles
         self._count = g + 1
