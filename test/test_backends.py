@@ -42,14 +42,40 @@ def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association
     assert_same_run(algorithm, association)
 
 
-def assert_same_run(algorithm: str, association: str) -> None:
-    """Run numpy and numba side by side on one synthetic world and compare every step."""
+@needs_numba
+@pytest.mark.parametrize("threads", [1, 2])
+def test_prior_moved_in_the_reading_matches_numpy(threads, monkeypatch):
+    """FastSLAM 2.0's prior moved by ``advance_mean``, its covariance propagated in the next
+    reading's blocks: from none, from a prior moved by an earlier ``predict`` (its covariance
+    then propagated at once), and too wide (sampled): the numpy reference's results."""
+    from fastslam_ros.core import kernels
+    from fastslam_ros.core.fastslam import MAX_PRIOR_HEADING_SIGMA
+    monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: threads)
+    seen = set()
+    advance_mean = kernels.advance_mean
+
+    def watched(prior, poses, delta, settings):
+        moved, widest, motion = advance_mean(prior, poses, delta, settings)
+        seen.add((prior is not None, bool(widest > MAX_PRIOR_HEADING_SIGMA ** 2)))
+        return moved, widest, motion
+    monkeypatch.setattr(kernels, "advance_mean", watched)
+    for alpha2 in (0.05, 0.2):
+        assert_same_run("fastslam2", "ml", halves=True, alpha2=alpha2,
+                        max_pending_translation=0.15)
+    assert {(False, False), (True, False), (True, True)} <= seen
+
+
+def assert_same_run(algorithm: str, association: str, halves: bool = False,
+                    **overrides) -> None:
+    """Run numpy and numba side by side on one synthetic world and compare every step
+    (``halves``: the odometry of each step in two ``predict`` calls; ``overrides``: config
+    fields)."""
     world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=60, max_range=9.0,
                        clutter_per_step=0.5, detection_probability=0.85)
     base = FastSLAMConfig(num_particles=150, algorithm=algorithm, association=association,
                           sigma_range=0.1, sigma_bearing=0.02, max_range=9.0, cell_size=5.0,
                           new_landmark_likelihood=1e-3, sensor_x=0.2, resample_threshold=0.8,
-                          logodds_missed=-0.7, logodds_remove=-1.0)
+                          logodds_missed=-0.7, logodds_remove=-1.0).replace(**overrides)
     filters = [FastSLAM(base.replace(backend=name), rng=np.random.default_rng(4),
                         initial_pose=world.steps[0].truth) for name in ("numpy", "numba")]
     assert [slam.backend for slam in filters] == ["numpy", "numba"]
@@ -63,8 +89,14 @@ def assert_same_run(algorithm: str, association: str) -> None:
             bearings = np.append(bearings, [0.1, 0.2, np.inf, 0.5])
             ids = np.append(ids, [5, 5, 5, -1])
         reports = []
+        turn = (step.odometry[2] - previous[2] + np.pi) % (2.0 * np.pi) - np.pi
+        midway = previous + 0.5 * np.append(step.odometry[:2] - previous[:2], turn)
         for slam in filters:
-            slam.predict(previous, step.odometry)
+            if halves:
+                slam.predict(previous, midway)
+                slam.predict(midway, step.odometry)
+            else:
+                slam.predict(previous, step.odometry)
             reports.append(slam.update(ranges, bearings, ids, stamp=float(k)))
         previous = step.odometry
         numpy_report, numba_report = reports
@@ -344,8 +376,9 @@ def test_compiled_write_back_reads_through_a_pending_resampling():
 
 @needs_numba
 def test_compiled_odometry_prior_matches_the_numpy_steps():
-    """``kernels.advance_prior`` against ``from_delta``, ``control_variances`` and
-    ``propagate_gaussian``: forward, backward, turning in place, with random-walk terms."""
+    """``kernels.advance_mean`` and ``propagate_cov`` against ``from_delta``,
+    ``control_variances`` and ``propagate_gaussian``: forward, backward, turning in place,
+    with random-walk terms."""
     from fastslam_ros.core import kernels
     from fastslam_ros.core.motion import OdometryControl, control_variances, propagate_gaussian
     from fastslam_ros.core.observation import SensorOffset
@@ -368,7 +401,9 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
                                       (1e-3, 2e-4, 3e-3, 1e-4))
         mean, cov = prior if prior is not None else (poses, np.zeros((20, 3, 3)))
         expected = propagate_gaussian(mean, cov, control, variances)
-        got, widest = kernels.advance_prior(prior, poses, delta, settings)
+        moved, widest, motion = kernels.advance_mean(prior, poses, delta, settings)
+        got = (moved, kernels.propagate_cov(*(prior if prior is not None else (poses, None)),
+                                            motion))
         for a, b in zip(got, expected):
             np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
         assert widest == expected[1][:, 2, 2].max()
@@ -377,7 +412,8 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
     # neither samples the prior nor draws: both backends keep one random stream).
     cov = np.zeros((20, 3, 3))
     cov[7, 2, 2] = np.nan
-    _, widest = kernels.advance_prior((poses, cov), poses, np.array([0.1, 0.0, 0.0]), settings)
+    _, widest, _ = kernels.advance_mean((poses, cov), poses, np.array([0.1, 0.0, 0.0]),
+                                        settings)
     assert np.isnan(widest)
 
 

@@ -68,9 +68,11 @@ F_REACH = 18
 F_ALPHAS = 19                                  # alpha1..alpha4
 F_MIN_TRANSLATION_SIGMA, F_MIN_ROTATION_SIGMA = 23, 24
 F_LINEAR_NOISE = 25                            # the four random-walk terms (``motion``)
-NUM_F = 29
+F_MOTION = 29                                  # rot1, trans, rot2 and their variances
+NUM_F = 35
 I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
-NUM_I = 7
+I_MOTION, I_PRIOR_COV = 7, 8                   # the reading propagates the prior's covariance
+NUM_I = 9
 
 
 @njit(**_JIT)
@@ -692,14 +694,16 @@ def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirt
 def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
                    poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
                    resampled, source, moved, creator, choice, factor, poses_out, weights_out,
-                   fresh, finite, recorded):
+                   fresh, finite, recorded, prior_mean, prior_cov):
     """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
     each particle in turn: its working-set entries taken from row ``resampled[m]`` of
-    ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
-    association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
-    normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
-    ``finite[m]`` False for a non-finite update; the new pose also into ``recorded[m]`` (the
-    path history's next generation)."""
+    ``source`` (a resampling since the last reading; none when ``resampled`` is empty), with
+    ``ip[I_MOTION]`` its prior covariance ``cov[m]`` propagated from ``prior_mean`` and
+    ``prior_cov`` (``advance_mean``), then association, outlier test, (FastSLAM 2.0)
+    proposal and draw, the new log weight (before normalisation) and its map
+    (``_map_particle``, the new landmarks left to ``_place_new``); ``finite[m]`` False for a
+    non-finite update; the new pose also into ``recorded[m]`` (the path history's next
+    generation)."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -721,6 +725,8 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
     ordered = resampled.shape[0] > 0
+    motion = ip[I_MOTION] != 0
+    has_prior_cov = ip[I_PRIOR_COV] != 0
     num_particles = poses.shape[0]
     while True:
         lo = _claim(counter, block)
@@ -730,6 +736,10 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
             if ordered:
                 _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
                                dirty, is_new)
+            if motion:
+                _propagate_cov(m, prior_mean, prior_cov, has_prior_cov, fp[F_MOTION],
+                               fp[F_MOTION + 1], fp[F_MOTION + 2], fp[F_MOTION + 3],
+                               fp[F_MOTION + 4], fp[F_MOTION + 5], cov)
             _associate_particle(m, state, valid, label, existing, mean, cov, ranges,
                                 bearings, labels, noise_r, draws, fp, ip, choice, factor,
                                 inverse_q, local, log_lik, mahalanobis, pick, value, order,
@@ -930,7 +940,7 @@ def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                     bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved,
-                    recorded):
+                    recorded, prior_mean, prior_cov):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
@@ -938,14 +948,14 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
     _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
                    existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
                    normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
-                   poses_out, weights_out, fresh, finite, recorded)
+                   poses_out, weights_out, fresh, finite, recorded, prior_mean, prior_cov)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
-                      moved, recorded, chunks):
+                      moved, recorded, prior_mean, prior_cov, chunks):
     """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
     calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
@@ -958,7 +968,7 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
         np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
         cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
         source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
-        recorded))
+        recorded, prior_mean, prior_cov))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -1089,12 +1099,14 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
 
 
 _NO_COV = np.zeros((1, 3, 3))
+_NO_POSES = np.zeros((0, 3))
 _NO_ORDER = np.zeros(0, np.int64)
 
 
 def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                    log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool, recorded: np.ndarray, order: np.ndarray | None = None):
+                   propose: bool, recorded: np.ndarray, order: np.ndarray | None = None,
+                   motion=None):
     """One reading for every particle, on the working set ``ws`` (updated in place), or, with
     ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
     entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
@@ -1104,20 +1116,33 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
     store's next landmark key; ``recorded`` (M, 3): also given the new poses (the path
-    history's next generation, ``PathHistory.next_generation``). Returns (the reported
+    history's next generation, ``PathHistory.next_generation``); ``motion``: the prior's
+    (mean, cov or None) ``mean`` was moved from and the motion (``advance_mean``), whose
+    covariance the reading propagates in its blocks (then ``cov`` is None). Returns (the reported
     particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3), normalised
     log weights (M,), N_eff, underflow, the reported particle, working-set columns taken, keys
     taken, all finite, the working set read).
     """
     return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
                    settings, reach, first_key, propose, recorded, order,
-                   _threads_for(poses.shape[0]))
+                   _threads_for(poses.shape[0]), motion)
 
 
 def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
             settings: ReadingSettings, reach: float, first_key: int, propose: bool, recorded,
-            order, threads: int):
+            order, threads: int, motion=None):
     """``update_reading`` on ``threads`` threads."""
+    ip = settings.integers
+    ip[I_MOTION] = motion is not None
+    if motion is None:
+        prior_mean, prior_cov = _NO_POSES, _NO_COV
+    else:
+        prior_mean, prior_cov, values = motion
+        settings.floats[F_MOTION:F_MOTION + 6] = values
+        ip[I_PRIOR_COV] = prior_cov is not None
+        if prior_cov is None:
+            prior_cov = _NO_COV
+        cov = np.empty((poses.shape[0], 3, 3))
     source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
     if order is None:
         order = _NO_ORDER
@@ -1126,7 +1151,7 @@ def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                          log_weights, settings, reach, first_key, propose) + (
-        order, source, (ws.row, ws.slot, ws.block), recorded)
+        order, source, (ws.row, ws.slot, ws.block), recorded, prior_mean, prior_cov)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
@@ -1194,39 +1219,44 @@ def sample_motion(poses: np.ndarray, u, variances: np.ndarray,
 
 
 @njit(**_JIT)
-def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
-    count = mean.shape[0]
-    moved = np.empty((count, 3))
-    predicted = np.empty((count, 3, 3))
-    for m in range(count):
-        heading = mean[m, 2] + rot1
-        cos_h, sin_h = math.cos(heading), math.sin(heading)
-        fx, fy = -trans * sin_h, trans * cos_h
-        c0, c1, c2 = cov[m, 0, 2], cov[m, 1, 2], cov[m, 2, 2]
-        w = c2 + v_rot1
-        xx = cov[m, 0, 0] + 2.0 * fx * c0 + w * fx * fx + v_trans * cos_h * cos_h
-        xy = cov[m, 0, 1] + fx * c1 + fy * c0 + w * fx * fy + v_trans * cos_h * sin_h
-        yy = cov[m, 1, 1] + 2.0 * fy * c1 + w * fy * fy + v_trans * sin_h * sin_h
-        xt, yt, tt = c0 + w * fx, c1 + w * fy, c2 + (v_rot1 + v_rot2)
-        predicted[m, 0, 0], predicted[m, 0, 1], predicted[m, 0, 2] = xx, xy, xt
-        predicted[m, 1, 0], predicted[m, 1, 1], predicted[m, 1, 2] = xy, yy, yt
-        predicted[m, 2, 0], predicted[m, 2, 1], predicted[m, 2, 2] = xt, yt, tt
-        moved[m, 0] = mean[m, 0] + trans * cos_h
-        moved[m, 1] = mean[m, 1] + trans * sin_h
-        moved[m, 2] = _wrap(heading + rot2)
-    return moved, predicted
+def _propagate_mean(m, mean, rot1, trans, rot2, moved):
+    """``propagate_gaussian``'s mean of particle m into ``moved[m]``."""
+    heading = mean[m, 2] + rot1
+    moved[m, 0] = mean[m, 0] + trans * math.cos(heading)
+    moved[m, 1] = mean[m, 1] + trans * math.sin(heading)
+    moved[m, 2] = _wrap(heading + rot2)
 
 
 @njit(**_JIT)
-def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
-    # ``OdometryControl.from_delta``
+def _propagate_cov(m, mean, cov, has_cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2,
+                   predicted):
+    """``propagate_gaussian``'s covariance of particle m (mean ``mean[m]``, covariance
+    ``cov[m]``, or zero without ``has_cov``) into ``predicted[m]``."""
+    heading = mean[m, 2] + rot1
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    fx, fy = -trans * sin_h, trans * cos_h
+    n = m if has_cov else 0
+    c0, c1, c2 = cov[n, 0, 2], cov[n, 1, 2], cov[n, 2, 2]
+    w = c2 + v_rot1
+    xx = cov[n, 0, 0] + 2.0 * fx * c0 + w * fx * fx + v_trans * cos_h * cos_h
+    xy = cov[n, 0, 1] + fx * c1 + fy * c0 + w * fx * fy + v_trans * cos_h * sin_h
+    yy = cov[n, 1, 1] + 2.0 * fy * c1 + w * fy * fy + v_trans * sin_h * sin_h
+    xt, yt, tt = c0 + w * fx, c1 + w * fy, c2 + (v_rot1 + v_rot2)
+    predicted[m, 0, 0], predicted[m, 0, 1], predicted[m, 0, 2] = xx, xy, xt
+    predicted[m, 1, 0], predicted[m, 1, 1], predicted[m, 1, 2] = xy, yy, yt
+    predicted[m, 2, 0], predicted[m, 2, 1], predicted[m, 2, 2] = xt, yt, tt
+
+
+@njit(**_JIT)
+def _motion_of(dx, dy, dtheta, fp):
+    """The odometry delta's (rot1, trans, rot2) (``OdometryControl.from_delta``) and their
+    variances (``motion.control_variances``)."""
     trans = math.hypot(dx, dy)
     rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
     if abs(rot1) > math.pi / 2.0:
         rot1 = _wrap(rot1 - math.pi)
         trans = -trans
     rot2 = _wrap(dtheta - rot1)
-    # ``motion.control_variances``
     a1, a2, a3, a4 = fp[F_ALPHAS], fp[F_ALPHAS + 1], fp[F_ALPHAS + 2], fp[F_ALPHAS + 3]
     min_t, min_r = fp[F_MIN_TRANSLATION_SIGMA], fp[F_MIN_ROTATION_SIGMA]
     rot1_sq, trans_sq, rot2_sq = rot1 ** 2, trans ** 2, rot2 ** 2
@@ -1239,32 +1269,58 @@ def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
         v_rot1 += k_rr * abs(rot1) + 0.5 * k_rt * abs(trans)
         v_trans += k_tt * abs(trans) + k_tr * (abs(rot1) + abs(rot2))
         v_rot2 += k_rr * abs(rot2) + 0.5 * k_rt * abs(trans)
-    if not has_cov:
-        cov = np.zeros((mean.shape[0], 3, 3))
-    moved, predicted = _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2)
-    # As numpy's max: a NaN variance makes the widest NaN (numba's max would skip it).
+    return rot1, trans, rot2, v_rot1, v_trans, v_rot2
+
+
+@njit(**_JIT)
+def _widest_kernel(cov, has_cov, count, v_rot1, v_rot2):
+    """The largest propagated heading variance (``_propagate_cov``'s ``tt``); as numpy's max,
+    a NaN makes it NaN (numba's max would skip it)."""
     widest = -np.inf
-    for m in range(mean.shape[0]):
-        variance = predicted[m, 2, 2]
+    for m in range(count):
+        variance = cov[m if has_cov else 0, 2, 2] + (v_rot1 + v_rot2)
         if np.isnan(variance) or variance > widest:
             widest = variance
-    return moved, predicted, widest
+    return widest
 
 
-def advance_prior(prior, poses: np.ndarray, delta, settings: ReadingSettings):
-    """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
-    dtheta) decomposed (``OdometryControl.from_delta``), its variances
-    (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
-    propagated through it (``propagate_gaussian``). Returns the new prior and its largest
-    heading variance."""
-    dx, dy, dtheta = delta
-    if prior is None:
-        moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
-                                                         settings.floats)
-    else:
-        moved, predicted, widest = _advance_prior_kernel(prior[0], prior[1], True, dx, dy,
-                                                         dtheta, settings.floats)
-    return (moved, predicted), widest
+@njit(**_JIT)
+def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
+    motion = np.array(_motion_of(dx, dy, dtheta, fp))
+    count = mean.shape[0]
+    moved = np.empty((count, 3))
+    for m in range(count):
+        _propagate_mean(m, mean, motion[0], motion[1], motion[2], moved)
+    return moved, _widest_kernel(cov, has_cov, count, motion[3], motion[5]), motion
+
+
+@njit(**_JIT)
+def _propagate_cov_kernel(mean, cov, has_cov, motion):
+    count = mean.shape[0]
+    predicted = np.empty((count, 3, 3))
+    for m in range(count):
+        _propagate_cov(m, mean, cov, has_cov, motion[0], motion[1], motion[2], motion[3],
+                       motion[4], motion[5], predicted)
+    return predicted
+
+
+def advance_mean(prior, poses: np.ndarray, delta, settings: ReadingSettings):
+    """FastSLAM 2.0's ``_advance_motion`` but for the covariance: the odometry ``delta`` (dx,
+    dy, dtheta) decomposed (``OdometryControl.from_delta``), its variances
+    (``control_variances``) and the prior's mean (of (mean, cov), or of N(poses, 0) when
+    ``prior`` is None) propagated through it (``propagate_gaussian``). Returns the new mean,
+    the largest new heading variance and the motion (rot1, trans, rot2 and their variances)
+    for ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the
+    covariance: the next reading does it in its blocks of particles."""
+    mean, cov = prior if prior is not None else (poses, _NO_COV)
+    return _advance_mean_kernel(mean, cov, prior is not None, *delta, settings.floats)
+
+
+def propagate_cov(mean: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:
+    """``propagate_gaussian``'s covariance of the prior (mean, cov; cov None: zero) through
+    ``motion`` (``advance_mean``)."""
+    return _propagate_cov_kernel(mean, _NO_COV if cov is None else cov, cov is not None,
+                                 motion)
 
 
 # ---------------------------------------------------------------------------- resampling
@@ -1816,8 +1872,10 @@ def warm_up() -> float:
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
-    advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
-    advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
+    advance_mean(None, poses, (0.1, 0.2, 0.0), settings)
+    _, _, motion = advance_mean((poses, cov), poses, (0.1, 0.2, 0.0), settings)
+    propagate_cov(poses, None, motion)
+    propagate_cov(poses, cov, motion)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
