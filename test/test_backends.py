@@ -55,9 +55,9 @@ def test_prior_moved_in_the_reading_matches_numpy(threads, monkeypatch):
     advance_mean = kernels.advance_mean
 
     def watched(prior, poses, delta, settings):
-        moved, widest, motion = advance_mean(prior, poses, delta, settings)
+        moved, widest, turn, motion = advance_mean(prior, poses, delta, settings)
         seen.add((prior is not None, bool(widest > MAX_PRIOR_HEADING_SIGMA ** 2)))
-        return moved, widest, motion
+        return moved, widest, turn, motion
     monkeypatch.setattr(kernels, "advance_mean", watched)
     for alpha2 in (0.05, 0.2):
         assert_same_run("fastslam2", "ml", halves=True, alpha2=alpha2,
@@ -401,9 +401,8 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
                                       (1e-3, 2e-4, 3e-3, 1e-4))
         mean, cov = prior if prior is not None else (poses, np.zeros((20, 3, 3)))
         expected = propagate_gaussian(mean, cov, control, variances)
-        moved, widest, motion = kernels.advance_mean(prior, poses, delta, settings)
-        got = (moved, kernels.propagate_cov(*(prior if prior is not None else (poses, None)),
-                                            motion))
+        moved, widest, turn, motion = kernels.advance_mean(prior, poses, delta, settings)
+        got = (moved, kernels.propagate_cov(turn, None if prior is None else prior[1], motion))
         for a, b in zip(got, expected):
             np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
         assert widest == expected[1][:, 2, 2].max()
@@ -412,7 +411,7 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
     # neither samples the prior nor draws: both backends keep one random stream).
     cov = np.zeros((20, 3, 3))
     cov[7, 2, 2] = np.nan
-    _, widest, _ = kernels.advance_mean((poses, cov), poses, np.array([0.1, 0.0, 0.0]),
+    _, widest, _, _ = kernels.advance_mean((poses, cov), poses, np.array([0.1, 0.0, 0.0]),
                                         settings)
     assert np.isnan(widest)
 

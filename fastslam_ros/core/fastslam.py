@@ -253,11 +253,10 @@ class FastSLAM:
             # The same steps as below, the covariance left to the next reading's blocks of
             # particles (or to the first other use of the prior, ``_prior``).
             prior = self._prior
-            moved, widest, motion = self.kernels.advance_mean(prior, self.poses, self._pending,
-                                                              self._settings)
-            source = prior if prior is not None else (self.poses, None)
+            moved, widest, turn, motion = self.kernels.advance_mean(
+                prior, self.poses, self._pending, self._settings)
             self._prior = (moved, None)
-            self._deferred = (*source, motion)
+            self._deferred = (turn, None if prior is None else prior[1], motion)
             self._pending = NO_MOTION
             self._has_pending = False
             if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
@@ -283,13 +282,13 @@ class FastSLAM:
     @property
     def _prior(self) -> tuple[np.ndarray, np.ndarray] | None:
         """FastSLAM 2.0's Gaussian prior (mean (M, 3), cov (M, 3, 3)) or None; a covariance
-        left to the next reading (``_deferred``: the prior it moves from and the motion,
-        ``kernels.advance_mean``) is propagated here first."""
+        left to the next reading (``_deferred``: the turn, the covariance it moves from and
+        the motion of ``kernels.advance_mean``) is propagated here first."""
         if self._deferred is not None:
-            mean, cov, motion = self._deferred
+            turn, cov, motion = self._deferred
             self._deferred = None
             self._prior_value = (self._prior_value[0],
-                                 self.kernels.propagate_cov(mean, cov, motion))
+                                 self.kernels.propagate_cov(turn, cov, motion))
         return self._prior_value
 
     @_prior.setter

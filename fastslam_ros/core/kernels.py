@@ -694,12 +694,12 @@ def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirt
 def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
                    poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
                    resampled, source, moved, creator, choice, factor, poses_out, weights_out,
-                   fresh, finite, recorded, prior_mean, prior_cov):
+                   fresh, finite, recorded, turn, prior_cov):
     """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
     each particle in turn: its working-set entries taken from row ``resampled[m]`` of
     ``source`` (a resampling since the last reading; none when ``resampled`` is empty), with
-    ``ip[I_MOTION]`` its prior covariance ``cov[m]`` propagated from ``prior_mean`` and
-    ``prior_cov`` (``advance_mean``), then association, outlier test, (FastSLAM 2.0)
+    ``ip[I_MOTION]`` its prior covariance ``cov[m]`` propagated from ``prior_cov`` by the
+    motion's ``turn`` (``advance_mean``), then association, outlier test, (FastSLAM 2.0)
     proposal and draw, the new log weight (before normalisation) and its map
     (``_map_particle``, the new landmarks left to ``_place_new``); ``finite[m]`` False for a
     non-finite update; the new pose also into ``recorded[m]`` (the path history's next
@@ -737,9 +737,8 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
                 _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
                                dirty, is_new)
             if motion:
-                _propagate_cov(m, prior_mean, prior_cov, has_prior_cov, fp[F_MOTION],
-                               fp[F_MOTION + 1], fp[F_MOTION + 2], fp[F_MOTION + 3],
-                               fp[F_MOTION + 4], fp[F_MOTION + 5], cov)
+                _propagate_cov(m, turn, prior_cov, has_prior_cov, fp[F_MOTION + 1],
+                               fp[F_MOTION + 3], fp[F_MOTION + 4], fp[F_MOTION + 5], cov)
             _associate_particle(m, state, valid, label, existing, mean, cov, ranges,
                                 bearings, labels, noise_r, draws, fp, ip, choice, factor,
                                 inverse_q, local, log_lik, mahalanobis, pick, value, order,
@@ -940,7 +939,7 @@ def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                     bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved,
-                    recorded, prior_mean, prior_cov):
+                    recorded, turn, prior_cov):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
@@ -948,14 +947,14 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
     _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
                    existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
                    normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
-                   poses_out, weights_out, fresh, finite, recorded, prior_mean, prior_cov)
+                   poses_out, weights_out, fresh, finite, recorded, turn, prior_cov)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
-                      moved, recorded, prior_mean, prior_cov, chunks):
+                      moved, recorded, turn, prior_cov, chunks):
     """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
     calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
@@ -968,7 +967,7 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
         np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
         cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
         source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
-        recorded, prior_mean, prior_cov))
+        recorded, turn, prior_cov))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -1099,7 +1098,7 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
 
 
 _NO_COV = np.zeros((1, 3, 3))
-_NO_POSES = np.zeros((0, 3))
+_NO_TURN = np.zeros((0, 2))
 _NO_ORDER = np.zeros(0, np.int64)
 
 
@@ -1117,8 +1116,8 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
     store's next landmark key; ``recorded`` (M, 3): also given the new poses (the path
     history's next generation, ``PathHistory.next_generation``); ``motion``: the prior's
-    (mean, cov or None) ``mean`` was moved from and the motion (``advance_mean``), whose
-    covariance the reading propagates in its blocks (then ``cov`` is None). Returns (the reported
+    turn, cov (or None) ``mean`` was moved from and the motion (``advance_mean``): the
+    reading propagates the covariance in its blocks (then ``cov`` is None). Returns (the reported
     particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3), normalised
     log weights (M,), N_eff, underflow, the reported particle, working-set columns taken, keys
     taken, all finite, the working set read).
@@ -1135,9 +1134,9 @@ def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_
     ip = settings.integers
     ip[I_MOTION] = motion is not None
     if motion is None:
-        prior_mean, prior_cov = _NO_POSES, _NO_COV
+        turn, prior_cov = _NO_TURN, _NO_COV
     else:
-        prior_mean, prior_cov, values = motion
+        turn, prior_cov, values = motion
         settings.floats[F_MOTION:F_MOTION + 6] = values
         ip[I_PRIOR_COV] = prior_cov is not None
         if prior_cov is None:
@@ -1151,7 +1150,7 @@ def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                          log_weights, settings, reach, first_key, propose) + (
-        order, source, (ws.row, ws.slot, ws.block), recorded, prior_mean, prior_cov)
+        order, source, (ws.row, ws.slot, ws.block), recorded, turn, prior_cov)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
@@ -1219,21 +1218,22 @@ def sample_motion(poses: np.ndarray, u, variances: np.ndarray,
 
 
 @njit(**_JIT)
-def _propagate_mean(m, mean, rot1, trans, rot2, moved):
-    """``propagate_gaussian``'s mean of particle m into ``moved[m]``."""
+def _propagate_mean(m, mean, rot1, trans, rot2, moved, turn):
+    """``propagate_gaussian``'s mean of particle m into ``moved[m]``, the cosine and sine of
+    its heading after the first rotation into ``turn[m]`` (for ``_propagate_cov``)."""
     heading = mean[m, 2] + rot1
-    moved[m, 0] = mean[m, 0] + trans * math.cos(heading)
-    moved[m, 1] = mean[m, 1] + trans * math.sin(heading)
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    moved[m, 0] = mean[m, 0] + trans * cos_h
+    moved[m, 1] = mean[m, 1] + trans * sin_h
     moved[m, 2] = _wrap(heading + rot2)
+    turn[m, 0], turn[m, 1] = cos_h, sin_h
 
 
 @njit(**_JIT)
-def _propagate_cov(m, mean, cov, has_cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2,
-                   predicted):
-    """``propagate_gaussian``'s covariance of particle m (mean ``mean[m]``, covariance
-    ``cov[m]``, or zero without ``has_cov``) into ``predicted[m]``."""
-    heading = mean[m, 2] + rot1
-    cos_h, sin_h = math.cos(heading), math.sin(heading)
+def _propagate_cov(m, turn, cov, has_cov, trans, v_rot1, v_trans, v_rot2, predicted):
+    """``propagate_gaussian``'s covariance of particle m (covariance ``cov[m]``, or zero
+    without ``has_cov``; ``turn[m]``: ``_propagate_mean``'s) into ``predicted[m]``."""
+    cos_h, sin_h = turn[m, 0], turn[m, 1]
     fx, fy = -trans * sin_h, trans * cos_h
     n = m if has_cov else 0
     c0, c1, c2 = cov[n, 0, 2], cov[n, 1, 2], cov[n, 2, 2]
@@ -1289,18 +1289,19 @@ def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
     motion = np.array(_motion_of(dx, dy, dtheta, fp))
     count = mean.shape[0]
     moved = np.empty((count, 3))
+    turn = np.empty((count, 2))
     for m in range(count):
-        _propagate_mean(m, mean, motion[0], motion[1], motion[2], moved)
-    return moved, _widest_kernel(cov, has_cov, count, motion[3], motion[5]), motion
+        _propagate_mean(m, mean, motion[0], motion[1], motion[2], moved, turn)
+    return moved, _widest_kernel(cov, has_cov, count, motion[3], motion[5]), turn, motion
 
 
 @njit(**_JIT)
-def _propagate_cov_kernel(mean, cov, has_cov, motion):
-    count = mean.shape[0]
+def _propagate_cov_kernel(turn, cov, has_cov, motion):
+    count = turn.shape[0]
     predicted = np.empty((count, 3, 3))
     for m in range(count):
-        _propagate_cov(m, mean, cov, has_cov, motion[0], motion[1], motion[2], motion[3],
-                       motion[4], motion[5], predicted)
+        _propagate_cov(m, turn, cov, has_cov, motion[1], motion[3], motion[4], motion[5],
+                       predicted)
     return predicted
 
 
@@ -1309,17 +1310,18 @@ def advance_mean(prior, poses: np.ndarray, delta, settings: ReadingSettings):
     dy, dtheta) decomposed (``OdometryControl.from_delta``), its variances
     (``control_variances``) and the prior's mean (of (mean, cov), or of N(poses, 0) when
     ``prior`` is None) propagated through it (``propagate_gaussian``). Returns the new mean,
-    the largest new heading variance and the motion (rot1, trans, rot2 and their variances)
-    for ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the
-    covariance: the next reading does it in its blocks of particles."""
+    the largest new heading variance, the cosine and sine of every heading after the first
+    rotation (M, 2) and the motion (rot1, trans, rot2 and their variances), for
+    ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the covariance: the
+    next reading does it in its blocks of particles."""
     mean, cov = prior if prior is not None else (poses, _NO_COV)
     return _advance_mean_kernel(mean, cov, prior is not None, *delta, settings.floats)
 
 
-def propagate_cov(mean: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:
-    """``propagate_gaussian``'s covariance of the prior (mean, cov; cov None: zero) through
-    ``motion`` (``advance_mean``)."""
-    return _propagate_cov_kernel(mean, _NO_COV if cov is None else cov, cov is not None,
+def propagate_cov(turn: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:
+    """``propagate_gaussian``'s covariance of the prior (cov None: zero) through the motion
+    and turn of ``advance_mean``."""
+    return _propagate_cov_kernel(turn, _NO_COV if cov is None else cov, cov is not None,
                                  motion)
 
 
@@ -1873,9 +1875,9 @@ def warm_up() -> float:
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
     advance_mean(None, poses, (0.1, 0.2, 0.0), settings)
-    _, _, motion = advance_mean((poses, cov), poses, (0.1, 0.2, 0.0), settings)
-    propagate_cov(poses, None, motion)
-    propagate_cov(poses, cov, motion)
+    _, _, turn, motion = advance_mean((poses, cov), poses, (0.1, 0.2, 0.0), settings)
+    propagate_cov(turn, None, motion)
+    propagate_cov(turn, cov, motion)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
