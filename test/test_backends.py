@@ -59,14 +59,40 @@ def test_loop_closure_shifts_the_same_particles_on_both_backends(association):
                                atol=1e-9, rtol=0)
 
 
-def assert_same_run(algorithm: str, association: str) -> None:
-    """Run numpy and numba side by side on one synthetic world and compare every step."""
+@needs_numba
+@pytest.mark.parametrize("threads", [1, 2])
+def test_prior_moved_in_the_reading_matches_numpy(threads, monkeypatch):
+    """FastSLAM 2.0's prior moved by ``advance_mean``, its covariance propagated in the next
+    reading's blocks: from none, from a prior moved by an earlier ``predict`` (its covariance
+    then propagated at once), and too wide (sampled): the numpy reference's results."""
+    from fastslam_ros.core import kernels
+    from fastslam_ros.core.fastslam import MAX_PRIOR_HEADING_SIGMA
+    monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: threads)
+    seen = set()
+    advance_mean = kernels.advance_mean
+
+    def watched(prior, poses, delta, settings):
+        moved, widest, turn, motion = advance_mean(prior, poses, delta, settings)
+        seen.add((prior is not None, bool(widest > MAX_PRIOR_HEADING_SIGMA ** 2)))
+        return moved, widest, turn, motion
+    monkeypatch.setattr(kernels, "advance_mean", watched)
+    for alpha2 in (0.05, 0.2):
+        assert_same_run("fastslam2", "ml", halves=True, alpha2=alpha2,
+                        max_pending_translation=0.15)
+    assert {(False, False), (True, False), (True, True)} <= seen
+
+
+def assert_same_run(algorithm: str, association: str, halves: bool = False,
+                    **overrides) -> None:
+    """Run numpy and numba side by side on one synthetic world and compare every step
+    (``halves``: the odometry of each step in two ``predict`` calls; ``overrides``: config
+    fields)."""
     world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=60, max_range=9.0,
                        clutter_per_step=0.5, detection_probability=0.85)
     base = FastSLAMConfig(num_particles=150, algorithm=algorithm, association=association,
                           sigma_range=0.1, sigma_bearing=0.02, max_range=9.0, cell_size=5.0,
                           new_landmark_likelihood=1e-3, sensor_x=0.2, resample_threshold=0.8,
-                          logodds_missed=-0.7, logodds_remove=-1.0)
+                          logodds_missed=-0.7, logodds_remove=-1.0).replace(**overrides)
     filters = [FastSLAM(base.replace(backend=name), rng=np.random.default_rng(4),
                         initial_pose=world.steps[0].truth) for name in ("numpy", "numba")]
     assert [slam.backend for slam in filters] == ["numpy", "numba"]
@@ -80,8 +106,14 @@ def assert_same_run(algorithm: str, association: str) -> None:
             bearings = np.append(bearings, [0.1, 0.2, np.inf, 0.5])
             ids = np.append(ids, [5, 5, 5, -1])
         reports = []
+        turn = (step.odometry[2] - previous[2] + np.pi) % (2.0 * np.pi) - np.pi
+        midway = previous + 0.5 * np.append(step.odometry[:2] - previous[:2], turn)
         for slam in filters:
-            slam.predict(previous, step.odometry)
+            if halves:
+                slam.predict(previous, midway)
+                slam.predict(midway, step.odometry)
+            else:
+                slam.predict(previous, step.odometry)
             reports.append(slam.update(ranges, bearings, ids, stamp=float(k)))
         previous = step.odometry
         numpy_report, numba_report = reports
@@ -97,6 +129,11 @@ def assert_same_run(algorithm: str, association: str) -> None:
         np.testing.assert_allclose(filters[0].log_weights, filters[1].log_weights, atol=1e-9,
                                    rtol=0)
     assert resampled > 0
+    # The path history: the compiled reading writes each generation's poses itself.
+    (numpy_stamps, numpy_path), (numba_stamps, numba_path) = (slam.best_path()
+                                                              for slam in filters)
+    np.testing.assert_array_equal(numpy_stamps, numba_stamps)
+    np.testing.assert_allclose(numpy_path, numba_path, atol=1e-9, rtol=0)
     for m in range(0, base.num_particles, 7):
         # Same landmarks (creations and removals), same keys, same estimates.
         numpy_map, numba_map = (slam.particle_map(m) for slam in filters)
@@ -149,6 +186,38 @@ def test_compiled_take_matches_the_working_set_take():
 
 
 @needs_numba
+def test_in_place_reindex_matches_the_working_set_take():
+    """The working set reindexed in place after resampling (systematic draws: sorted indices,
+    also compositions of them and collapses onto one particle; other indices are copied)
+    holds what ``WorkingSet.take`` gives, the free columns left empty as gathered."""
+    from fastslam_ros.core import kernels
+    rng = np.random.default_rng(8)
+    for particles in (1, 7, 60):
+        store = LandmarkStore(particles, 5.0)
+        ws = store.gather(np.full((particles, 0), -1, np.int64), 12)
+        existing = 7
+        ws.first_new_slot = existing
+        used = slice(0, existing)
+        ws.row[:, used] = rng.integers(-1, 50, (particles, existing))
+        ws.slot[:, used] = rng.integers(0, 8, (particles, existing))
+        ws.block[:, used] = rng.integers(-1, 4, (particles, existing))
+        ws.state[:, used] = rng.normal(size=(particles, existing, 6))
+        ws.ident[:, used] = rng.integers(-1, 99, (particles, existing, 2))
+        for name in ("valid", "dirty", "is_new"):
+            getattr(ws, name)[:, used] = rng.random((particles, existing)) < 0.5
+        for draw in range(12):
+            indices = (np.sort(rng.integers(0, particles, particles)) if draw % 4 < 2
+                       else np.full(particles, int(rng.integers(particles))) if draw % 4 == 2
+                       else rng.permutation(particles))
+            expected = ws.take(indices)
+            got = kernels.reindex(ws, indices)
+            assert got.first_new_slot == expected.first_new_slot
+            for name in vars(expected):
+                np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
+            ws = got
+
+
+@needs_numba
 def test_compiled_resampling_of_the_poses_matches_numpy():
     """``resample_poses``: the indices of ``systematic_resample`` on the same draw, the poses
     they pick and the first copy of the given particle (-1 when it has none)."""
@@ -193,10 +262,12 @@ def test_compiled_path_pruning_keeps_the_numpy_history():
                     history.resample(indices)
             reference, compiled = histories
             np.testing.assert_array_equal(compiled.leaf, reference.leaf)
-            for name in ("_parents", "_poses"):
-                assert len(getattr(compiled, name)) == len(getattr(reference, name))
-                for a, b in zip(getattr(compiled, name), getattr(reference, name)):
-                    np.testing.assert_array_equal(a, b)
+            generations = compiled.generations(), reference.generations()
+            assert len(generations[0]) == len(generations[1])
+            for (stamp, parents, kept), (stamp_ref, parents_ref, kept_ref) in zip(*generations):
+                assert stamp == stamp_ref
+                np.testing.assert_array_equal(parents, parents_ref)
+                np.testing.assert_array_equal(kept, kept_ref)
             np.testing.assert_array_equal(compiled._chain_poses, reference._chain_poses)
             np.testing.assert_array_equal(compiled._chain_stamps, reference._chain_stamps)
 
@@ -322,8 +393,9 @@ def test_compiled_write_back_reads_through_a_pending_resampling():
 
 @needs_numba
 def test_compiled_odometry_prior_matches_the_numpy_steps():
-    """``kernels.advance_prior`` against ``from_delta``, ``control_variances`` and
-    ``propagate_gaussian``: forward, backward, turning in place, with random-walk terms."""
+    """``kernels.advance_mean`` and ``propagate_cov`` against ``from_delta``,
+    ``control_variances`` and ``propagate_gaussian``: forward, backward, turning in place,
+    with random-walk terms."""
     from fastslam_ros.core import kernels
     from fastslam_ros.core.motion import OdometryControl, control_variances, propagate_gaussian
     from fastslam_ros.core.observation import SensorOffset
@@ -346,7 +418,8 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
                                       (1e-3, 2e-4, 3e-3, 1e-4))
         mean, cov = prior if prior is not None else (poses, np.zeros((20, 3, 3)))
         expected = propagate_gaussian(mean, cov, control, variances)
-        got, widest = kernels.advance_prior(prior, poses, delta, settings)
+        moved, widest, turn, motion = kernels.advance_mean(prior, poses, delta, settings)
+        got = (moved, kernels.propagate_cov(turn, None if prior is None else prior[1], motion))
         for a, b in zip(got, expected):
             np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
         assert widest == expected[1][:, 2, 2].max()
@@ -355,7 +428,8 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
     # neither samples the prior nor draws: both backends keep one random stream).
     cov = np.zeros((20, 3, 3))
     cov[7, 2, 2] = np.nan
-    _, widest = kernels.advance_prior((poses, cov), poses, np.array([0.1, 0.0, 0.0]), settings)
+    _, widest, _, _ = kernels.advance_mean((poses, cov), poses, np.array([0.1, 0.0, 0.0]),
+                                        settings)
     assert np.isnan(widest)
 
 

@@ -154,7 +154,8 @@ def test_best_path_follows_the_best_particle_and_grows_per_update():
     assert np.sqrt(np.mean(np.sum((poses[:, :2] - truth[:, :2]) ** 2, axis=1))) < 0.5
     # Shared ancestry: far fewer stored poses than one path per particle.
     assert len(slam.history) == slam.num_updates
-    stored = len(slam.history._chain_poses) + sum(len(p) for p in slam.history._poses)
+    stored = len(slam.history._chain_poses) + sum(len(kept) for _, _, kept
+                                                  in slam.history.generations())
     assert stored < 0.3 * slam.num_particles * slam.num_updates
 
 

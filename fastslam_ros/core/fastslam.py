@@ -161,7 +161,7 @@ class FastSLAM:
         self.history = PathHistory(count, kernels=self.kernels)
         self._pending = NO_MOTION
         self._has_pending = False
-        self._prior: tuple[np.ndarray, np.ndarray] | None = None
+        self._prior = None
         self._best = 0
         self._lost_since: float | None = None
         self._placed = False
@@ -261,9 +261,13 @@ class FastSLAM:
         if not self._has_pending:
             return
         if self.kernels is not None and self.config.algorithm == "fastslam2":
-            # The same steps as below, in one compiled call.
-            self._prior, widest = self.kernels.advance_prior(self._prior, self.poses,
-                                                             self._pending, self._settings)
+            # The same steps as below, the covariance left to the next reading's blocks of
+            # particles (or to the first other use of the prior, ``_prior``).
+            prior = self._prior
+            moved, widest, turn, motion = self.kernels.advance_mean(
+                prior, self.poses, self._pending, self._settings)
+            self._prior = (moved, None)
+            self._deferred = (turn, None if prior is None else prior[1], motion)
             self._pending = NO_MOTION
             self._has_pending = False
             if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
@@ -285,6 +289,23 @@ class FastSLAM:
         if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
+
+    @property
+    def _prior(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """FastSLAM 2.0's Gaussian prior (mean (M, 3), cov (M, 3, 3)) or None; a covariance
+        left to the next reading (``_deferred``: the turn, the covariance it moves from and
+        the motion of ``kernels.advance_mean``) is propagated here first."""
+        if self._deferred is not None:
+            turn, cov, motion = self._deferred
+            self._deferred = None
+            self._prior_value = (self._prior_value[0],
+                                 self.kernels.propagate_cov(turn, cov, motion))
+        return self._prior_value
+
+    @_prior.setter
+    def _prior(self, value: tuple[np.ndarray, np.ndarray] | None) -> None:
+        self._prior_value = value
+        self._deferred = None
 
     def _sample_prior(self) -> np.ndarray:
         """Draw every particle's pose from its Gaussian prior, which is then consumed."""
@@ -372,7 +393,12 @@ class FastSLAM:
         config, count = self.config, self.num_particles
         known = config.association == "known"
         self._advance_motion()
-        mean, cov = self._prior if self._prior is not None else (self.poses, None)
+        if self._deferred is not None:
+            # The prior's covariance is propagated in the reading's blocks.
+            mean, cov, motion = self._prior_value[0], None, self._deferred
+        else:
+            mean, cov, motion = *(self._prior if self._prior is not None
+                                  else (self.poses, None)), None
         reach = self._reach_of(farthest)
         # Split over threads, the reading's chunks make a pending resampling's working-set copy
         # as they go; on one thread the copy in one call is the cheaper.
@@ -382,19 +408,19 @@ class FastSLAM:
             self.loop.before_reading(ws, self.working.pending)
         draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
                  else _NO_DRAWS)
-        propose = cov is not None and config.algorithm == "fastslam2"
+        propose = (cov is not None or motion is not None) and config.algorithm == "fastslam2"
         normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
         (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
          finite, ws) = self.kernels.update_reading(
             ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
             self.log_weights, self._settings, reach, self.landmarks.next_key, propose,
-            self.working.pending)
+            self.history.next_generation(), self.working.pending, motion)
         self.working.took(ws)
         if propose:
             self._prior = None
         self.poses = poses
         self.landmarks.next_key += keys
-        self.history.record(stamp, poses)
+        self.history.record(stamp, written=True)
         self.num_updates += 1
         self.num_underflows += int(underflow)
         report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),

@@ -14,9 +14,10 @@ The per-particle work is one loop over particles (``_reading_chunk``: each parti
 association, proposal, weight and map in turn), then a short serial pass (``_settle``: the
 columns and keys of the new landmarks, which need every particle's choices, the weight
 normalisation and the report). Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the reading
-runs on the calling thread; from there on the loop runs as one chunk of particles per thread:
-the calling thread takes the first chunk and a pool of Python threads the others, each in the
-same compiled serial code (the kernels release the GIL), one hand-off per reading. A hand-off
+runs on the calling thread; from there on the loop runs on the calling thread and a pool of
+Python threads at once, in the same compiled serial code (the kernels release the GIL), one
+hand-off per reading, each thread taking blocks of particles from one atomic counter until none
+is left (so a thread that starts late or runs slower takes fewer). A hand-off
 costs tens of microseconds on a busy machine, which only pays off at large M. (numba's own
 ``prange`` compiled the chunks' code for generic array layouts, about 25 % slower per
 particle, and gained little from the second core.)
@@ -36,7 +37,9 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .landmark_store import STATE_WIDTH, LandmarkStore, WorkingSet
 
@@ -65,9 +68,11 @@ F_REACH = 18
 F_ALPHAS = 19                                  # alpha1..alpha4
 F_MIN_TRANSLATION_SIGMA, F_MIN_ROTATION_SIGMA = 23, 24
 F_LINEAR_NOISE = 25                            # the four random-walk terms (``motion``)
-NUM_F = 29
+F_MOTION = 29                                  # rot1, trans, rot2 and their variances
+NUM_F = 35
 I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
-NUM_I = 7
+I_MOTION, I_PRIOR_COV = 7, 8                   # the reading propagates the prior's covariance
+NUM_I = 9
 
 
 @njit(**_JIT)
@@ -96,6 +101,25 @@ def _logaddexp(x, y):
     if difference <= 0.0:
         return y + math.log1p(math.exp(difference))
     return difference
+
+
+@intrinsic
+def _claim(typingctx, counter, amount):
+    """Atomically ``counter[0] += amount``; returns the value before (the threads of a
+    reading take their particles from one counter this way)."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64
+            and isinstance(amount, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array_type = signature.args[0]
+        array = context.make_array(array_type)(context, builder, args[0])
+        pointer = cgutils.get_item_pointer(context, builder, array_type, array,
+                                           [context.get_constant(types.intp, 0)])
+        step = context.cast(builder, args[1], signature.args[1], types.int64)
+        return builder.atomic_rmw("add", pointer, step, "seq_cst")
+
+    return types.int64(counter, amount), codegen
 
 
 # ---------------------------------------------------------------------------- association
@@ -622,17 +646,27 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
 
 # ---------------------------------------------------------------------------- the reading
 @njit(**_JIT)
-def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new):
-    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
-    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
-    row, slot and block arrays taking them."""
-    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
-        source
-    row, slot, block = moved
-    for j in range(valid.shape[1]):
+def _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new):
+    """Entry (m, j) empty, as a gathered working set leaves its free columns (a unit
+    covariance, so that scoring it stays finite)."""
+    for i in range(STATE_WIDTH):
+        state[m, j, i] = 0.0
+    state[m, j, 2] = state[m, j, 4] = 1.0
+    ident[m, j, 0] = ident[m, j, 1] = -1
+    row[m, j], slot[m, j], block[m, j] = -1, 0, -1
+    valid[m, j] = dirty[m, j] = is_new[m, j] = False
+
+
+@njit(**_JIT)
+def _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
+                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
+                  dirty, is_new):
+    """Particle m's entries of the columns before ``existing`` become particle ``origin``'s
+    of the source arrays."""
+    for j in range(existing):
         row[m, j], slot[m, j], block[m, j] = (src_row[origin, j], src_slot[origin, j],
                                               src_block[origin, j])
-        for i in range(state.shape[2]):
+        for i in range(STATE_WIDTH):
             state[m, j, i] = src_state[origin, j, i]
         ident[m, j, 0], ident[m, j, 1] = src_ident[origin, j, 0], src_ident[origin, j, 1]
         valid[m, j], dirty[m, j] = src_valid[origin, j], src_dirty[origin, j]
@@ -640,15 +674,36 @@ def _take_particle(m, origin, source, moved, state, ident, valid, dirty, is_new)
 
 
 @njit(**_JIT)
-def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, cov, poses,
-                   ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
+def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirty, is_new):
+    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
+    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
+    row, slot and block arrays taking them. The columns from ``existing`` on are empty in
+    every particle (new landmarks fill them in order, and ``first_new_slot`` follows), so they
+    are written empty, not copied."""
+    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
+        source
+    row, slot, block = moved
+    _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
+                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
+                  dirty, is_new)
+    for j in range(existing, valid.shape[1]):
+        _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new)
+
+
+@njit(**_JIT)
+def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
+                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
                    resampled, source, moved, creator, choice, factor, poses_out, weights_out,
-                   fresh, finite):
-    """Particles [lo, hi), each in turn: its working-set entries taken from row ``resampled[m]``
-    of ``source`` (a resampling since the last reading; none when ``resampled`` is empty), then
-    association, outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
-    normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``);
-    ``finite[m]`` False for a non-finite update."""
+                   fresh, finite, recorded, turn, prior_cov):
+    """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
+    each particle in turn: its working-set entries taken from row ``resampled[m]`` of
+    ``source`` (a resampling since the last reading; none when ``resampled`` is empty), with
+    ``ip[I_MOTION]`` its prior covariance ``cov[m]`` propagated from ``prior_cov`` by the
+    motion's ``turn`` (``advance_mean``), then association, outlier test, (FastSLAM 2.0)
+    proposal and draw, the new log weight (before normalisation) and its map
+    (``_map_particle``, the new landmarks left to ``_place_new``); ``finite[m]`` False for a
+    non-finite update; the new pose also into ``recorded[m]`` (the path history's next
+    generation)."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -670,41 +725,54 @@ def _reading_chunk(lo, hi, state, ident, valid, dirty, is_new, existing, mean, c
     propose = ip[I_PROPOSE] != 0
     localization = ip[I_LOCALIZATION] != 0
     ordered = resampled.shape[0] > 0
-    for m in range(lo, hi):
-        if ordered:
-            _take_particle(m, resampled[m], source, moved, state, ident, valid, dirty, is_new)
-        _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings,
-                            labels, noise_r, draws, fp, ip, choice, factor, inverse_q, local,
-                            log_lik, mahalanobis, pick, value, order, cumulative, terms,
-                            picked)
-        _reject_outliers(m, choice, factor, robust, fp)
-        if localization:
-            # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
+    motion = ip[I_MOTION] != 0
+    has_prior_cov = ip[I_PRIOR_COV] != 0
+    num_particles = poses.shape[0]
+    while True:
+        lo = _claim(counter, block)
+        if lo >= num_particles:
+            return
+        for m in range(lo, min(lo + block, num_particles)):
+            if ordered:
+                _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
+                               dirty, is_new)
+            if motion:
+                _propagate_cov(m, turn, prior_cov, has_prior_cov, fp[F_MOTION + 1],
+                               fp[F_MOTION + 3], fp[F_MOTION + 4], fp[F_MOTION + 5], cov)
+            _associate_particle(m, state, valid, label, existing, mean, cov, ranges,
+                                bearings, labels, noise_r, draws, fp, ip, choice, factor,
+                                inverse_q, local, log_lik, mahalanobis, pick, value, order,
+                                cumulative, terms, picked)
+            _reject_outliers(m, choice, factor, robust, fp)
+            if localization:
+                # A fixed map takes no new landmark: an unexplained observation weighs p0.
+                for k in range(count):
+                    if choice[k, m] == NEW:
+                        choice[k, m] = IGNORE
+            if propose:
+                joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r,
+                                          choice, fp, normals, poses_out, info, b, a, cof,
+                                          full, sigma, terms, picked, scored)
+                # The associated observations weigh their joint likelihood (on the first row)
+                # times 1 / q (``FastSLAM._sample_proposal``).
+                for k in range(count):
+                    if choice[k, m] >= 0:
+                        factor[k, m] = inverse_q[k]
+                if count:
+                    factor[0, m] += joint
+            else:
+                poses_out[m, 0], poses_out[m, 1], poses_out[m, 2] = (
+                    poses[m, 0], poses[m, 1], poses[m, 2])
+            total = 0.0
             for k in range(count):
-                if choice[k, m] == NEW:
-                    choice[k, m] = IGNORE
-        if propose:
-            joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice,
-                                      fp, normals, poses_out, info, b, a, cof, full, sigma,
-                                      terms, picked, scored)
-            # The associated observations weigh their joint likelihood (on the first row)
-            # times 1 / q (``FastSLAM._sample_proposal``).
-            for k in range(count):
-                if choice[k, m] >= 0:
-                    factor[k, m] = inverse_q[k]
-            if count:
-                factor[0, m] += joint
-        else:
-            poses_out[m, 0], poses_out[m, 1], poses_out[m, 2] = (poses[m, 0], poses[m, 1],
-                                                                 poses[m, 2])
-        total = 0.0
-        for k in range(count):
-            factor[k, m] = factor[k, m] + robust[k]
-            total += factor[k, m]
-        weights_out[m] = log_weights[m] + total
-        finite[m] = localization or _map_particle(m, state, valid, dirty, existing, choice,
-                                                  creator, poses_out, ranges, bearings,
-                                                  noise_r, fp, observed, fresh)
+                factor[k, m] = factor[k, m] + robust[k]
+                total += factor[k, m]
+            weights_out[m] = log_weights[m] + total
+            finite[m] = localization or _map_particle(m, state, valid, dirty, existing,
+                                                      choice, creator, poses_out, ranges,
+                                                      bearings, noise_r, fp, observed, fresh)
+            recorded[m, 0], recorded[m, 1], recorded[m, 2] = (
+                poses_out[m, 0], poses_out[m, 1], poses_out[m, 2])
 
 
 @njit(**_JIT)
@@ -870,33 +938,36 @@ def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh
 
 @njit(**_JIT)
 def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved):
+                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved,
+                    recorded, turn, prior_cov):
     """The whole reading on the calling thread (``update_reading``)."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _reading_chunk(0, num_particles, state, ident, valid, dirty, is_new, existing, mean, cov,
-                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
-                   order, source, moved, creator, choice, factor, poses_out, weights_out, fresh,
-                   finite)
+    _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
+                   existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
+                   normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
+                   poses_out, weights_out, fresh, finite, recorded, turn, prior_cov)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
 def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
-                      moved, chunks):
-    """``_reading_serial`` with its per-particle work split into ``chunks`` chunks of
-    particles: the first on the calling thread, the others on the pool (``_chunk_pool``), one
-    hand-off per reading. Chunks write disjoint particles, so the results are those of the
-    serial reading."""
+                      moved, recorded, turn, prior_cov, chunks):
+    """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
+    calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
+    blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
+    that starts late or runs slower takes fewer). Blocks write disjoint particles, so the
+    results are those of the serial reading."""
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _run_chunks(_reading_chunk, _chunk_bounds(num_particles, chunks), (
-        state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges, bearings,
-        labels, noise_r, draws, normals, log_weights, fp, ip, order, source, moved, creator,
-        choice, factor, poses_out, weights_out, fresh, finite))
+    _run_shared(_reading_chunk, chunks, (
+        np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
+        cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
+        source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
+        recorded, turn, prior_cov))
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -918,6 +989,22 @@ def _chunk_bounds(num_particles: int, chunks: int) -> list[tuple[int, int]]:
     """(lo, hi) of ``chunks`` nearly equal chunks of the particles."""
     return [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
             for c in range(chunks)]
+
+
+READING_BLOCK = 16
+"""Particles a thread of a split reading takes at a time: small enough that the threads end
+within about one block of each other (a particle costs a few microseconds), large enough that
+taking one costs nothing."""
+
+
+def _run_shared(kernel, threads: int, args) -> None:
+    """``kernel(*args)`` on this thread and on ``threads - 1`` threads of the pool at once
+    (the kernel shares the work out itself); returns when all are done (a worker's exception
+    is raised here)."""
+    pending = [_chunk_pool().submit(kernel, *args) for _ in range(threads - 1)]
+    kernel(*args)
+    for future in pending:
+        future.result()
 
 
 def _run_chunks(kernel, bounds, args) -> None:
@@ -1011,12 +1098,14 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
 
 
 _NO_COV = np.zeros((1, 3, 3))
+_NO_TURN = np.zeros((0, 2))
 _NO_ORDER = np.zeros(0, np.int64)
 
 
 def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                    log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool, order: np.ndarray | None = None):
+                   propose: bool, recorded: np.ndarray, order: np.ndarray | None = None,
+                   motion=None):
     """One reading for every particle, on the working set ``ws`` (updated in place), or, with
     ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
     entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
@@ -1025,19 +1114,34 @@ def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normal
     its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
     ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
     (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
-    store's next landmark key. Returns (the reported particle's ``UpdateReport``
-    associated_ids (K,) and is_new (K,), poses (M, 3), normalised log weights (M,), N_eff,
-    underflow, the reported particle, working-set columns taken, keys taken, all finite, the
-    working set read).
+    store's next landmark key; ``recorded`` (M, 3): also given the new poses (the path
+    history's next generation, ``PathHistory.next_generation``); ``motion``: the prior's
+    turn, cov (or None) ``mean`` was moved from and the motion (``advance_mean``): the
+    reading propagates the covariance in its blocks (then ``cov`` is None). Returns (the reported
+    particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3), normalised
+    log weights (M,), N_eff, underflow, the reported particle, working-set columns taken, keys
+    taken, all finite, the working set read).
     """
     return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-                   settings, reach, first_key, propose, order, _threads_for(poses.shape[0]))
+                   settings, reach, first_key, propose, recorded, order,
+                   _threads_for(poses.shape[0]), motion)
 
 
 def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-            settings: ReadingSettings, reach: float, first_key: int, propose: bool, order,
-            threads: int):
+            settings: ReadingSettings, reach: float, first_key: int, propose: bool, recorded,
+            order, threads: int, motion=None):
     """``update_reading`` on ``threads`` threads."""
+    ip = settings.integers
+    ip[I_MOTION] = motion is not None
+    if motion is None:
+        turn, prior_cov = _NO_TURN, _NO_COV
+    else:
+        turn, prior_cov, values = motion
+        settings.floats[F_MOTION:F_MOTION + 6] = values
+        ip[I_PRIOR_COV] = prior_cov is not None
+        if prior_cov is None:
+            prior_cov = _NO_COV
+        cov = np.empty((poses.shape[0], 3, 3))
     source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
     if order is None:
         order = _NO_ORDER
@@ -1046,7 +1150,7 @@ def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
     args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
                          log_weights, settings, reach, first_key, propose) + (
-        order, source, (ws.row, ws.slot, ws.block))
+        order, source, (ws.row, ws.slot, ws.block), recorded, turn, prior_cov)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
@@ -1114,39 +1218,45 @@ def sample_motion(poses: np.ndarray, u, variances: np.ndarray,
 
 
 @njit(**_JIT)
-def _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2):
-    count = mean.shape[0]
-    moved = np.empty((count, 3))
-    predicted = np.empty((count, 3, 3))
-    for m in range(count):
-        heading = mean[m, 2] + rot1
-        cos_h, sin_h = math.cos(heading), math.sin(heading)
-        fx, fy = -trans * sin_h, trans * cos_h
-        c0, c1, c2 = cov[m, 0, 2], cov[m, 1, 2], cov[m, 2, 2]
-        w = c2 + v_rot1
-        xx = cov[m, 0, 0] + 2.0 * fx * c0 + w * fx * fx + v_trans * cos_h * cos_h
-        xy = cov[m, 0, 1] + fx * c1 + fy * c0 + w * fx * fy + v_trans * cos_h * sin_h
-        yy = cov[m, 1, 1] + 2.0 * fy * c1 + w * fy * fy + v_trans * sin_h * sin_h
-        xt, yt, tt = c0 + w * fx, c1 + w * fy, c2 + (v_rot1 + v_rot2)
-        predicted[m, 0, 0], predicted[m, 0, 1], predicted[m, 0, 2] = xx, xy, xt
-        predicted[m, 1, 0], predicted[m, 1, 1], predicted[m, 1, 2] = xy, yy, yt
-        predicted[m, 2, 0], predicted[m, 2, 1], predicted[m, 2, 2] = xt, yt, tt
-        moved[m, 0] = mean[m, 0] + trans * cos_h
-        moved[m, 1] = mean[m, 1] + trans * sin_h
-        moved[m, 2] = _wrap(heading + rot2)
-    return moved, predicted
+def _propagate_mean(m, mean, rot1, trans, rot2, moved, turn):
+    """``propagate_gaussian``'s mean of particle m into ``moved[m]``, the cosine and sine of
+    its heading after the first rotation into ``turn[m]`` (for ``_propagate_cov``)."""
+    heading = mean[m, 2] + rot1
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    moved[m, 0] = mean[m, 0] + trans * cos_h
+    moved[m, 1] = mean[m, 1] + trans * sin_h
+    moved[m, 2] = _wrap(heading + rot2)
+    turn[m, 0], turn[m, 1] = cos_h, sin_h
 
 
 @njit(**_JIT)
-def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
-    # ``OdometryControl.from_delta``
+def _propagate_cov(m, turn, cov, has_cov, trans, v_rot1, v_trans, v_rot2, predicted):
+    """``propagate_gaussian``'s covariance of particle m (covariance ``cov[m]``, or zero
+    without ``has_cov``; ``turn[m]``: ``_propagate_mean``'s) into ``predicted[m]``."""
+    cos_h, sin_h = turn[m, 0], turn[m, 1]
+    fx, fy = -trans * sin_h, trans * cos_h
+    n = m if has_cov else 0
+    c0, c1, c2 = cov[n, 0, 2], cov[n, 1, 2], cov[n, 2, 2]
+    w = c2 + v_rot1
+    xx = cov[n, 0, 0] + 2.0 * fx * c0 + w * fx * fx + v_trans * cos_h * cos_h
+    xy = cov[n, 0, 1] + fx * c1 + fy * c0 + w * fx * fy + v_trans * cos_h * sin_h
+    yy = cov[n, 1, 1] + 2.0 * fy * c1 + w * fy * fy + v_trans * sin_h * sin_h
+    xt, yt, tt = c0 + w * fx, c1 + w * fy, c2 + (v_rot1 + v_rot2)
+    predicted[m, 0, 0], predicted[m, 0, 1], predicted[m, 0, 2] = xx, xy, xt
+    predicted[m, 1, 0], predicted[m, 1, 1], predicted[m, 1, 2] = xy, yy, yt
+    predicted[m, 2, 0], predicted[m, 2, 1], predicted[m, 2, 2] = xt, yt, tt
+
+
+@njit(**_JIT)
+def _motion_of(dx, dy, dtheta, fp):
+    """The odometry delta's (rot1, trans, rot2) (``OdometryControl.from_delta``) and their
+    variances (``motion.control_variances``)."""
     trans = math.hypot(dx, dy)
     rot1 = math.atan2(dy, dx) if trans > 1e-9 else 0.0
     if abs(rot1) > math.pi / 2.0:
         rot1 = _wrap(rot1 - math.pi)
         trans = -trans
     rot2 = _wrap(dtheta - rot1)
-    # ``motion.control_variances``
     a1, a2, a3, a4 = fp[F_ALPHAS], fp[F_ALPHAS + 1], fp[F_ALPHAS + 2], fp[F_ALPHAS + 3]
     min_t, min_r = fp[F_MIN_TRANSLATION_SIGMA], fp[F_MIN_ROTATION_SIGMA]
     rot1_sq, trans_sq, rot2_sq = rot1 ** 2, trans ** 2, rot2 ** 2
@@ -1159,32 +1269,60 @@ def _advance_prior_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
         v_rot1 += k_rr * abs(rot1) + 0.5 * k_rt * abs(trans)
         v_trans += k_tt * abs(trans) + k_tr * (abs(rot1) + abs(rot2))
         v_rot2 += k_rr * abs(rot2) + 0.5 * k_rt * abs(trans)
-    if not has_cov:
-        cov = np.zeros((mean.shape[0], 3, 3))
-    moved, predicted = _propagate_kernel(mean, cov, rot1, trans, rot2, v_rot1, v_trans, v_rot2)
-    # As numpy's max: a NaN variance makes the widest NaN (numba's max would skip it).
+    return rot1, trans, rot2, v_rot1, v_trans, v_rot2
+
+
+@njit(**_JIT)
+def _widest_kernel(cov, has_cov, count, v_rot1, v_rot2):
+    """The largest propagated heading variance (``_propagate_cov``'s ``tt``); as numpy's max,
+    a NaN makes it NaN (numba's max would skip it)."""
     widest = -np.inf
-    for m in range(mean.shape[0]):
-        variance = predicted[m, 2, 2]
+    for m in range(count):
+        variance = cov[m if has_cov else 0, 2, 2] + (v_rot1 + v_rot2)
         if np.isnan(variance) or variance > widest:
             widest = variance
-    return moved, predicted, widest
+    return widest
 
 
-def advance_prior(prior, poses: np.ndarray, delta, settings: ReadingSettings):
-    """FastSLAM 2.0's ``_advance_motion`` in one call: the odometry ``delta`` (dx, dy,
-    dtheta) decomposed (``OdometryControl.from_delta``), its variances
-    (``control_variances``) and the prior (mean, cov), or N(poses, 0) when ``prior`` is None,
-    propagated through it (``propagate_gaussian``). Returns the new prior and its largest
-    heading variance."""
-    dx, dy, dtheta = delta
-    if prior is None:
-        moved, predicted, widest = _advance_prior_kernel(poses, _NO_COV, False, dx, dy, dtheta,
-                                                         settings.floats)
-    else:
-        moved, predicted, widest = _advance_prior_kernel(prior[0], prior[1], True, dx, dy,
-                                                         dtheta, settings.floats)
-    return (moved, predicted), widest
+@njit(**_JIT)
+def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
+    motion = np.array(_motion_of(dx, dy, dtheta, fp))
+    count = mean.shape[0]
+    moved = np.empty((count, 3))
+    turn = np.empty((count, 2))
+    for m in range(count):
+        _propagate_mean(m, mean, motion[0], motion[1], motion[2], moved, turn)
+    return moved, _widest_kernel(cov, has_cov, count, motion[3], motion[5]), turn, motion
+
+
+@njit(**_JIT)
+def _propagate_cov_kernel(turn, cov, has_cov, motion):
+    count = turn.shape[0]
+    predicted = np.empty((count, 3, 3))
+    for m in range(count):
+        _propagate_cov(m, turn, cov, has_cov, motion[1], motion[3], motion[4], motion[5],
+                       predicted)
+    return predicted
+
+
+def advance_mean(prior, poses: np.ndarray, delta, settings: ReadingSettings):
+    """FastSLAM 2.0's ``_advance_motion`` but for the covariance: the odometry ``delta`` (dx,
+    dy, dtheta) decomposed (``OdometryControl.from_delta``), its variances
+    (``control_variances``) and the prior's mean (of (mean, cov), or of N(poses, 0) when
+    ``prior`` is None) propagated through it (``propagate_gaussian``). Returns the new mean,
+    the largest new heading variance, the cosine and sine of every heading after the first
+    rotation (M, 2) and the motion (rot1, trans, rot2 and their variances), for
+    ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the covariance: the
+    next reading does it in its blocks of particles."""
+    mean, cov = prior if prior is not None else (poses, _NO_COV)
+    return _advance_mean_kernel(mean, cov, prior is not None, *delta, settings.floats)
+
+
+def propagate_cov(turn: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:
+    """``propagate_gaussian``'s covariance of the prior (cov None: zero) through the motion
+    and turn of ``advance_mean``."""
+    return _propagate_cov_kernel(turn, _NO_COV if cov is None else cov, cov is not None,
+                                 motion)
 
 
 # ---------------------------------------------------------------------------- resampling
@@ -1237,6 +1375,38 @@ def take(ws, indices: np.ndarray):
 
 
 @njit(**_JIT)
+def _reindex_kernel(indices, existing, row, slot, block, state, ident, valid, dirty, is_new):
+    """``_take_kernel`` in place for non-decreasing ``indices`` (systematic resampling's, and
+    their compositions): rows that move up are copied in ascending order, rows that move down
+    in descending order, so every source is read before it is overwritten; rows that keep
+    their place are not touched, nor are the columns from ``existing`` on (empty in every
+    particle). False, and nothing changed, for other indices."""
+    count = indices.shape[0]
+    for m in range(1, count):
+        if indices[m] < indices[m - 1]:
+            return False
+    for m in range(count):
+        if indices[m] > m:
+            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
+                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+    for m in range(count - 1, -1, -1):
+        if indices[m] < m:
+            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
+                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+    return True
+
+
+def reindex(ws, indices: np.ndarray):
+    """``take`` for a working set no longer needed as it was: in place when ``indices`` are
+    non-decreasing (``_reindex_kernel``), else a copy."""
+    if not _reindex_kernel(indices, ws.first_new_slot, ws.row, ws.slot, ws.block, ws.state,
+                           ws.ident, ws.valid, ws.dirty, ws.is_new):
+        return take(ws, indices)
+    ws.columns = ws.columns[indices]
+    return ws
+
+
+@njit(**_JIT)
 def _resample_poses_kernel(weights, offset, poses, best):
     indices = _systematic_kernel(weights, offset)
     count = indices.shape[0]
@@ -1284,40 +1454,33 @@ def _ranks(values):
 
 
 @njit(**_JIT)
-def _prune_kernel(leaf, parents, poses, sizes):
-    """``PathHistory._prune_generations_numpy`` on the generations laid end to end
-    (``sizes`` nodes each): the kept nodes of each generation at the start of its stretch."""
-    count = sizes.shape[0]
-    starts = np.zeros(count + 1, np.int64)
-    for g in range(count):
-        starts[g + 1] = starts[g] + sizes[g]
+def _prune_kernel(leaf, parents, poses, widths, count):
+    """``PathHistory._prune_generations_numpy`` in place: the kept nodes of each of the first
+    ``count`` generations moved to its start (in their order, so no node is overwritten
+    before it is read); returns the new leaf."""
     alive, new_leaf = _ranks(leaf)
-    kept_parents = np.empty(parents.shape[0], np.int64)
-    kept_poses = np.empty((parents.shape[0], 3))
-    kept = np.empty(count, np.int64)
     for g in range(count - 1, -1, -1):
-        base, width = starts[g], alive.shape[0]
+        width = alive.shape[0]
         chosen = np.empty(width, np.int64)
         for i in range(width):
-            source = base + alive[i]
-            chosen[i] = parents[source]
-            kept_poses[base + i, 0], kept_poses[base + i, 1], kept_poses[base + i, 2] = \
-                poses[source, 0], poses[source, 1], poses[source, 2]
+            source = alive[i]
+            chosen[i] = parents[g, source]
+            poses[g, i, 0], poses[g, i, 1], poses[g, i, 2] = (poses[g, source, 0],
+                                                              poses[g, source, 1],
+                                                              poses[g, source, 2])
         alive, positions = _ranks(chosen)
-        kept_parents[base:base + width] = positions
-        kept[g] = width
-    return new_leaf, kept_parents, kept_poses, starts, kept
+        for i in range(width):
+            parents[g, i] = positions[i]
+        widths[g] = width
+    return new_leaf
 
 
-def prune(leaf: np.ndarray, parents: list, poses: list):
-    """``PathHistory._prune_generations_numpy`` in one call: (the new leaf, the parents and
-    the poses of every generation, each a view into one array)."""
-    sizes = np.array([len(p) for p in parents], np.int64)
-    new_leaf, kept_parents, kept_poses, starts, kept = _prune_kernel(
-        leaf, np.concatenate(parents), np.concatenate(poses), sizes)
-    spans = list(zip(starts.tolist(), (starts[:-1] + kept).tolist()))
-    return (new_leaf, [kept_parents[a:b] for a, b in spans],
-            [kept_poses[a:b] for a, b in spans])
+def prune(leaf: np.ndarray, parents: np.ndarray, poses: np.ndarray, widths: np.ndarray,
+          count: int) -> np.ndarray:
+    """``PathHistory._prune_generations_numpy`` in one call on the history's arrays (parents
+    (G, M), poses (G, M, 3), widths (G,), changed in place; the first ``count`` generations);
+    returns the new leaf."""
+    return _prune_kernel(leaf, parents, poses, widths, count)
 
 
 @njit(**_JIT)
@@ -1707,16 +1870,21 @@ def warm_up() -> float:
             for threads, order in ((1, None), (2, np.array([1, 0]))):
                 _update(ws, poses, pose_cov, poses, ranges, bearings, labels,
                         np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0,
-                        pose_cov is not None, order, threads)
+                        pose_cov is not None, np.empty((m, 3)), order, threads)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
-    advance_prior(None, poses, np.array([0.1, 0.2, 0.0]), settings)
-    advance_prior((poses, cov), poses, np.array([0.1, 0.2, 0.0]), settings)
+    advance_mean(None, poses, (0.1, 0.2, 0.0), settings)
+    _, _, turn, motion = advance_mean((poses, cov), poses, (0.1, 0.2, 0.0), settings)
+    propagate_cov(turn, None, motion)
+    propagate_cov(turn, cov, motion)
     sample_motion(poses, OdometryControl(0.1, 0.2, 0.0), np.full(3, 0.01), np.zeros((m, 3)))
     indices, _, _ = resample_poses(np.full(m, 1.0 / m), np.random.default_rng(0), poses, 0)
     take(ws, indices)
-    prune(np.zeros(m, np.int64), [np.zeros(m, np.int64)] * 2, [poses] * 2)
+    reindex(ws, indices)
+    reindex(ws, indices[::-1].copy())
+    prune(np.zeros(m, np.int64), np.zeros((2, m), np.int64), np.zeros((2, m, 3)),
+          np.full(2, m, np.int64), 2)
     store = LandmarkStore(m, 5.0)
     for threads in (1, 2):
         _gather(store, np.zeros((m, 1), np.int64), 2, threads)

@@ -39,7 +39,7 @@ class WorkingSetCache:
     def current(self) -> WorkingSet | None:
         """The working set of the latest reading (resampled), or None."""
         if self.pending is not None:
-            self._ws = self.store.kernels.take(self._ws, self.pending)
+            self._ws = self.store.kernels.reindex(self._ws, self.pending)
             self.pending = None
         return self._ws
 
