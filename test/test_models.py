@@ -1,11 +1,13 @@
 """Motion and observation models, the landmark EKF and the 2.0 proposal against independent math."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from fastslam_ros.core.geometry import (circular_mean, compose, mean_pose_and_covariance,
-                                      relative_pose, wrap_angle)
+                                        relative_pose, rigid_fit, wrap_angle)
 from fastslam_ros.core.landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from fastslam_ros.core.motion import (OdometryControl, apply_control, control_variances,
                                       sample_motion)
@@ -27,6 +29,33 @@ def test_wrap_angle_range_and_identity():
     # Round-off at large multiples of pi must not leave the interval.
     edges = wrap_angle(np.nextafter(np.arange(-60, 61) * np.pi, np.inf))
     assert np.all(edges > -np.pi) and np.all(edges <= np.pi)
+
+
+def test_rigid_fit_recovers_a_known_motion_weighted_batched_and_with_a_prior():
+    """Points moved by a known rotation and shift give that motion back (per batch entry);
+    a zero-weight outlier changes nothing; a rotation prior shrinks the angle towards 0 as
+    its closed form says (atan2(cross, dot + precision))."""
+    rng = np.random.default_rng(2)
+    source = rng.uniform(-5.0, 5.0, (3, 6, 2))
+    rotation = np.array([0.3, -1.2, 2.9])
+    shift = rng.uniform(-3.0, 3.0, (3, 2))
+    c, s = np.cos(rotation)[:, None], np.sin(rotation)[:, None]
+    target = np.stack([c * source[..., 0] - s * source[..., 1],
+                       s * source[..., 0] + c * source[..., 1]], axis=-1) + shift[:, None]
+    fitted_rotation, fitted_shift = rigid_fit(source, target)
+    np.testing.assert_allclose(fitted_rotation, rotation, atol=1e-12)
+    np.testing.assert_allclose(fitted_shift, shift, atol=1e-12)
+    outlier = target.copy()
+    outlier[:, 0] += 40.0
+    weight = np.ones((3, 6))
+    weight[:, 0] = 0.0
+    np.testing.assert_allclose(rigid_fit(source, outlier, weight)[0], rotation, atol=1e-12)
+    a = source[0] - source[0].mean(axis=0)
+    b = target[0] - target[0].mean(axis=0)
+    dot = (a * b).sum()
+    cross = (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()
+    shrunk = rigid_fit(source[0], target[0], rotation_precision=dot)[0]
+    assert abs(shrunk - math.atan2(cross, 2.0 * dot)) < 1e-12 and abs(shrunk) < abs(rotation[0])
 
 
 def test_compose_and_relative_pose_are_inverse():

@@ -393,12 +393,9 @@ class FastSLAM:
         config, count = self.config, self.num_particles
         known = config.association == "known"
         self._advance_motion()
-        if self._deferred is not None:
-            # The prior's covariance is propagated in the reading's blocks.
-            mean, cov, motion = self._prior_value[0], None, self._deferred
-        else:
-            mean, cov, motion = *(self._prior if self._prior is not None
-                                  else (self.poses, None)), None
+        # A deferred prior (``motion``) has no covariance yet: the reading's blocks propagate it.
+        mean, cov = self._prior_value if self._prior_value is not None else (self.poses, None)
+        motion = self._deferred
         reach = self._reach_of(farthest)
         # Split over threads, the reading's chunks make a pending resampling's working-set copy
         # as they go; on one thread the copy in one call is the cheaper.

@@ -126,3 +126,28 @@ def compose_floats(pose, delta) -> tuple[float, float, float]:
 def wrap_scalar(angle: float) -> float:
     """``wrap_angle`` for one float, same formula."""
     return min(angle - TWO_PI * math.ceil(angle * (1.0 / TWO_PI) - 0.5), math.pi)
+
+
+def rigid_fit(source: np.ndarray, target: np.ndarray, weight: np.ndarray | None = None,
+              rotation_precision: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The rigid motion (rotation (...), translation (..., 2)) taking the points ``source``
+    (..., n, 2) onto ``target`` in weighted least squares, batched over the leading axes:
+    closed-form 2-D Kabsch without scale (with centred sets, the angle is atan2 of the
+    weighted cross and dot sums). ``weight`` (..., n): None weighs every pair 1;
+    ``rotation_precision`` adds a zero-mean prior on the rotation (small-angle maximum a
+    posteriori: the dot sum grows by it)."""
+    source, target = np.asarray(source, dtype=float), np.asarray(target, dtype=float)
+    if weight is None:
+        weight = np.ones(source.shape[:-1])
+    total = weight.sum(axis=-1)[..., None]
+    source_mean = (weight[..., None] * source).sum(axis=-2) / total
+    target_mean = (weight[..., None] * target).sum(axis=-2) / total
+    a, b = source - source_mean[..., None, :], target - target_mean[..., None, :]
+    dot = (weight * (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1])).sum(axis=-1)
+    cross = (weight * (a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0])).sum(axis=-1)
+    rotation = np.arctan2(cross, dot + rotation_precision)
+    cos, sin = np.cos(rotation), np.sin(rotation)
+    translation = target_mean - np.stack([cos * source_mean[..., 0] - sin * source_mean[..., 1],
+                                          sin * source_mean[..., 0] + cos * source_mean[..., 1]],
+                                         axis=-1)
+    return rotation, translation

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from .geometry import wrap_angle
+from .geometry import rigid_fit, wrap_angle
 from .landmark_store import COV, LOGODDS, WorkingSet
 from .working_cache import WorkingSetCache
 
@@ -72,19 +72,6 @@ def _mahalanobis(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
         return (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
 
 
-def _inverse(cov: np.ndarray) -> np.ndarray:
-    """Inverse of packed 2x2 covariances (..., 3), packed."""
-    sxx, sxy, syy = cov[..., 0], cov[..., 1], cov[..., 2]
-    det = sxx * syy - sxy * sxy
-    return np.stack([syy / det, -sxy / det, sxx / det], axis=-1)
-
-
-def _times(packed: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Packed symmetric 2x2 matrices (..., 3) times vectors (..., 2)."""
-    return np.stack([packed[..., 0] * d[..., 0] + packed[..., 1] * d[..., 1],
-                     packed[..., 1] * d[..., 0] + packed[..., 2] * d[..., 1]], axis=-1)
-
-
 def _rotate_cov(cov: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
     """R S R^T for packed covariances (..., 3) and rotations given by cos, sin (...)."""
     sxx, sxy, syy = cov[..., 0], cov[..., 1], cov[..., 2]
@@ -102,18 +89,7 @@ def _fit(old: np.ndarray, new: np.ndarray, cov: np.ndarray,
     prior ``ROTATION_SIGMA`` (closed-form 2-D Procrustes; one pair gives the pure
     translation)."""
     weight = np.where(used, 2.0 / (cov[..., 0] + cov[..., 2]), 0.0)
-    total = weight.sum(axis=-1)[..., None]
-    centre_old = (weight[..., None] * old).sum(axis=-2) / total
-    centre_new = (weight[..., None] * new).sum(axis=-2) / total
-    a, b = new - centre_new[..., None, :], old - centre_old[..., None, :]
-    dot = (weight * (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1])).sum(axis=-1)
-    cross = (weight * (a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0])).sum(axis=-1)
-    rotation = np.arctan2(cross, dot + ROTATION_SIGMA ** -2)
-    cos, sin = np.cos(rotation), np.sin(rotation)
-    translation = centre_old - np.stack([cos * centre_new[..., 0] - sin * centre_new[..., 1],
-                                         sin * centre_new[..., 0] + cos * centre_new[..., 1]],
-                                        axis=-1)
-    return rotation, translation
+    return rigid_fit(new, old, weight, ROTATION_SIGMA ** -2)
 
 
 def _fit_residuals(old: np.ndarray, new: np.ndarray, cov: np.ndarray,

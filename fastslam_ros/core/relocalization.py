@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import wrap_angle
+from .geometry import rigid_fit, wrap_angle
 
 MIN_PAIR_DISTANCE = 2.0
 """Observed pairs closer than this (m) give too uncertain a heading to propose a pose."""
@@ -114,9 +114,5 @@ def _fit(points: np.ndarray, targets: np.ndarray, guess: np.ndarray) -> np.ndarr
     squares (closed form); ``guess`` when fewer than two points."""
     if len(points) < 2:
         return guess
-    point_mean, target_mean = points.mean(axis=0), targets.mean(axis=0)
-    h = (points - point_mean).T @ (targets - target_mean)
-    yaw = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
-    c, s = np.cos(yaw), np.sin(yaw)
-    translation = target_mean - np.array([[c, -s], [s, c]]) @ point_mean
-    return np.array([translation[0], translation[1], yaw])
+    yaw, translation = rigid_fit(points, targets)
+    return np.array([translation[0], translation[1], float(yaw)])

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from fastslam_ros.core.geometry import compose, quaternion_to_yaw
+from fastslam_ros.core.geometry import compose, quaternion_to_yaw, rigid_fit
 from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries, time_msg_to_stamp
 
@@ -47,20 +47,14 @@ class Transform2D:
 
 
 def align_se2(estimate: np.ndarray, reference: np.ndarray) -> Transform2D:
-    """The rigid transform minimising ``sum |T(estimate_i) - reference_i|^2`` (closed form).
-
-    2-D Kabsch/Umeyama without scale: with centred point sets and ``H = sum e_i r_i^T``, the
-    optimal angle is ``atan2(H01 - H10, H00 + H11)``.
-    """
+    """The rigid transform minimising ``sum |T(estimate_i) - reference_i|^2`` (closed form,
+    ``core.geometry.rigid_fit``)."""
     estimate = np.asarray(estimate, dtype=float)
     reference = np.asarray(reference, dtype=float)
     if len(estimate) == 0:
         return Transform2D()
-    estimate_mean, reference_mean = estimate.mean(axis=0), reference.mean(axis=0)
-    h = (estimate - estimate_mean).T @ (reference - reference_mean)
-    yaw = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
-    rotated_mean = Transform2D(yaw).apply(estimate_mean[None])[0]
-    return Transform2D(yaw, reference_mean - rotated_mean)
+    yaw, translation = rigid_fit(estimate, reference)
+    return Transform2D(float(yaw), translation)
 
 
 def error_stats(errors: np.ndarray) -> dict[str, float]:
