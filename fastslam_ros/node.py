@@ -27,6 +27,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import node_base, ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
+from fastslam_ros.core.map_refinement import refine_best_map
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
 from fastslam_ros.core.path_history import decimation
@@ -436,14 +437,34 @@ class FastSLAMNode(FilterNode):
                      response: Trigger.Response) -> Trigger.Response:
         map_file = self.settings["save_map_file"]
         try:
-            landmark_map = self.slam.best_map(self.config.map_min_existence)
-            written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
-                                            self._last_update_stamp)
+            response.message = self.save_map(map_file)
             response.success = True
-            response.message = f"{len(landmark_map.keys)} landmarks written to {written}"
         except Exception as error:  # noqa: BLE001 - report the failure to the caller
             response.success, response.message = False, f"cannot write '{map_file}': {error}"
         return response
+
+    def save_map(self, map_file: str | PathLike) -> str:
+        """Write the best particle's confirmed map, refined by the least squares over its path
+        (``map_refinement``; the filter's map, logged, when that fails; in localization the
+        fixed map); returns what was written (OSError when the file cannot be written)."""
+        landmark_map = self.slam.best_map(self.config.map_min_existence)
+        what = "the loaded map (localization)"
+        if self.config.mode == "mapping":
+            try:
+                landmark_map, report = refine_best_map(self.slam)
+                what = (f"refined by least squares over {report.readings} readings, "
+                        f"{report.associated} of {report.observations} observations, "
+                        f"{report.refined} landmarks moved {report.mean_shift:.3f} m on average, "
+                        f"in {report.seconds:.2f} s")
+            except Exception as error:  # noqa: BLE001 - the filter's map is still worth saving
+                self.get_logger().warning(f"map refinement failed ({error}); saving the "
+                                          "filter's map")
+                what = f"the filter's map: refinement failed ({error})"
+        written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
+                                        self._last_update_stamp)
+        message = f"{len(landmark_map.keys)} landmarks written to {written}, {what}"
+        self.get_logger().info(message)
+        return message
 
     def _load_map(self, map_file: str) -> int:
         """Seed every particle's map from a map file (ros_io.MapFileError when unreadable);

@@ -144,6 +144,13 @@ def test_bad_files_and_paths_give_one_line_and_status_2(tmp_path, capsys):
     assert "not a file" in one_line_error(capsys, "fastslam-replay")
     assert replay.main([str(bag), "--out", str(tmp_path / "no" / "such" / "out")]) == 2
     assert "does not exist" in one_line_error(capsys, "fastslam-replay")
+    assert replay.main([str(bag), "--no-record", "--save-map", "/no/dir/map.yaml"]) == 2
+    assert "/no/dir does not exist" in one_line_error(capsys, "fastslam-replay")
+    map_file = tmp_path / "map.yaml"
+    assert replay.main([str(bag), "--no-record", "--save-map", str(map_file)]) == 0
+    assert "map saved: " in capsys.readouterr().out and map_file.exists()
+    assert replay.main([str(bag), "--no-record", "--save-map", str(map_file)]) == 1
+    assert "exists" in one_line_error(capsys, "fastslam-replay")
 
 
 def test_replay_takes_the_node_syntax_for_parameters_and_remaps(tmp_path, capsys):

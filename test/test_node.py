@@ -727,6 +727,7 @@ def test_dds_run_reliable_inputs_late_map_subscriber_save_and_reset(context, tmp
 
         saved = call("/fastslam/save_map")
         assert saved.success, saved.message
+        assert "refined by least squares" in saved.message
         rows = yaml.safe_load((tmp_path / "map.yaml").read_text())["landmarks"]
         assert sorted(row["id"] for row in rows) == LANDMARK_IDS.tolist()
         assert all(0.0 < row["cov_xx"] < 0.1 and 0.5 < row["existence"] <= 1.0 for row in rows)

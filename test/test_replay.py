@@ -46,6 +46,18 @@ def test_replay_records_outputs_at_bag_time(tmp_path, short_bag):
     assert int(values["associations_checked"]) > 0
 
 
+def test_replay_saves_the_refined_map_and_never_replaces_a_file(tmp_path, short_bag):
+    from fastslam_ros import ros_io
+    map_file = tmp_path / "map.yaml"
+    result = replay_bag(short_bag, dict(PARAMS, seed=4), save_map=map_file)
+    assert "refined by least squares" in result.saved_map
+    saved = ros_io.read_map_file(map_file)
+    assert len(saved.means) > 0 and np.isfinite(saved.covariances).all()
+    with pytest.raises(FileExistsError):
+        replay_bag(short_bag, dict(PARAMS, seed=4), save_map=map_file)
+    replay_bag(short_bag, dict(PARAMS, seed=4), save_map=map_file, overwrite=True)
+
+
 def test_same_bag_params_and_seed_give_identical_estimates(tmp_path, short_bag):
     for name in ("a", "b"):
         replay_bag(short_bag, dict(PARAMS, seed=11), out_path=tmp_path / name)

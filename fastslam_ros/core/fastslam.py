@@ -31,6 +31,7 @@ from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_f
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
 from .loop_closure import LoopClosure
+from .map_refinement import ReadingLog
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
@@ -159,6 +160,8 @@ class FastSLAM:
         self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
         self.history = PathHistory(count, kernels=self.kernels)
+        self.readings = ReadingLog()
+        """The readings processed since the start, for ``map_refinement.refine``."""
         self._pending = NO_MOTION
         self._has_pending = False
         self._prior = None
@@ -195,6 +198,7 @@ class FastSLAM:
         packed = pack(np.asarray(covariances, dtype=float).reshape(count, 2, 2))
         self._seed = (means, packed, labels, logodds)
         self._seed_landmarks()
+        self.readings.clear()
 
     def _seed_landmarks(self) -> None:
         """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
@@ -236,6 +240,7 @@ class FastSLAM:
         self._has_pending = False
         self._lost_since = None
         self._placed = True
+        self.readings.clear()
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -248,6 +253,7 @@ class FastSLAM:
         """
         step = relative_pose_floats(pose_floats(odom_from), pose_floats(odom_to))
         self._pending = compose_floats(self._pending, step)
+        self.readings.move(step)
         if self.loop is not None:
             self.loop.travelled += math.hypot(step[0], step[1])
         self._has_pending = True
@@ -332,6 +338,8 @@ class FastSLAM:
         if not len(ranges) == len(bearings) == len(labels):
             raise ValueError("ranges, bearings and ids must have the same length")
         known = self.config.association == "known"
+        if not self._localization:  # a fixed map is saved as it is
+            self.readings.record(stamp, ranges, bearings, labels)
         if self.kernels is not None:
             report = self._update_compiled(*self.kernels.usable_observations(
                 ranges, bearings, labels, known, MIN_OBSERVATION_RANGE), stamp)

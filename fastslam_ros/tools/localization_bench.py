@@ -3,8 +3,9 @@
     python3 -m fastslam_ros.tools.localization_bench --seeds 1 2 3 4 5
 
 Per seed: ``fastslam-sim`` drives the loop scenario (world ``seed``, noise ``seed``) and the
-node maps it (replayed in-process); its final map (the best particle's confirmed landmarks,
-as ``~/save_map`` writes them) is saved. A second run of the same world (noise seed
+node maps it (replayed in-process); its final map is saved as ``~/save_map`` writes it (the
+best particle's confirmed landmarks refined by the least squares over its path,
+``core.map_refinement``). A second run of the same world (noise seed
 ``seed + 100``) is replayed with ``map_file`` and ``mode: localization`` twice, each with an
 ``/initialpose`` at its first message: the known start pose (standard deviations
 ``--start-sigma`` m and ``--start-yaw-sigma`` rad: the saved map itself is off by up to a few
@@ -31,7 +32,6 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
-from fastslam_ros.core import LandmarkMap
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.tools.bag_schema import INITIAL_POSE_TOPIC, TYPESTORE, write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, load_run
@@ -89,27 +89,18 @@ def with_initial_pose(bag: Path, out: Path, pose: np.ndarray, covariance: np.nda
     return out
 
 
-def save_final_map(out_bag: Path, map_file: Path) -> int:
-    """Write the final ``~/map_cloud`` of a replay output (the confirmed landmarks, as
-    ``~/save_map`` writes them) as a map file; the number of landmarks written."""
-    landmarks = load_run(out_bag).landmarks
-    count = len(landmarks.positions)
-    best_map = LandmarkMap(landmarks.positions, landmarks.covariances, landmarks.existence,
-                           landmarks.ids, np.arange(count))
-    ros_io.write_map_file(map_file, best_map, "map", 0.0)
-    return len(best_map)
-
-
 def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
     """The three replays of one seed."""
     duration, offset, yaw_offset = args.duration, args.offset, args.yaw_offset
     mapping_config = SimConfig(seed=seed, world_seed=seed, duration=duration)
     params = {**recommended_params(mapping_config.resolved()), "seed": seed}
     mapping_bag = write_schema_bag(workdir / "mapping", simulate(mapping_config))
-    replay_bag(mapping_bag, params, out_path=workdir / "mapping_out")
-    mapping = evaluate_run(load_run(workdir / "mapping_out")).metrics
     map_file = workdir / "map.yaml"
-    save_final_map(workdir / "mapping_out", map_file)
+    saved = replay_bag(mapping_bag, params, out_path=workdir / "mapping_out",
+                       save_map=map_file)
+    if getattr(args, "verbose", False):
+        print(f"seed {seed}: {saved.saved_map}", file=sys.stderr)
+    mapping = evaluate_run(load_run(workdir / "mapping_out")).metrics
 
     second = SimConfig(seed=seed + 100, world_seed=seed, duration=duration)
     second_bag = write_schema_bag(workdir / "second", simulate(second))
@@ -160,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
                              "off-start run has converged")
     parser.add_argument("--duration", type=float, default=0.0,
                         help="seconds of each simulated run (0: the whole route)")
+    parser.add_argument("--verbose", action="store_true",
+                        help="print what each saved map holds (on stderr)")
     args = parser.parse_args(argv)
     results = []
     print("| seed | mapping ATE (m) | localization ATE (m) | ratio | off-start ATE (m) | "

@@ -111,6 +111,8 @@ class ReplayResult:
     params: dict[str, Any] = field(default_factory=dict)
     cpu_time: float = 0.0
     """CPU seconds of this process during the replay: the wall time on an idle machine."""
+    saved_map: str = ""
+    """What ``save_map`` wrote (the node's ``~/save_map`` response), or ''."""
 
     @property
     def real_time_factor(self) -> float:
@@ -408,7 +410,8 @@ def people_target() -> ReplayTarget:
 def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
                params_file: str | Path | None = None, out_path: str | Path | None = None,
                progress: bool = False, overwrite: bool = False,
-               remap: dict[str, str] | None = None) -> ReplayResult:
+               remap: dict[str, str] | None = None,
+               save_map: str | Path | None = None) -> ReplayResult:
     """Feed the bag's ``/odom`` and ``/landmarks`` to a fresh ``FastSLAMNode``; record outputs.
 
     ``params`` override ``params_file``; set ``seed`` in them for a reproducible run. ``remap``
@@ -416,9 +419,11 @@ def replay_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
     ``FileNotFoundError`` / ``SchemaError`` for a missing or unreadable bag or missing topics,
     ``ValueError`` for bad parameters (the message names the parameter), ``FileExistsError``
     for an output that exists (without ``overwrite``, or that is not a bag, or an input).
+    ``save_map``: at the end, write the map as ``~/save_map`` does (refined) to this file (not
+    replacing one without ``overwrite``); ``ReplayResult.saved_map`` says what was written.
     """
     return replay_through(SLAM_TARGET, bag_path, params, params_file, out_path, progress,
-                          overwrite, remap)
+                          overwrite, remap, save_map)
 
 
 def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None,
@@ -434,12 +439,17 @@ def replay_people_bag(bag_path: str | Path, params: dict[str, Any] | None = None
 def replay_through(target: ReplayTarget, bag_path: str | Path,
                    params: dict[str, Any] | None = None, params_file: str | Path | None = None,
                    out_path: str | Path | None = None, progress: bool = False,
-                   overwrite: bool = False, remap: dict[str, str] | None = None) -> ReplayResult:
-    """``replay_bag`` for the node ``target`` describes."""
+                   overwrite: bool = False, remap: dict[str, str] | None = None,
+                   save_map: str | Path | None = None) -> ReplayResult:
+    """``replay_bag`` for the node ``target`` describes (``save_map``: fastslam only)."""
     bag_path = Path(bag_path)
     inputs = [bag_path] + ([Path(params_file)] if params_file else [])
     if out_path is not None:
         check_output(out_path, overwrite, "bag", inputs)  # before any work
+    if save_map is not None:
+        if target.node_name != SLAM_TARGET.node_name:
+            raise ValueError("save_map: only the fastslam node saves a map")
+        check_output(save_map, overwrite, "file", inputs)
     merged = load_params_file(params_file, f"/{target.node_name}") if params_file else {}
     merged.update(params or {})
     context = isolated_context()  # invisible to the robot's ROS graph
@@ -465,6 +475,8 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
         result = ReplayResult(dict(node.stats), time.perf_counter() - start, duration,
                               Path(out_path) if out_path is not None else None, used_params,
                               time.process_time() - start_cpu)
+        if save_map is not None:
+            result.saved_map = node.save_map(save_map)
         if recorder is not None:
             info = {"bag": str(bag_path), "node": target.node_name,
                     "wall_time": result.wall_time, "cpu_time": result.cpu_time,
@@ -643,6 +655,8 @@ def summary_lines(result: ReplayResult) -> list[str]:
                                 if dropped else "none"))
     if result.out_path is not None:
         lines.append(f"outputs recorded in {result.out_path}")
+    if result.saved_map:
+        lines.append(f"map saved: {result.saved_map}")
     return lines
 
 
@@ -663,8 +677,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=None,
                         help="record outputs into this MCAP bag folder (default: <bag>_out)")
     parser.add_argument("--no-record", action="store_true", help="do not write an output bag")
+    parser.add_argument("--save-map", type=Path, default=None, metavar="FILE",
+                        help="at the end, write the map as ~/save_map does (refined by the "
+                             "least squares over the path; .csv: CSV, else YAML)")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace an existing output bag (never another folder or the input)")
+                        help="replace an existing output bag or map file (never another folder "
+                             "or the input)")
     parser.add_argument("--progress", action="store_true",
                         help="show the progress bar even when stderr is not a terminal")
     parser.add_argument("--node", choices=("fastslam", "people_tracker"), default="fastslam",
@@ -689,6 +707,10 @@ def main(argv: list[str] | None = None) -> int:
         cli.input_bag(args.bag)
         if out is not None:
             cli.output_folder(out, "--out")
+        if args.save_map is not None:
+            if args.node != "fastslam":
+                raise cli.UsageError("--save-map: only the fastslam node saves a map")
+            cli.output_file(args.save_map, "--save-map")
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
             load_params_file(args.params, f"/{args.node}")  # a bad file fails before any work
@@ -700,7 +722,7 @@ def main(argv: list[str] | None = None) -> int:
         target = people_target() if args.node == "people_tracker" else SLAM_TARGET
         result = replay_through(target, args.bag, params, args.params, out,
                                 progress=args.progress or sys.stderr.isatty(),
-                                overwrite=args.overwrite, remap=remap)
+                                overwrite=args.overwrite, remap=remap, save_map=args.save_map)
     except FileExistsError as error:
         return cli.fail(prog, error, cli.EXIT_FAILURE)
     except (SchemaError, ValueError, OSError) as error:

@@ -1,0 +1,540 @@
+"""The saved map refined by a batch least squares over the best particle's whole path.
+
+A FastSLAM particle's map is conditional on that particle's path: each landmark was estimated
+from the poses the particle sampled, and nothing moves it once the robot has left. When a loop
+closes (``loop_closure_matches``) the particle's pose and the landmarks near the robot jump, the
+far side of the loop keeps its drift, and the map is torn or bent. ``refine`` fixes that the way a
+graph-based SLAM back end does, once, before the map is written:
+
+1. ``ReadingLog`` keeps every reading the filter processed: the odometry pose at the reading
+   (the increments ``FastSLAM.predict`` received, composed) and its range-bearing observations
+   in the sensor frame. Its memory is bounded (``MAX_READINGS``, ``MAX_OBSERVATIONS``): when
+   either is full the older half of the readings is thinned to every other one, as the path
+   history is, so the recent readings stay whole.
+2. Each logged observation is associated, as seen from the best particle's pose at that
+   reading (``FastSLAM.best_path``), to the nearest confirmed landmark of its map within the
+   squared Mahalanobis gate ``ASSOCIATION_GATE`` (the landmark's covariance plus the
+   observation's, in the world frame); the particle's map was built from exactly that path, so
+   this mostly reproduces its associations. Unmatched observations are dropped. With
+   ``association: known`` the observation's id picks the landmark instead.
+3. The full SLAM least squares over the poses (3 per reading) and the observed landmarks (2
+   each): odometry factors between consecutive readings with the motion model's noise
+   (``motion.control_variances`` of the increment, mapped to (dx, dy, dtheta); the lateral
+   and along-track variances floored at ``min_translation_sigma``^2), range-bearing factors with
+   ``sigma_range`` (and ``sigma_range_per_meter``) and ``sigma_bearing``, and a prior that
+   pins the first pose (the gauge). It is solved by Levenberg-Marquardt on the sparse normal
+   equations (``scipy.sparse.linalg.splu``, ``SYMMETRIC``), the observation factors under a
+   Cauchy loss (iteratively reweighted; the odometry is never down-weighted: the jump a loop
+   closure left in the path is what the solve spreads over the loop), with the robust weight
+   scale ``CAUCHY_SCALE``.
+4. The associations are redone from the refined poses and landmarks (observations a closure
+   had moved out of the gate find their landmark again) and the problem solved again, up to
+   ``ASSOCIATION_ROUNDS`` times, until they no longer change.
+
+The refined covariances are each landmark's conditional on the refined path (the inverse of
+its own 2x2 block of the information matrix, robust weights included), as the filter's are
+conditional on the particle's path. A landmark with no associated observation in the log (a
+loaded one never seen again, or one whose readings were thinned away) keeps the filter's mean
+and covariance.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import compose, compose_floats, relative_pose, wrap_angle
+from .motion import OdometryControl, control_variances
+from .observation import MIN_OBSERVATION_RANGE, SensorOffset, inverse_observe, observation_terms
+
+MAX_READINGS = 1 << 15
+"""Readings the log keeps at most (32,768, about 1 MiB of poses; 1.8 h at 5 Hz in full)."""
+MAX_OBSERVATIONS = 1 << 20
+"""Observations the log keeps at most (1,048,576: 20 MiB of range, bearing and id)."""
+ASSOCIATION_GATE = 13.82
+"""Squared Mahalanobis distance (chi-square, 2 dof, 99.9 %) within which a logged observation
+is associated to a landmark: the landmark means moved a little after the reading that saw them
+(their later updates), which the filter's own gate did not have to allow for."""
+CANDIDATES = 3
+"""Nearest landmarks (Euclidean, in the world) an observation is scored against."""
+CAUCHY_SCALE = 3.0
+"""Whitened residual norm at which a range-bearing factor's Cauchy weight is one half: a
+consistent observation (within about 3 standard deviations) counts nearly fully, one 10
+standard deviations off (a wrong association) about a tenth."""
+FIRST_POSE_SIGMA = 1e-3
+"""Standard deviation (m, rad) of the prior that pins the first logged pose at the particle's
+(the least squares' gauge: the map frame is where the filter put it)."""
+ASSOCIATION_ROUNDS = 3
+"""Solves with the associations redone from the refined estimate in between, at most."""
+MAX_ITERATIONS = 50
+"""Levenberg-Marquardt iterations per solve, at most."""
+SYMMETRIC = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
+             "options": {"SymmetricMode": True}}
+"""SuperLU's settings for a symmetric positive definite matrix: minimum degree ordering on
+A + A^T, the diagonal as pivots (3.4x faster than its default on the bench's maps)."""
+TOLERANCE = 1e-7
+"""A solve stops once an accepted step lowers the cost by less than this fraction."""
+
+
+class ReadingLog:
+    """The readings a filter processed: per reading its stamp, the odometry pose (the composed
+    increments given to ``move``) and its observations (range, bearing in the sensor frame,
+    id). Recording a reading copies it into arrays grown by doubling up to the caps; when a cap
+    is reached, the older half of the readings is thinned to every other one."""
+
+    def __init__(self, max_readings: int = MAX_READINGS,
+                 max_observations: int = MAX_OBSERVATIONS) -> None:
+        self.max_readings = max(int(max_readings), 4)
+        self.max_observations = max(int(max_observations), 4)
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget every reading (a reset, an initial pose or a new map): the odometry chain
+        restarts."""
+        self._odometry_pose = (0.0, 0.0, 0.0)
+        self._count = 0
+        self._observation_count = 0
+        self._stamps = np.zeros(64)
+        self._odometry = np.zeros((64, 3))
+        self._starts = np.zeros(65, np.int64)
+        self._ranges = np.zeros(256)
+        self._bearings = np.zeros(256)
+        self._labels = np.zeros(256, np.int64)
+        self.thinned = False
+        """Readings were dropped to stay within the caps."""
+
+    def __len__(self) -> int:
+        return self._count
+
+    def move(self, step) -> None:
+        """Odometry increment (dx, dy, dtheta) in the robot frame since the last call."""
+        self._odometry_pose = compose_floats(self._odometry_pose, step)
+
+    def record(self, stamp: float, ranges: np.ndarray, bearings: np.ndarray,
+               labels: np.ndarray) -> None:
+        """One reading, as the filter received it (unusable observations are skipped later)."""
+        count = len(ranges)
+        if count > self.max_observations // 2:
+            ranges, bearings, labels = (a[:self.max_observations // 2]
+                                        for a in (ranges, bearings, labels))
+            count = len(ranges)
+        while (self._count >= self.max_readings
+               or self._observation_count + count > self.max_observations):
+            self._thin()
+        if self._count == len(self._stamps):
+            grow = min(2 * len(self._stamps), self.max_readings)
+            self._stamps = np.resize(self._stamps, grow)
+            self._odometry = np.resize(self._odometry, (grow, 3))
+            self._starts = np.resize(self._starts, grow + 1)
+        end = self._observation_count + count
+        if end > len(self._ranges):
+            grow = min(max(2 * len(self._ranges), end), self.max_observations)
+            self._ranges = np.resize(self._ranges, grow)
+            self._bearings = np.resize(self._bearings, grow)
+            self._labels = np.resize(self._labels, grow)
+        index = self._count
+        self._stamps[index] = stamp
+        self._odometry[index] = self._odometry_pose
+        self._ranges[self._observation_count:end] = ranges
+        self._bearings[self._observation_count:end] = bearings
+        self._labels[self._observation_count:end] = labels
+        self._starts[index] = self._observation_count
+        self._starts[index + 1] = end
+        self._observation_count = end
+        self._count += 1
+
+    def _thin(self) -> None:
+        """Keep every other reading of the older half, all of the newer half."""
+        count = self._count
+        half = count // 2
+        keep = np.concatenate([np.arange(0, half, 2), np.arange(half, count)])
+        starts, ends = self._starts[keep], self._starts[keep + 1]
+        lengths = ends - starts
+        source = np.repeat(starts - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
+        source += np.arange(int(lengths.sum()))
+        kept = len(keep)
+        for name in ("_ranges", "_bearings", "_labels"):
+            array = getattr(self, name)
+            array[:len(source)] = array[source]
+        self._stamps[:kept] = self._stamps[keep]
+        self._odometry[:kept] = self._odometry[keep]
+        self._starts[1:kept + 1] = np.cumsum(lengths)
+        self._starts[0] = 0
+        self._count = kept
+        self._observation_count = int(lengths.sum())
+        self.thinned = True
+
+    def readings(self):
+        """(stamps (T,), odometry poses (T, 3), reading index of each observation (K,), ranges
+        (K,), bearings (K,), ids (K,)), the observations' unusable ones (non-finite, or a range
+        below ``MIN_OBSERVATION_RANGE``) left out."""
+        count, total = self._count, self._observation_count
+        lengths = np.diff(self._starts[:count + 1])
+        reading = np.repeat(np.arange(count), lengths)
+        ranges, bearings = self._ranges[:total], self._bearings[:total]
+        usable = (np.isfinite(ranges) & np.isfinite(bearings)
+                  & (ranges >= MIN_OBSERVATION_RANGE))
+        return (self._stamps[:count].copy(), self._odometry[:count].copy(), reading[usable],
+                ranges[usable], wrap_angle(bearings[usable]), self._labels[:total][usable])
+
+
+@dataclass
+class RefinementReport:
+    """What one ``refine`` did."""
+
+    readings: int
+    landmarks: int
+    """Landmarks of the map."""
+    refined: int
+    """Landmarks that had associated observations (the rest kept the filter's estimate)."""
+    observations: int
+    """Usable logged observations."""
+    associated: int
+    """Of them, associated (the rest dropped) in the final round."""
+    rounds: int
+    iterations: int
+    initial_cost: float
+    final_cost: float
+    seconds: float
+    mean_shift: float
+    """Mean distance (m) the refined landmarks moved from the filter's."""
+    stamps: np.ndarray
+    poses: np.ndarray
+    """(T,) stamps and (T, 3) refined poses of the logged readings."""
+
+
+@dataclass
+class Problem:
+    """The least squares' fixed data: noise models and the observation list."""
+
+    odometry: np.ndarray
+    """(T - 1, 3) measured increments between consecutive readings."""
+    odometry_whitening: np.ndarray
+    """(T - 1, 3, 3) inverse Cholesky factors of the increments' covariances."""
+    anchor: np.ndarray
+    """(3,) the first pose's prior mean."""
+    reading: np.ndarray
+    landmark: np.ndarray
+    """(K,) the observations' reading and landmark (index into the refined landmarks)."""
+    ranges: np.ndarray
+    bearings: np.ndarray
+    sigma_range: np.ndarray
+    sigma_bearing: float
+    offset: SensorOffset
+
+    @property
+    def num_poses(self) -> int:
+        return len(self.odometry) + 1
+
+
+def odometry_whitening(increments: np.ndarray, config) -> np.ndarray:
+    """(T, 3, 3) W with W^T W the information of each odometry increment (dx, dy, dtheta):
+    the motion model's (rot1, trans, rot2) variances (``motion.control_variances``) mapped
+    through V = d(dx, dy, dtheta) / d(rot1, trans, rot2), plus min_translation_sigma^2 on x and
+    y (a short step's lateral variance trans^2 var(rot1) vanishes)."""
+    alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+    linear = (config.rotation_variance_per_radian, config.rotation_variance_per_meter,
+              config.translation_variance_per_meter, config.translation_variance_per_radian)
+    controls = [OdometryControl.from_delta(step) for step in increments.tolist()]
+    rot1 = np.array([u.rot1 for u in controls])
+    trans = np.array([u.trans for u in controls])
+    rot2 = np.array([u.rot2 for u in controls])
+    variances = control_variances(OdometryControl(rot1, trans, rot2), alphas,
+                                  config.min_translation_sigma, config.min_rotation_sigma,
+                                  linear)
+    c, s = np.cos(rot1), np.sin(rot1)
+    zero, one = np.zeros_like(c), np.ones_like(c)
+    v = np.stack([np.stack([-trans * s, c, zero], -1),
+                  np.stack([trans * c, s, zero], -1),
+                  np.stack([one, zero, one], -1)], -2)
+    cov = np.einsum("nij,jn,nkj->nik", v, variances, v)
+    cov[:, 0, 0] += config.min_translation_sigma ** 2
+    cov[:, 1, 1] += config.min_translation_sigma ** 2
+    return np.linalg.inv(np.linalg.cholesky(cov))
+
+
+def residuals(problem: Problem, poses: np.ndarray, landmarks: np.ndarray):
+    """Whitened residuals: (prior (3,), odometry (T-1, 3), observations (K, 2))."""
+    prior = (poses[0] - problem.anchor) / FIRST_POSE_SIGMA
+    prior[2] = wrap_angle(poses[0, 2] - problem.anchor[2]) / FIRST_POSE_SIGMA
+    predicted = relative_pose(poses[:-1], poses[1:])
+    error = predicted - problem.odometry
+    error[:, 2] = wrap_angle(error[:, 2])
+    odometry = np.einsum("nij,nj->ni", problem.odometry_whitening, error)
+    pose = poses[problem.reading]
+    mark = landmarks[problem.landmark]
+    t = observation_terms(pose[:, 0], pose[:, 1], pose[:, 2], mark[:, 0], mark[:, 1],
+                          problem.offset)
+    observed = np.stack([(problem.ranges - t.range) / problem.sigma_range,
+                         t.bearing_innovation(problem.bearings) / problem.sigma_bearing], -1)
+    return prior, odometry, observed
+
+
+def jacobian(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,
+             observation_weights: np.ndarray):
+    """Sparse Jacobian (``scipy.sparse.csr_matrix``) of the whitened residuals (rows: prior,
+    odometry, observations, the observation rows scaled by the square roots of their robust
+    weights) with respect to (poses (3T), landmarks (2N))."""
+    import scipy.sparse as sp  # noqa: PLC0415 (the filter itself never needs scipy)
+    count = problem.num_poses
+    rows, cols, values = [], [], []
+    # Prior: identity / sigma on the first pose.
+    rows.append(np.arange(3))
+    cols.append(np.arange(3))
+    values.append(np.full(3, 1.0 / FIRST_POSE_SIGMA))
+    # Odometry: d relative_pose / d (pose_i, pose_j), whitened.
+    start, end = poses[:-1], poses[1:]
+    c, s = np.cos(start[:, 2]), np.sin(start[:, 2])
+    dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
+    n = len(start)
+    a = np.zeros((n, 3, 3))
+    b = np.zeros((n, 3, 3))
+    a[:, 0, 0], a[:, 0, 1], a[:, 0, 2] = -c, -s, -s * dx + c * dy
+    a[:, 1, 0], a[:, 1, 1], a[:, 1, 2] = s, -c, -c * dx - s * dy
+    a[:, 2, 2] = -1.0
+    b[:, 0, 0], b[:, 0, 1] = c, s
+    b[:, 1, 0], b[:, 1, 1] = -s, c
+    b[:, 2, 2] = 1.0
+    w = problem.odometry_whitening
+    for block, pose_index in ((w @ a, np.arange(n)), (w @ b, np.arange(1, n + 1))):
+        row = 3 + 3 * np.arange(n)[:, None, None] + np.arange(3)[None, :, None]
+        col = 3 * pose_index[:, None, None] + np.arange(3)[None, None, :]
+        rows.append(np.broadcast_to(row, block.shape).ravel())
+        cols.append(np.broadcast_to(col, block.shape).ravel())
+        values.append(block.ravel())
+    # Observations: range and bearing by (x, y, theta) of the pose and (x, y) of the landmark.
+    pose = poses[problem.reading]
+    mark = landmarks[problem.landmark]
+    t = observation_terms(pose[:, 0], pose[:, 1], pose[:, 2], mark[:, 0], mark[:, 1],
+                          problem.offset)
+    range_theta = (t.dx * t.lever_y - t.dy * t.lever_x) / t.range
+    bearing_theta = -(t.dx * t.lever_x + t.dy * t.lever_y) / t.q - 1.0
+    scale = np.sqrt(observation_weights)
+    kr = -scale / problem.sigma_range
+    kb = -scale / problem.sigma_bearing
+    ux, uy = t.dx / t.range, t.dy / t.range
+    vx, vy = -t.dy / t.q, t.dx / t.q
+    obs = np.zeros((len(pose), 2, 5))
+    obs[:, 0] = np.stack([-ux, -uy, range_theta, ux, uy], -1) * kr[:, None]
+    obs[:, 1] = np.stack([-vx, -vy, bearing_theta, vx, vy], -1) * kb[:, None]
+    row0 = 3 + 3 * n + 2 * np.arange(len(pose))
+    row = row0[:, None, None] + np.arange(2)[None, :, None]
+    col = np.concatenate([3 * problem.reading[:, None] + np.arange(3),
+                          3 * count + 2 * problem.landmark[:, None] + np.arange(2)], axis=1)
+    rows.append(np.broadcast_to(row, obs.shape).ravel())
+    cols.append(np.broadcast_to(col[:, None, :], obs.shape).ravel())
+    values.append(obs.ravel())
+    shape = (3 + 3 * n + 2 * len(pose), 3 * count + 2 * len(landmarks))
+    return sp.csr_matrix((np.concatenate(values), (np.concatenate(rows),
+                                                    np.concatenate(cols))), shape=shape)
+
+
+def cauchy(squared: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rho, weight) of the Cauchy loss on squared whitened residual norms."""
+    c2 = CAUCHY_SCALE ** 2
+    return c2 * np.log1p(squared / c2), 1.0 / (1.0 + squared / c2)
+
+
+def cost(problem: Problem, poses: np.ndarray, landmarks: np.ndarray) -> float:
+    """Half the robust sum of squares."""
+    prior, odometry, observed = residuals(problem, poses, landmarks)
+    rho, _ = cauchy((observed ** 2).sum(axis=1))
+    return 0.5 * float((prior ** 2).sum() + (odometry ** 2).sum() + rho.sum())
+
+
+def solve(problem: Problem, poses: np.ndarray, landmarks: np.ndarray):
+    """Levenberg-Marquardt with iteratively reweighted observation factors; returns (poses,
+    landmarks, observation weights, iterations, initial cost, final cost)."""
+    import scipy.sparse as sp  # noqa: PLC0415 (the filter itself never needs scipy)
+    from scipy.sparse.linalg import splu  # noqa: PLC0415
+    count = problem.num_poses
+    current = cost(problem, poses, landmarks)
+    initial = current
+    damping = 1e-4
+    iterations = 0
+    for iterations in range(1, MAX_ITERATIONS + 1):
+        prior, odometry, observed = residuals(problem, poses, landmarks)
+        _, weights = cauchy((observed ** 2).sum(axis=1))
+        jac = jacobian(problem, poses, landmarks, weights)
+        error = np.concatenate([prior, odometry.ravel(),
+                                (observed * np.sqrt(weights)[:, None]).ravel()])
+        jt = jac.T.tocsr()
+        hessian = (jt @ jac).tocsc()
+        gradient = jt @ error
+        diagonal = hessian.diagonal()
+        accepted = False
+        while damping < 1e8:
+            damped = (hessian + sp.diags(damping * np.maximum(diagonal, 1e-9))).tocsc()
+            step = splu(damped, **SYMMETRIC).solve(-gradient)
+            trial_poses = poses + step[:3 * count].reshape(-1, 3)
+            trial_poses[:, 2] = wrap_angle(trial_poses[:, 2])
+            trial_landmarks = landmarks + step[3 * count:].reshape(-1, 2)
+            trial = cost(problem, trial_poses, trial_landmarks)
+            if np.isfinite(trial) and trial <= current:
+                accepted = True
+                break
+            damping *= 10.0
+        if not accepted:
+            break
+        poses, landmarks = trial_poses, trial_landmarks
+        damping = max(damping / 10.0, 1e-9)
+        gain, current = current - trial, trial
+        if gain <= TOLERANCE * max(current, 1e-12):
+            break
+    _, _, observed = residuals(problem, poses, landmarks)
+    _, weights = cauchy((observed ** 2).sum(axis=1))
+    return poses, landmarks, weights, iterations, initial, current
+
+
+def associate(poses: np.ndarray, reading: np.ndarray, ranges: np.ndarray,
+              bearings: np.ndarray, means: np.ndarray, covariances: np.ndarray,
+              noise: tuple[np.ndarray, float], offset: SensorOffset) -> np.ndarray:
+    """(K,) the landmark (index into ``means``) each observation lies nearest to in squared
+    Mahalanobis distance, among its ``CANDIDATES`` nearest, as seen from its reading's pose;
+    -1 beyond ``ASSOCIATION_GATE``. ``noise``: (range variance (K,), bearing variance)."""
+    from scipy.spatial import cKDTree  # noqa: PLC0415 (the filter itself never needs scipy)
+    if len(means) == 0 or len(ranges) == 0:
+        return np.full(len(ranges), -1, np.int64)
+    pose = poses[reading]
+    points = inverse_observe(pose, ranges, bearings, offset)
+    k = min(CANDIDATES, len(means))
+    _, nearest = cKDTree(means).query(points, k=k)
+    nearest = nearest.reshape(len(points), k)
+    # The observation's covariance in the world: G diag(var_r, var_b) G^T, G = d point / d(r, b).
+    angle = pose[:, 2] + offset.yaw + bearings
+    c, s = np.cos(angle), np.sin(angle)
+    var_r, var_b = noise[0] * np.ones(len(ranges)), noise[1] * ranges ** 2
+    sxx = c * c * var_r + s * s * var_b
+    sxy = c * s * (var_r - var_b)
+    syy = s * s * var_r + c * c * var_b
+    cov = covariances[nearest]
+    axx, axy, ayy = sxx[:, None] + cov[..., 0, 0], sxy[:, None] + cov[..., 0, 1], \
+        syy[:, None] + cov[..., 1, 1]
+    d = points[:, None, :] - means[nearest]
+    det = axx * ayy - axy * axy
+    squared = (ayy * d[..., 0] ** 2 - 2.0 * axy * d[..., 0] * d[..., 1]
+               + axx * d[..., 1] ** 2) / det
+    best = squared.argmin(axis=1)
+    chosen = nearest[np.arange(len(points)), best]
+    return np.where(squared[np.arange(len(points)), best] <= ASSOCIATION_GATE, chosen, -1)
+
+
+def initial_poses(log_stamps: np.ndarray, odometry: np.ndarray, path_stamps: np.ndarray,
+                  path: np.ndarray) -> np.ndarray | None:
+    """The particle's pose at each logged reading: its path's (the last T entries when their
+    stamps are the log's, else the entry with the same stamp), a reading the path has thinned
+    away placed by odometry from the nearest reading it has. None when no reading is in it."""
+    count = len(log_stamps)
+    if len(path) >= count and np.array_equal(path_stamps[len(path) - count:], log_stamps):
+        return path[len(path) - count:].copy()
+    order = np.argsort(path_stamps, kind="stable")
+    at = np.searchsorted(path_stamps[order], log_stamps)
+    at = np.minimum(at, len(path) - 1)
+    match = order[at]
+    found = path_stamps[match] == log_stamps
+    if not found.any():
+        return None
+    known = np.flatnonzero(found)
+    # Each reading from the nearest earlier one in the path (or the first one after it).
+    source = known[np.maximum(np.searchsorted(known, np.arange(count), side="right") - 1, 0)]
+    anchor = path[match[source]]
+    return compose(anchor, relative_pose(odometry[source], odometry))
+
+
+def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_map, config,
+           known_ids: bool = False):
+    """(refined map, ``RefinementReport``): ``landmark_map`` (a ``fastslam.LandmarkMap``, the
+    best particle's confirmed landmarks) refined by the least squares over the log and the
+    particle's path (``FastSLAM.best_path()``). ``config``: the filter's ``FastSLAMConfig``
+    (noise models, sensor offset). ``known_ids``: the observations' ids name their landmarks
+    (``association: known``). Raises ``ValueError`` when there is nothing to refine."""
+    began = time.perf_counter()
+    stamps, odometry, reading, ranges, bearings, labels = log.readings()
+    count, size = len(stamps), len(landmark_map)
+    if count < 2 or size == 0:
+        raise ValueError(f"nothing to refine ({count} readings, {size} landmarks)")
+    poses = initial_poses(stamps, odometry, np.asarray(path_stamps, float),
+                          np.asarray(path, float))
+    if poses is None:
+        raise ValueError("the path holds none of the logged readings")
+    offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
+    var_r = config.sigma_range ** 2 + (config.sigma_range_per_meter * ranges) ** 2
+    noise = (var_r, config.sigma_bearing ** 2)
+    means = np.asarray(landmark_map.means, float)
+    covariances = np.asarray(landmark_map.covariances, float)
+    increments = relative_pose(odometry[:-1], odometry[1:])
+    whitening = odometry_whitening(increments, config)
+    if known_ids:
+        ids = np.asarray(landmark_map.ids)
+        order = np.argsort(ids, kind="stable")
+        at = np.minimum(np.searchsorted(ids[order], labels), size - 1)
+        fixed = np.where((ids[order][at] == labels) & (labels >= 0), order[at], -1)
+    refined_means, refined_cov = means.copy(), covariances.copy()
+    anchor = poses[0].copy()
+    iterations = rounds = 0
+    initial_cost = final_cost = 0.0
+    previous = None
+    used = np.zeros(size, bool)
+    chosen = np.full(len(ranges), -1, np.int64)
+    for rounds in range(1, ASSOCIATION_ROUNDS + 1):
+        chosen = fixed if known_ids else associate(poses, reading, ranges, bearings,
+                                                   refined_means, refined_cov, noise, offset)
+        if previous is not None and np.array_equal(chosen, previous):
+            rounds -= 1
+            break
+        previous = chosen
+        keep = chosen >= 0
+        used = np.zeros(size, bool)
+        used[chosen[keep]] = True
+        if not used.any():
+            raise ValueError("no logged observation matches a landmark")
+        index = np.cumsum(used) - 1
+        problem = Problem(increments, whitening, anchor, reading[keep],
+                          index[chosen[keep]], ranges[keep], bearings[keep],
+                          np.sqrt(var_r[keep]), config.sigma_bearing, offset)
+        poses, marks, weights, steps, before, after = solve(problem, poses, refined_means[used])
+        iterations += steps
+        initial_cost = before if rounds == 1 else initial_cost
+        final_cost = after
+        refined_means[used] = marks
+        refined_cov[used] = conditional_covariances(problem, poses, marks, weights)
+        if known_ids:
+            break
+    determinant = refined_cov[:, 0, 0] * refined_cov[:, 1, 1] - refined_cov[:, 0, 1] ** 2
+    if not (np.isfinite(refined_means).all() and np.isfinite(refined_cov).all()
+            and (refined_cov[:, 0, 0] > 0.0).all() and (determinant > 0.0).all()):
+        raise ValueError("the least squares gave a non-finite or degenerate landmark")
+    shift = np.hypot(*(refined_means - means).T)
+    report = RefinementReport(count, size, int(used.sum()), len(ranges), int((chosen >= 0).sum()),
+                              rounds, iterations, initial_cost, final_cost,
+                              time.perf_counter() - began, float(shift.mean()), stamps, poses)
+    refined = dataclasses.replace(landmark_map, means=refined_means, covariances=refined_cov)
+    return refined, report
+
+
+def conditional_covariances(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,
+                            weights: np.ndarray) -> np.ndarray:
+    """(N, 2, 2) each landmark's covariance given the poses: the inverse of the sum of its
+    observations' weighted J_m^T J_m (whitened)."""
+    pose = poses[problem.reading]
+    mark = landmarks[problem.landmark]
+    t = observation_terms(pose[:, 0], pose[:, 1], pose[:, 2], mark[:, 0], mark[:, 1],
+                          problem.offset)
+    jr = np.stack([t.dx / t.range, t.dy / t.range], -1) / problem.sigma_range[:, None]
+    jb = np.stack([-t.dy / t.q, t.dx / t.q], -1) / problem.sigma_bearing
+    info = weights[:, None, None] * (jr[:, :, None] * jr[:, None, :]
+                                     + jb[:, :, None] * jb[:, None, :])
+    total = np.stack([np.bincount(problem.landmark, info[:, i, j], len(landmarks))
+                      for i in range(2) for j in range(2)], -1).reshape(-1, 2, 2)
+    return np.linalg.inv(total)
+
+
+def refine_best_map(slam):
+    """``refine`` of a ``FastSLAM``'s best particle: its confirmed map (``map_min_existence``)
+    over its path and the filter's reading log; (refined map, ``RefinementReport``)."""
+    config = slam.config
+    stamps, path = slam.best_path()
+    return refine(slam.readings, stamps, path, slam.best_map(config.map_min_existence), config,
+                  known_ids=config.association == "known")
