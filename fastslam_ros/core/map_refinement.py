@@ -52,7 +52,7 @@ from .observation import MIN_OBSERVATION_RANGE, SensorOffset, inverse_observe, o
 MAX_READINGS = 1 << 15
 """Readings the log keeps at most (32,768, about 1 MiB of poses; 1.8 h at 5 Hz in full)."""
 MAX_OBSERVATIONS = 1 << 20
-"""Observations the log keeps at most (1,048,576: 20 MiB of range, bearing and id)."""
+"""Observations the log keeps at most (1,048,576: 24 MiB of range, bearing and id)."""
 ASSOCIATION_GATE = 13.82
 """Squared Mahalanobis distance (chi-square, 2 dof, 99.9 %) within which a logged observation
 is associated to a landmark: the landmark means moved a little after the reading that saw them
