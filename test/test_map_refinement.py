@@ -1,6 +1,8 @@
 """The saved map's batch least squares (core/map_refinement.py), against known truth."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -221,3 +223,29 @@ def test_observe_and_the_residuals_agree():
                          offset)
     _, _, observed = mr.residuals(problem, np.array([pose, pose]), landmark)
     np.testing.assert_allclose(observed, 0.0, atol=1e-12)
+
+
+def test_a_long_log_is_solved_on_keyframes(monkeypatch):
+    """Beyond ``MAX_SOLVE_POSES`` readings every k-th pose is solved for and the others follow
+    it by odometry: with exact odometry the bent map is straightened as well (with a lever
+    arm, which the keyframes' per-observation sensor poses carry)."""
+    monkeypatch.setattr(mr, "MAX_SOLVE_POSES", 20)
+    truth, landmarks, readings = corridor()
+    offset = SensorOffset(0.5, -0.3, 0.2)
+    shifted = []
+    for pose, reading in zip(truth, readings):  # the same points, seen from the lever arm
+        sensor = compose(pose, np.array([offset.x, offset.y, offset.yaw]))
+        z = observe(np.broadcast_to(sensor, (len(reading.labels), 3)), landmarks[reading.labels])
+        shifted.append(dataclasses.replace(reading, ranges=z[:, 0], bearings=z[:, 1]))
+    config = FastSLAMConfig(sigma_range=0.02, sigma_bearing=0.005, alpha1=1e-4, alpha2=1e-5,
+                            alpha3=1e-4, alpha4=1e-5, sensor_x=offset.x, sensor_y=offset.y,
+                            sensor_yaw=offset.yaw)
+    path, _ = bent_estimate(truth, landmarks, readings, bend=0.004)
+    ids = np.arange(len(landmarks))
+    bent = LandmarkMap(landmarks + np.array([0.0, 1.0]),
+                       np.tile(np.eye(2) * 0.01, (len(ids), 1, 1)), np.ones(len(ids)), ids, ids)
+    refined, report = mr.refine(logged(truth, shifted), np.arange(len(truth), dtype=float), path,
+                                bent, config, known_ids=True)
+    assert len(report.poses) == 20
+    np.testing.assert_allclose(report.poses[:, :2], truth[::4, :2], atol=0.01)
+    assert map_error(refined, landmarks) < 0.01

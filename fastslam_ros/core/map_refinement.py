@@ -27,6 +27,10 @@ graph-based SLAM back end does, once, before the map is written:
    Cauchy loss (iteratively reweighted; the odometry is never down-weighted: the jump a loop
    closure left in the path is what the solve spreads over the loop), with the robust weight
    scale ``CAUCHY_SCALE``.
+   Beyond ``MAX_SOLVE_POSES`` readings the poses of keyframes (every k-th reading) are solved
+   for, the readings between tied to theirs by odometry (each observation then seen from its
+   sensor's pose in the keyframe's frame): the factorization's fill grows faster than the
+   number of poses when the path revisits the same landmarks.
 4. The associations are redone from the refined poses and landmarks (observations a closure
    had moved out of the gate find their landmark again) and the problem solved again, up to
    ``ASSOCIATION_ROUNDS`` times, until they no longer change.
@@ -66,6 +70,10 @@ standard deviations off (a wrong association) about a tenth."""
 FIRST_POSE_SIGMA = 1e-3
 """Standard deviation (m, rad) of the prior that pins the first logged pose at the particle's
 (the least squares' gauge: the map frame is where the filter put it)."""
+MAX_SOLVE_POSES = 8192
+"""Poses the least squares solves for at most: a longer log is solved on keyframes (every
+k-th reading, k the smallest that fits), the readings between them tied to their keyframe by
+odometry, as the sparse factorization's cost grows faster than the number of poses."""
 ASSOCIATION_ROUNDS = 3
 """Solves with the associations redone from the refined estimate in between, at most."""
 MAX_ITERATIONS = 50
@@ -202,7 +210,7 @@ class RefinementReport:
     """Mean distance (m) the refined landmarks moved from the filter's."""
     stamps: np.ndarray
     poses: np.ndarray
-    """(T,) stamps and (T, 3) refined poses of the logged readings."""
+    """Stamps and refined poses (3) of the solved readings (all, or the keyframes)."""
 
 
 @dataclass
@@ -464,7 +472,13 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     noise = (var_r, config.sigma_bearing ** 2)
     means = np.asarray(landmark_map.means, float)
     covariances = np.asarray(landmark_map.covariances, float)
-    increments = relative_pose(odometry[:-1], odometry[1:])
+    # Keyframes: beyond MAX_SOLVE_POSES readings, every ``every``-th reading's pose is solved for
+    # and the readings between are tied to it by their odometry.
+    every = -(-count // MAX_SOLVE_POSES)
+    key = np.arange(0, count, every)
+    owner = np.arange(count) // every
+    local = relative_pose(odometry[key[owner]], odometry)
+    increments = relative_pose(odometry[key[:-1]], odometry[key[1:]])
     whitening = odometry_whitening(increments, config)
     if known_ids:
         ids = np.asarray(landmark_map.ids)
@@ -473,6 +487,7 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
         fixed = np.where((ids[order][at] == labels) & (labels >= 0), order[at], -1)
     refined_means, refined_cov = means.copy(), covariances.copy()
     anchor = poses[0].copy()
+    key_poses = poses[key]
     iterations = rounds = 0
     initial_cost = final_cost = 0.0
     previous = None
@@ -491,10 +506,14 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
         if not used.any():
             raise ValueError("no logged observation matches a landmark")
         index = np.cumsum(used) - 1
-        problem = Problem(increments, whitening, anchor, reading[keep],
+        problem = Problem(increments, whitening, anchor, owner[reading[keep]],
                           index[chosen[keep]], ranges[keep], bearings[keep],
-                          np.sqrt(var_r[keep]), config.sigma_bearing, offset)
-        poses, marks, weights, steps, before, after = solve(problem, poses, refined_means[used])
+                          np.sqrt(var_r[keep]), config.sigma_bearing,
+                          offset if every == 1 else sensor_in_keyframe(local[reading[keep]],
+                                                                       offset))
+        key_poses, marks, weights, steps, before, after = solve(problem, key_poses,
+                                                                refined_means[used])
+        poses = key_poses if every == 1 else compose(key_poses[owner], local)
         iterations += steps
         initial_cost = before if rounds == 1 else initial_cost
         final_cost = after
@@ -509,9 +528,18 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     shift = np.hypot(*(refined_means - means).T)
     report = RefinementReport(count, size, int(used.sum()), len(ranges), int((chosen >= 0).sum()),
                               rounds, iterations, initial_cost, final_cost,
-                              time.perf_counter() - began, float(shift.mean()), stamps, poses)
+                              time.perf_counter() - began, float(shift.mean()), stamps[key],
+                              key_poses)
     refined = dataclasses.replace(landmark_map, means=refined_means, covariances=refined_cov)
     return refined, report
+
+
+def sensor_in_keyframe(local: np.ndarray, offset: SensorOffset) -> SensorOffset:
+    """Per observation (arrays (K,)), the sensor's pose in the frame of its reading's keyframe:
+    the reading's pose there (``local`` (K, 3), by odometry) composed with the lever arm."""
+    c, s = np.cos(local[:, 2]), np.sin(local[:, 2])
+    return SensorOffset(local[:, 0] + c * offset.x - s * offset.y,
+                        local[:, 1] + s * offset.x + c * offset.y, local[:, 2] + offset.yaw)
 
 
 def conditional_covariances(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,

@@ -19,7 +19,8 @@ No landmark sensor measures a landmark a millimetre away."""
 
 @dataclass(frozen=True)
 class SensorOffset:
-    """Sensor pose in the robot frame (m, m, rad)."""
+    """Sensor pose in the robot frame (m, m, rad); arrays give one pose per observation
+    (``map_refinement``)."""
 
     x: float = 0.0
     y: float = 0.0
@@ -55,7 +56,7 @@ class ObservationTerms:
 
 def observation_terms(px, py, ptheta, mx, my, offset: SensorOffset) -> ObservationTerms:
     """Predicted range with the terms the Jacobians and the bearing need (broadcasting)."""
-    if offset.x == 0.0 and offset.y == 0.0:
+    if isinstance(offset.x, float) and offset.x == 0.0 and offset.y == 0.0:
         lever_x = lever_y = 0.0
     else:
         c, s = np.cos(ptheta), np.sin(ptheta)
