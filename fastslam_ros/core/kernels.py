@@ -14,11 +14,13 @@ The per-particle work is one loop over particles (``_reading_chunk``: each parti
 association, proposal, weight and map in turn), then a short serial pass (``_settle``: the
 columns and keys of the new landmarks, which need every particle's choices, the weight
 normalisation and the report). Below ``PARALLEL_MIN_PARTICLES`` (or with one thread) the reading
-runs on the calling thread; from there on the loop runs on the calling thread and a pool of
-Python threads at once, in the same compiled serial code (the kernels release the GIL), one
-hand-off per reading, each thread taking blocks of particles from one atomic counter until none
-is left (so a thread that starts late or runs slower takes fewer). A hand-off
-costs tens of microseconds on a busy machine, which only pays off at large M. (numba's own
+runs on the calling thread; from there on the loop runs on the calling thread and on worker
+threads kept across readings (``_Crew``) at once, in the same compiled serial code (the
+kernels release the GIL), one hand-off per reading, each thread taking blocks of particles
+from one atomic counter until none is left (so a thread that starts late or runs slower takes
+fewer) and counting the particles it finished in another, which the calling thread waits for
+in compiled code. A hand-off costs tens of microseconds on a busy machine, which only pays off
+at large M. (numba's own
 ``prange`` compiled the chunks' code for generic array layouts, about 25 % slower per
 particle, and gained little from the second core.)
 
@@ -31,6 +33,8 @@ this file when its folder is writable and in numba's user cache folder otherwise
 from __future__ import annotations
 
 import math
+import queue
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
@@ -104,22 +108,33 @@ def _logaddexp(x, y):
 
 
 @intrinsic
-def _claim(typingctx, counter, amount):
-    """Atomically ``counter[0] += amount``; returns the value before (the threads of a
-    reading take their particles from one counter this way)."""
+def _claim(typingctx, counter, index, amount):
+    """Atomically ``counter[index] += amount``; returns the value before (the threads of a
+    reading take their particles from one counter this way, and count the particles done in
+    another; ``amount`` 0 reads it)."""
     if not (isinstance(counter, types.Array) and counter.dtype == types.int64
-            and isinstance(amount, types.Integer)):
+            and isinstance(index, types.Integer) and isinstance(amount, types.Integer)):
         return None
 
     def codegen(context, builder, signature, args):
         array_type = signature.args[0]
         array = context.make_array(array_type)(context, builder, args[0])
-        pointer = cgutils.get_item_pointer(context, builder, array_type, array,
-                                           [context.get_constant(types.intp, 0)])
-        step = context.cast(builder, args[1], signature.args[1], types.int64)
+        position = context.cast(builder, args[1], signature.args[1], types.intp)
+        pointer = cgutils.get_item_pointer(context, builder, array_type, array, [position])
+        step = context.cast(builder, args[2], signature.args[2], types.int64)
         return builder.atomic_rmw("add", pointer, step, "seq_cst")
 
-    return types.int64(counter, amount), codegen
+    return types.int64(counter, index, amount), codegen
+
+
+@njit(**_JIT)
+def _await_done(counter, total, spins):
+    """Wait (at most ``spins`` polls, without the GIL) until ``counter[1]``, the particles
+    the threads of a reading have finished, reaches ``total``; True if it did."""
+    for _ in range(spins):
+        if _claim(counter, 1, 0) >= total:
+            return True
+    return _claim(counter, 1, 0) >= total
 
 
 # ---------------------------------------------------------------------------- association
@@ -703,7 +718,8 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
     proposal and draw, the new log weight (before normalisation) and its map
     (``_map_particle``, the new landmarks left to ``_place_new``); ``finite[m]`` False for a
     non-finite update; the new pose also into ``recorded[m]`` (the path history's next
-    generation)."""
+    generation); ``counter[1]`` counts the particles finished (``_Crew.run`` waits for
+    it)."""
     count = ranges.shape[0]
     width = max(existing, 1)
     label = ident[:, :, 0]
@@ -729,10 +745,11 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
     has_prior_cov = ip[I_PRIOR_COV] != 0
     num_particles = poses.shape[0]
     while True:
-        lo = _claim(counter, block)
+        lo = _claim(counter, 0, block)
         if lo >= num_particles:
             return
-        for m in range(lo, min(lo + block, num_particles)):
+        hi = min(lo + block, num_particles)
+        for m in range(lo, hi):
             if ordered:
                 _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
                                dirty, is_new)
@@ -773,6 +790,7 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
                                                       bearings, noise_r, fp, observed, fresh)
             recorded[m, 0], recorded[m, 1], recorded[m, 2] = (
                 poses_out[m, 0], poses_out[m, 1], poses_out[m, 2])
+        _claim(counter, 1, hi - lo)
 
 
 @njit(**_JIT)
@@ -944,7 +962,7 @@ def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, pos
     num_particles = poses.shape[0]
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
-    _reading_chunk(np.zeros(1, np.int64), num_particles, state, ident, valid, dirty, is_new,
+    _reading_chunk(np.zeros(2, np.int64), num_particles, state, ident, valid, dirty, is_new,
                    existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
                    normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
                    poses_out, weights_out, fresh, finite, recorded, turn, prior_cov)
@@ -964,10 +982,10 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
     noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
         ranges, labels, num_particles, fp, ip)
     _run_shared(_reading_chunk, chunks, (
-        np.zeros(1, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
+        np.zeros(2, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
         cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
         source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
-        recorded, turn, prior_cov))
+        recorded, turn, prior_cov), num_particles)
     return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
@@ -985,6 +1003,18 @@ def _chunk_pool() -> ThreadPoolExecutor:
     return _pool
 
 
+_crew: _Crew | None = None
+
+
+def _shared_crew() -> _Crew:
+    """The worker threads of ``_reading_threaded`` (made on first use, as many as the
+    threads beyond the calling one)."""
+    global _crew
+    if _crew is None:
+        _crew = _Crew(max(1, _max_threads - 1))
+    return _crew
+
+
 def _chunk_bounds(num_particles: int, chunks: int) -> list[tuple[int, int]]:
     """(lo, hi) of ``chunks`` nearly equal chunks of the particles."""
     return [(c * num_particles // chunks, (c + 1) * num_particles // chunks)
@@ -997,14 +1027,64 @@ within about one block of each other (a particle costs a few microseconds), larg
 taking one costs nothing."""
 
 
-def _run_shared(kernel, threads: int, args) -> None:
-    """``kernel(*args)`` on this thread and on ``threads - 1`` threads of the pool at once
-    (the kernel shares the work out itself); returns when all are done (a worker's exception
-    is raised here)."""
-    pending = [_chunk_pool().submit(kernel, *args) for _ in range(threads - 1)]
-    kernel(*args)
-    for future in pending:
-        future.result()
+def _run_shared(kernel, threads: int, args, total: int) -> None:
+    """``kernel(*args)`` on this thread and on ``threads - 1`` worker threads at once (the
+    kernel shares the work out itself, ``_Crew``); returns when all ``total`` particles are
+    done (a worker's exception is raised here)."""
+    _shared_crew().run(kernel, threads - 1, args, total)
+
+
+DONE_POLLS = 200_000
+"""Polls of the particles-done counter (about 1.5 ms) before the calling thread of a split
+reading waits by sleeping instead (a worker thread descheduled in the middle of a block)."""
+
+
+class _Crew:
+    """The worker threads of the split readings, kept from one reading to the next, each
+    serving its own queue. A reading puts its job in the queues and runs its own share at
+    once; the threads take blocks of particles from the reading's counter and count the
+    particles they finish, and the reading waits for that count in compiled code, without
+    the GIL. A worker that starts late only takes fewer blocks, and no reading waits for a
+    worker to wake up or to return to Python."""
+
+    def __init__(self, workers: int) -> None:
+        self._queues = [queue.SimpleQueue() for _ in range(workers)]
+        self._errors: list[BaseException] = []
+        for number, jobs in enumerate(self._queues):
+            threading.Thread(target=self._serve, args=(jobs,), daemon=True,
+                             name=f"fastslam_kernel_{number}").start()
+
+    def _serve(self, jobs) -> None:
+        while True:
+            job = jobs.get()
+            if job is None:
+                return
+            kernel, args = job
+            try:
+                kernel(*args)
+            except BaseException as error:  # noqa: BLE001 (raised on the calling thread)
+                self._errors.append(error)
+
+    def run(self, kernel, workers: int, args, total: int) -> None:
+        """``kernel(*args)`` here and on ``workers`` of the threads, the kernel taking its
+        blocks from the reading's counter ``args[0]`` and counting the particles it finished
+        in it; returns when all ``total`` are done (a worker's exception is raised here)."""
+        for jobs in self._queues[:workers]:
+            jobs.put((kernel, args))
+        kernel(*args)
+        counter = args[0]
+        while not _await_done(counter, total, DONE_POLLS):
+            if self._errors:
+                break
+            time.sleep(1e-4)
+        if self._errors:
+            error = self._errors.pop()
+            self._errors.clear()
+            raise error
+
+    def stop(self) -> None:
+        for jobs in self._queues:
+            jobs.put(None)
 
 
 def _run_chunks(kernel, bounds, args) -> None:
@@ -1926,9 +2006,12 @@ def splits(num_particles: int) -> bool:
 def set_threads(count: int) -> None:
     """At most ``count`` threads for a reading (<= ``NUMBA_NUM_THREADS``, which defaults to
     the machine's cores)."""
-    global _max_threads, _pool
+    global _max_threads, _pool, _crew
     count = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
     if count != _max_threads and _pool is not None:
         _pool.shutdown()
         _pool = None
+    if count != _max_threads and _crew is not None:
+        _crew.stop()
+        _crew = None
     _max_threads = count
