@@ -500,3 +500,10 @@ def test_no_kernel_compiles_on_a_reading_after_warm_up(particles):
         "assert not grown, grown\n")
     subprocess.run([sys.executable, "-c", script], check=True, cwd=REPO_ROOT,
                    env={**os.environ, "PYTHONPATH": str(REPO_ROOT)})
+
+
+@needs_numba
+def test_existence_from_a_detection_probability_is_the_same_on_both_backends():
+    """tau+ and tau- derived from P_D and the clutter rate reach the compiled reading as the
+    numpy one uses them: the same removals, the same runs."""
+    assert_same_run("fastslam2", "ml", detection_probability=0.85, clutter_rate=0.5)

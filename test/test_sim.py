@@ -242,6 +242,16 @@ def test_recommended_params_are_valid_core_settings():
     assert (narrow["max_range"], narrow["field_of_view"]) == (15.0, math.pi)
 
 
+def test_a_sensor_that_misses_without_clutter_is_recommended_its_detection_probability():
+    missing = recommended_params(SimConfig(detection_probability=0.3))
+    assert missing["detection_probability"] == 0.3
+    assert "logodds_missed" not in missing
+    FastSLAMConfig(**{k: v for k, v in missing.items() if k != "pose_estimate"
+                      and not k.endswith("_rate")}).validate()
+    assert "detection_probability" not in recommended_params(SimConfig())
+    assert "detection_probability" not in recommended_params(SimConfig(scenario="clutter"))
+
+
 def test_bad_settings_are_rejected_by_name():
     with pytest.raises(ValueError, match="speed"):
         simulate(SimConfig(speed=0.0))

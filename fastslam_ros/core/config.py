@@ -12,6 +12,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from .existence import detection_evidence
 from .params import ParameterValueError, check_fields, parameter
 
 ALGORITHMS = ("fastslam1", "fastslam2")
@@ -24,6 +25,8 @@ BACKENDS = ("auto", "numpy", "numba")
 TWO_PI = 2.0 * math.pi
 LOGODDS_MAX = 10.0
 """Existence log-odds saturate here, so a landmark that disappears can still be removed."""
+CHI2_99_2DOF = 9.21
+"""Squared Mahalanobis distance of the 99 % ellipse in two dimensions."""
 MIN_CELL_SIZE = 0.5
 """Smallest map cell side (m). Cells only index the map (a reading gathers the whole cells
 within the sensor's reach), so a cell far below the spacing of landmarks and the sensor's
@@ -141,14 +144,26 @@ class FastSLAMConfig:
     logodds_missed: float = parameter(
         -0.5, "tau-: log-odds added when a landmark inside the perceptual range is not "
         "observed.", low=-100.0, high=0.0)
+    detection_probability: float = parameter(
+        0.0, "P_D: probability that the sensor detects a landmark inside the perceptual range "
+        "in one reading (fastslam-calibrate measures it). > 0: the existence log-odds follow "
+        "from it and clutter_rate by Bayes' rule and replace logodds_observed and "
+        "logodds_missed: a missed landmark in view gets tau- = log(1 - P_D), an observed one "
+        "tau+ = log((P_D + p_F - P_D p_F) / p_F) (at most 10), p_F the chance that a clutter "
+        "point falls into its association gate (the 99 % ellipse at mid-range); 0: the two "
+        "are used as given.", low=0.0, high=1.0, high_exclusive=True)
+    clutter_rate: float = parameter(
+        0.0, "False detections per reading, uniform over the perceptual range (used with "
+        "detection_probability).", low=0.0, high=1e4)
     logodds_remove: float = parameter(
         -1.5, "A landmark whose log-odds fall below this bound is removed. < logodds_observed.",
         low=-100.0, high=100.0)
     map_min_existence: float = parameter(
         0.9, "Existence probability from which a landmark is confirmed: below it a landmark is "
         "tentative, used by the filter but left out of ~/landmarks, ~/map_cloud and the file "
-        "~/save_map writes (a new landmark starts at sigmoid(logodds_observed), 0.73 for "
-        "1.0; 0.9 takes about three detections). 0 shows every landmark.", low=0.0, high=1.0)
+        "~/save_map writes (a new landmark starts at sigmoid(tau+): 0.73 for "
+        "logodds_observed 1.0, 0.9 after about three detections). 0 shows every landmark.",
+        low=0.0, high=1.0)
     loop_closure_matches: int = parameter(
         0, "k: a new landmark, once confirmed (map_min_existence), that lies within a "
         "drift-widened gate of an old confirmed landmark (not observed for two sensor ranges of "
@@ -195,9 +210,29 @@ class FastSLAMConfig:
              "min_range < max_range")
         need(self.logodds_remove < self.logodds_observed, ("logodds_remove", "logodds_observed"),
              "logodds_remove < logodds_observed")
+        need(self.logodds_remove < self.existence_evidence()[0],
+             ("logodds_remove", "detection_probability", "clutter_rate"),
+             "below the log-odds a detection gives (tau+)")
         need(self.backend != "numba" or numba_available(), ("backend",),
              "numpy or auto when numba is not installed (pip install numba)")
         return self
+
+    def existence_evidence(self) -> tuple[float, float]:
+        """(tau+, tau-): the log-odds an observed and a missed landmark in view get, from
+        ``detection_probability`` and ``clutter_rate`` when P_D > 0
+        (``existence.detection_evidence``), else ``logodds_observed`` and ``logodds_missed``.
+
+        The gate: the association's 99 % ellipse in (range, bearing) at the middle of the
+        perceptual range, pi * 9.21 * sigma_r * sigma_b, over the range's area
+        (max_range - min_range) * field_of_view."""
+        if self.detection_probability <= 0.0:
+            return self.logodds_observed, self.logodds_missed
+        middle = 0.5 * (self.min_range + self.max_range)
+        sigma_r = math.hypot(self.sigma_range, self.sigma_range_per_meter * middle)
+        gate = math.pi * CHI2_99_2DOF * sigma_r * self.sigma_bearing
+        view = (self.max_range - self.min_range) * self.field_of_view
+        return detection_evidence(self.detection_probability, self.clutter_rate,
+                                  min(gate / view, 1.0), LOGODDS_MAX)
 
     def replace(self, **changes) -> "FastSLAMConfig":
         """A validated copy with some fields changed."""

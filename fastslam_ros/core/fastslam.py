@@ -122,6 +122,8 @@ class FastSLAM:
                              config.translation_variance_per_meter,
                              config.translation_variance_per_radian)
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
+        self._evidence = self.config.existence_evidence()
+        """(tau+, tau-) of the existence log-odds (``FastSLAMConfig.existence_evidence``)."""
         self._log_outlier = assoc.log_outlier_density(config)
         self._localization = config.mode == "localization"
         self._seed: tuple[np.ndarray, ...] | None = None
@@ -689,7 +691,7 @@ class FastSLAM:
             ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
                 self.poses[particle], ranges[obs], bearings[obs], self.offset,
                 self._noise(ranges[obs]))
-            ws.logodds[particle, slot] = config.logodds_observed
+            ws.logodds[particle, slot] = self._evidence[0]
             ws.label[particle, slot] = labels[obs]
             ws.key[particle, slot] = self.landmarks.new_keys(len(obs))
             ws.valid[particle, slot] = True
@@ -718,7 +720,7 @@ class FastSLAM:
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self._noise(ranges[j]))
-            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + config.logodds_observed,
+            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + self._evidence[0],
                                            LOGODDS_MAX)
             ws.state[p, s] = state
         ws.dirty[particle, slot] = True
@@ -728,7 +730,8 @@ class FastSLAM:
     def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
         """Lower the log-odds of landmarks in the perceptual range that were not observed."""
         config = self.config
-        if config.logodds_missed == 0.0:
+        missed = self._evidence[1]
+        if missed == 0.0:
             return
         # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
         existing = slice(0, ws.first_new_slot)
@@ -742,7 +745,7 @@ class FastSLAM:
             along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
             inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
         logodds = ws.logodds[:, existing]
-        logodds[inside] += config.logodds_missed
+        logodds[inside] += missed
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
 

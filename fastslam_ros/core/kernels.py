@@ -1163,7 +1163,7 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
     floats[[F_MIN_RANGE, F_MAX_RANGE, F_FOV]] = (config.min_range, config.max_range,
                                                  config.field_of_view)
     floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
-        config.logodds_observed, config.logodds_missed, config.logodds_remove, logodds_max)
+        *config.existence_evidence(), config.logodds_remove, logodds_max)
     floats[F_ALPHAS:F_ALPHAS + 4] = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
     floats[F_MIN_TRANSLATION_SIGMA] = config.min_translation_sigma
     floats[F_MIN_ROTATION_SIGMA] = config.min_rotation_sigma

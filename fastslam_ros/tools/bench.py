@@ -143,7 +143,7 @@ def populate(slam: FastSLAM, positions: np.ndarray) -> None:
     ws = store.gather(np.full((slam.num_particles, 0), -1, np.int64), num_new_slots=count)
     ws.mean[0] = positions
     ws.cov[0] = (0.01, 0.0, 0.01)
-    ws.logodds[0] = slam.config.logodds_observed
+    ws.logodds[0] = slam.config.existence_evidence()[0]
     ws.valid[0] = ws.is_new[0] = True
     store.scatter(ws, track_labels=False)
     store.resample(np.zeros(slam.num_particles, dtype=np.int64))

@@ -194,7 +194,10 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     mostly cures. The landmarks that still come back outside the gate close the loop once two
     of them agree on one rigid correction (``loop_closure_matches``). The pose output is the
     particles' weighted mean, which does not jump between hypotheses as the best particle
-    does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time.
+    does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time. A
+    sensor that misses landmarks without clutter states its detection probability (the
+    existence log-odds follow from it); with clutter, fixed log-odds remove unconfirmed
+    landmarks sooner.
     """
     config = config.resolved()
     dt = 1.0 / config.control_rate
@@ -220,8 +223,12 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     }
     if config.field_of_view < 2.0 * math.pi:
         params["field_of_view"] = config.field_of_view
-    if config.clutter_rate > 0.0 or config.detection_probability < 1.0:
+    if config.clutter_rate > 0.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
+    elif config.detection_probability < 1.0:
+        # Without clutter the existence evidence follows from P_D alone (a detection is
+        # certain, a miss in view log(1 - P_D)).
+        params.update(detection_probability=config.detection_probability, logodds_remove=-0.9)
     return {name: float(value) if isinstance(value, (float, np.floating)) else value
             for name, value in params.items()}
 

@@ -1,0 +1,105 @@
+"""Existence log-odds from a detection probability and a clutter rate (``detection_evidence``,
+``FastSLAMConfig.existence_evidence``) against Bayes' rule counted over simulated features, and
+in the filter: a sensor that misses landmarks in view keeps its map when it says so."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fastslam_ros.core import FastSLAM, FastSLAMConfig
+from fastslam_ros.core.config import LOGODDS_MAX
+from fastslam_ros.core.existence import (detection_evidence, existence_probability,
+                                         update_logodds)
+from fastslam_ros.core.params import ParameterValueError
+from fastslam_ros.tools.synthetic import make_world
+
+
+def test_without_clutter_a_detection_is_certain_and_a_miss_is_log_one_minus_pd():
+    observed, missed = detection_evidence(0.34, 0.0, 0.01, LOGODDS_MAX)
+    assert observed == LOGODDS_MAX
+    assert missed == pytest.approx(math.log(0.66), abs=1e-15)
+
+
+def test_evidence_with_clutter_is_the_ratio_of_the_gate_s_hit_probabilities():
+    # Two clutter points per reading, the gate 5 % of the range: a clutter point in the gate
+    # with 1 - exp(-0.1); an existing landmark's gate is hit unless both miss it.
+    p_false = 1.0 - math.exp(-0.1)
+    p_hit = 1.0 - (1.0 - 0.8) * (1.0 - p_false)
+    observed, missed = detection_evidence(0.8, 2.0, 0.05, LOGODDS_MAX)
+    assert observed == pytest.approx(math.log(p_hit / p_false), rel=1e-12)
+    assert missed == pytest.approx(math.log((1.0 - p_hit) / (1.0 - p_false)), rel=1e-12)
+
+
+def test_log_odds_are_calibrated_over_simulated_features():
+    """Half of many features exist; each reading an existing one is detected with P_D, and
+    Poisson clutter falls uniformly over the range, hitting a feature when it lands in its
+    gate. After the updates, the share of existing features among those with log-odds l is
+    sigmoid(l) (prior 0.5: log-odds 0), within 4 binomial standard errors."""
+    rng = np.random.default_rng(7)
+    count, readings, p_d, clutter, gate = 40_000, 6, 0.6, 3.0, 0.1
+    tau_plus, tau_minus = detection_evidence(p_d, clutter, gate, math.inf)
+    exists = rng.random(count) < 0.5
+    logodds = np.zeros(count)
+    for _ in range(readings):
+        points = rng.poisson(clutter, count)
+        hit_by_clutter = rng.random(count) < 1.0 - (1.0 - gate) ** points
+        observed = (exists & (rng.random(count) < p_d)) | hit_by_clutter
+        logodds = update_logodds(logodds, observed, ~observed, tau_plus, tau_minus, math.inf)
+    values, group = np.unique(np.round(logodds, 9), return_inverse=True)
+    checked = 0
+    for index, value in enumerate(values):
+        members = group == index
+        if members.sum() < 300:
+            continue
+        share = exists[members].mean()
+        expected = float(existence_probability(value))
+        tolerance = 4.0 * math.sqrt(expected * (1.0 - expected) / members.sum()) + 1e-3
+        assert abs(share - expected) < tolerance, (value, share, expected, members.sum())
+        checked += 1
+    assert checked >= 5
+
+
+def test_config_takes_the_evidence_from_pd_or_from_the_log_odds_as_given():
+    plain = FastSLAMConfig(logodds_observed=1.5, logodds_missed=-0.2)
+    assert plain.existence_evidence() == (1.5, -0.2)
+    stated = FastSLAMConfig(detection_probability=0.9, clutter_rate=0.5, sigma_range=0.1,
+                            sigma_range_per_meter=0.02, sigma_bearing=0.02, min_range=1.0,
+                            max_range=15.0, field_of_view=math.pi).validate()
+    # The gate: the 99 % ellipse at 8 m, pi * 9.21 * sigma_r * sigma_b, over 14 m x pi rad.
+    fraction = math.pi * 9.21 * math.hypot(0.1, 0.16) * 0.02 / (14.0 * math.pi)
+    assert stated.existence_evidence() == pytest.approx(
+        detection_evidence(0.9, 0.5, fraction, LOGODDS_MAX), rel=1e-12)
+    with pytest.raises(ParameterValueError, match="detection_probability"):
+        FastSLAMConfig(detection_probability=0.3, clutter_rate=1e3, logodds_remove=0.5,
+                       max_range=3.0).validate()
+
+
+def kept_landmarks(backend: str, **changes) -> tuple[int, int]:
+    """(true landmarks in the final confirmed map, landmarks ever observed) of a known-id run in
+    a world whose sensor detects a landmark in view with probability 0.2."""
+    world = make_world(seed=5, num_landmarks=30, num_steps=300, detection_probability=0.2)
+    config = FastSLAMConfig(num_particles=30, association="known", sigma_range=0.1,
+                            sigma_bearing=0.02, alpha1=0.01, alpha2=0.0005, alpha3=0.01,
+                            alpha4=0.001, max_range=11.0, seed=2, backend=backend,
+                            **changes)
+    slam = FastSLAM(config, initial_pose=world.steps[0].truth)
+    previous = world.steps[0].odometry
+    for k, step in enumerate(world.steps[1:]):
+        slam.predict(previous, step.odometry)
+        previous = step.odometry
+        slam.update(step.ranges, step.bearings, step.ids, stamp=float(k))
+    seen = set(np.concatenate([s.ids for s in world.steps]).tolist())
+    confirmed = slam.best_map(min_existence=slam.config.map_min_existence)
+    return len(set(confirmed.ids.tolist()) & seen), len(seen)
+
+
+def test_a_sensor_that_misses_landmarks_in_view_keeps_its_map_when_it_states_pd(backend):
+    """With the default log-odds (+1 seen, -0.5 missed) a landmark detected in 20 % of the
+    readings that see it drifts down, is removed and created again, and seldom reaches the
+    map a user sees (existence 0.9); stated as P_D 0.2 every landmark is in it at the end."""
+    default_kept, seen = kept_landmarks(backend)
+    stated_kept, _ = kept_landmarks(backend, detection_probability=0.2)
+    assert stated_kept == seen
+    assert default_kept < 0.8 * seen
