@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
                                            LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
@@ -342,7 +343,7 @@ def write_tum(evaluation: Evaluation, folder: str | Path) -> list[Path]:
         stamps, first = np.unique(stamps, return_index=True)
         truth = run.ground_truth
         yaws = (np.zeros(len(stamps)) if truth.position_only else
-                np.interp(stamps, truth.stamps, np.unwrap(truth.poses[:, 2])))
+                interpolate_poses(truth.stamps, truth.poses, stamps)[:, 2])
         path = folder / TUM_GROUND_TRUTH
         path.write_text(_tum_lines(stamps, positions[first], yaws))
         written.append(path)

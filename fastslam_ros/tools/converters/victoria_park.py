@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table)
 
@@ -140,15 +141,13 @@ def calibrate(folder: Path | str) -> dict[str, float]:
         folder = folder / "rfs_slam_txt"
     odom_stamps, odom_poses = load_odometry(folder)
     gps_stamps, gps_positions, _ = load_gps(folder)
-    heading = np.unwrap(odom_poses[:, 2])
     windows = []
     for start in np.arange(gps_stamps[0], gps_stamps[-1], ANTENNA_WINDOW):
         inside = (gps_stamps >= start) & (gps_stamps < start + ANTENNA_WINDOW)
         if np.count_nonzero(inside) < 0.6 * 5.0 * ANTENNA_WINDOW:
             continue
         at = gps_stamps[inside]
-        pose = np.column_stack([np.interp(at, odom_stamps, odom_poses[:, k]) for k in (0, 1)]
-                               + [np.interp(at, odom_stamps, heading)])
+        pose = interpolate_poses(odom_stamps, odom_poses, at)
         windows.append((pose, gps_positions[inside]))
 
     def residuals(lever: np.ndarray) -> np.ndarray:
