@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The launch description both nodes' launch files share (``launch/*.launch.py``).
 
 One node with its parameter file (``params_file``, the installed config by default), a

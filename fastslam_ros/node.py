@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """ROS 2 node around the FastSLAM core: time alignment of odometry and landmark clouds, outputs.
 
 The node does no estimation math. It reads odometry and landmark clouds, feeds the filter in

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The ROS side that both nodes share: start-up, parameters, input gates, diagnostics, outputs.
 
 ``FilterNode`` is an rclpy node that feeds readings (landmark clouds, laser scans) and odometry

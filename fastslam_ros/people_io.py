@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Conversions for the people tracker: LaserScan, OccupancyGrid, nav2 map files, outputs.
 
 Pure functions, no node code. Readers use message attributes only, so they accept rclpy

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """ROS 2 node around the people tracker: map, scans and odometry in; robot pose and people out.
 
 Node ``people_tracker`` (console script ``people_tracker_node``). The map comes from ``map``

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Conversions between ROS 2 messages and numpy arrays for the FastSLAM node.
 
 Pure functions, no node code: the node calls them to read its inputs and to build its outputs,

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Shared test fixtures: where the real datasets live (../shared/datasets beside the repo)."""
 from __future__ import annotations
 

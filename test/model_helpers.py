@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Model functions only the tests need: h(s, m), its Jacobians, the motion covariance and
 written on the core's own building blocks."""
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """A plain, per-particle FastSLAM written from the textbook formulas, for the tests only.
 
 Loops over particles and landmarks, full matrices, ``np.linalg.inv``: nothing shared with the

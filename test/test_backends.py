@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The compiled backend against the numpy one at a larger M, and the core without numba."""
 from __future__ import annotations
 

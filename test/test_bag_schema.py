@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Bag schema v1: round trips through MCAP and sqlite3, position-only truth, cloud layouts."""
 from __future__ import annotations
 

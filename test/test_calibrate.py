@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """fastslam-calibrate: the fit recovers the simulator's noise, reach and detection rate; the
 sensor pose is used; the parameter file loads; bad paths give one-line errors."""
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Direct CDR readers and writers of the replay against rclpy's and rosbags' serializers."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The console commands on real files: sim -> replay -> eval (JSON, plot), errors, --help."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Dataset converters on the shared datasets (skipped when absent) and on a synthetic MRCLAM
 folder in the 50 Hz resampled layout of the dataset's own tools."""
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """End to end on real data: the first minutes of one MRCLAM robot, converted, replayed through
 the node with the shipped ``config/mrclam.yaml`` and evaluated against Vicon."""
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Metric functions against hand-computed cases."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Existence log-odds from a detection probability and a clutter rate (``detection_evidence``,
 ``FastSLAMConfig.existence_evidence``) against Bayes' rule counted over simulated features, and
 in the filter: a sensor that misses landmarks in view keeps its map when it says so."""

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Fault injection: every class of bad input, interleaved with a valid simulated stream.
 
 Each case puts one bad message (or a valid message with bad points added) into a short

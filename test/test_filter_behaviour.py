@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The filter on simulated worlds: accuracy, association, clutter removal, numerics, estimates."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The vectorized filter against a plain per-particle reference, step by step, same draws."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Copy-on-write landmark store: sharing after resampling, isolation of writes, overflow."""
 from __future__ import annotations
 

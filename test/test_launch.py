@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The launch files, run against stand-ins of the ROS 2 launch packages (not installed here):
 every argument their usage lines pass is declared, each topic argument remaps its input, and
 the executable and parameter file they name exist."""

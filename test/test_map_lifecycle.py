@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The map lifecycle: a loaded map seeds every particle, localization keeps it fixed, a given
 pose redraws the particles; in the core, in the node, and end to end at small scale."""
 from __future__ import annotations

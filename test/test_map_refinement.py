@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The saved map's batch least squares (core/map_refinement.py), against known truth."""
 from __future__ import annotations
 

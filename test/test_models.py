@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Motion and observation models, the landmark EKF and the 2.0 proposal against independent math."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """FastSLAMNode with real rclpy: scripted runs through the callbacks and over DDS.
 
 Every test has its own Context on a domain id of its own process, so parallel test runs on the

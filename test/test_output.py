@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """No tool deletes or overwrites what the user owns: existing outputs need --overwrite, and even
 then only a bag folder or a file the tool writes is replaced, never an input or '.'."""
 from __future__ import annotations

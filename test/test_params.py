@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Parameter specs: one source for the validation, the node's descriptors and the shipped files."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The shared-ancestry path history against every particle's path kept in full."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The people tracker's core against independent expectations: closed forms, brute force,
 scripted occlusions, and the conditional structure through resampling."""
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """CLEAR MOT and the people pipeline: hand-counted frames, and sim -> replay -> eval."""
 from __future__ import annotations
 

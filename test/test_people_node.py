@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """PeopleTrackerNode with real rclpy, driven through its callbacks on a simulated clock (as a
 bag replay does), and the people_io conversions it relies on."""
 from __future__ import annotations

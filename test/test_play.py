@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The DDS player delivers every message, in order, with /clock, to a live subscriber."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Replay through the real node: recorded outputs, determinism, errors, parameter files."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Resampling schemes: expected copy counts, variance ordering, N_eff, log-weight handling."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Message <-> numpy conversions of fastslam_ros.ros_io (no ROS graph needed)."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The one-time check that the observations fit the configured max_range / field_of_view."""
 from __future__ import annotations
 

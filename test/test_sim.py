@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """World generator and simulator: sensor and odometry statistics, determinism, vehicle
 kinematics, observation geometry, scenarios, the in-memory synthetic worlds; the people
 simulator's crowd (solid bodies that pass each other, off the walls, never deadlocked)."""

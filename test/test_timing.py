@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The time gates of the nodes' inputs (ROS-free): stray stamps and odometry glitches are
 dropped, a jump that enough messages in a row agree on is taken."""
 from __future__ import annotations

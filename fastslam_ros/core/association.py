@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Per-particle data association: maximum likelihood, Monte Carlo, two gates (and scoring).
 
 Every rule sees the same inputs for all rows at once (a row is one observation of one particle):

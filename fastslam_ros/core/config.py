@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Settings of the FastSLAM core, validated once at construction.
 
 Every field is a plain number or string declared with ``params.parameter``: its default, its

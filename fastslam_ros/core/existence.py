@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Existence of tracked features by log-odds (the feature-elimination rule), ROS-free.
 
 A feature (a landmark, a person) carries the log-odds that it exists. Each reading adds tau+

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """FastSLAM 1.0 and 2.0 over stacked particle arrays (Montemerlo and Thrun).
 
 One ``update`` processes one sensor reading (any number of observations) for all M particles at

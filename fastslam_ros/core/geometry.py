@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Small SE(2) helpers shared by the models (angles in radians, wrapped to (-pi, pi])."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The 2x2 EKF that every particle keeps per landmark: initialisation and Joseph-form update.
 
 Covariances are packed as (xx, xy, yy). The 2x2 products are written out component by component,

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Every particle's landmark map in shared, copy-on-write blocks indexed by spatial cell.
 
 A *block* holds up to ``capacity`` landmarks of one spatial cell (side ``cell_size``). The pool

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Loop closure confirmed across readings (``loop_closure_matches``).
 
 Before a loop closes, the particles have usually collapsed to one or two ancestors that all

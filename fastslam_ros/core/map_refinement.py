@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The saved map refined by a batch least squares over the best particle's whole path.
 
 A FastSLAM particle's map is conditional on that particle's path: each landmark was estimated

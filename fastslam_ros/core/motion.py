@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Odometry motion model (Probabilistic Robotics, table 5.6) in its sampled and Gaussian forms.
 
 Odometry between two poses is decomposed into (rot1, trans, rot2). FastSLAM 1.0 samples the

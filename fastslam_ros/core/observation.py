@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Range-bearing observation of a point landmark from a sensor mounted on the robot.
 
 The sensor sits at (sensor_x, sensor_y, sensor_yaw) in the robot frame. All functions broadcast

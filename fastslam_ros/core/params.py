@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """One source for every parameter: default, range, choices and description.
 
 A settings dataclass declares each field with ``parameter(...)``; the node's ROS descriptors,

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Every particle's path s_1:t stored once per ancestor (shared ancestry, not M path copies).
 
 Each update appends one generation: the M poses and, for each, the index of its parent in the

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """FastSLAM 2.0: the pose proposal that uses the current observations, and its weight.
 
 With the motion model linearised as s_t ~ N(s_hat, P) and observation k linearised in the pose

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Localization on a fixed map: find the pose again from one reading when the filter is lost.
 
 A particle filter whose particles all sit away from the true pose cannot come back by itself:

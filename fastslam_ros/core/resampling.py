@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Resampling schemes as pure functions returning the indices of the particles to keep.
 
 The caller gathers its own stacked arrays with the indices (FilterPy's shape). ``weights`` must be

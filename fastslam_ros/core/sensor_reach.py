@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Whether the observations fit the configured perceptual range (``max_range``, ``field_of_view``).
 
 Feature elimination lowers the existence of every landmark inside the configured range and

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Time alignment of odometry with sensor readings, shared by the nodes (ROS-free).
 
 A reading is used at the robot pose of its own stamp: ``OdometryHistory`` holds the odometry

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The cache policy of the working set: which landmarks a reading works on, and when they go
 back to the shared store.
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """ROS-free people tracking on a known map (numpy, scipy): the conditional particle filter."""
 from .conditional_filter import PeopleEstimate, PeopleTracker, UpdateReport
 from .detection import Scan

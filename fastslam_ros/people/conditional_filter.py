@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """People tracking on a known map: Montemerlo, Thrun and Whittaker's conditional particle
 filter (ICRA 2002), vectorized over robot particles, people and people particles.
 

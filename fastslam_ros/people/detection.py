@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """A laser scan, and people detected in it: beams ending in free space away from obstacles.
 
 The scan is cut into segments (runs of neighbouring beams whose ranges differ by less than

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The known map as an evidence grid, its likelihood field, and ray casting (ROS-free).
 
 Cells are free, occupied or unknown (nav2's convention: occupancy >= ``occupied_threshold`` is

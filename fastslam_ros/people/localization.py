@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Robot pose particles on the known map: the laser likelihood field and global sampling.
 
 A beam ending at a point d metres from the nearest mapped obstacle has the likelihood

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Settings of the people tracker: one ``parameter(...)`` per field (default, range, meaning).
 
 The node declares one ROS parameter per field, the YAML file and the docs table come from the

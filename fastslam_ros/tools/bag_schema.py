@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Bag schema v1: the topics every fastslam_ros tool reads and writes, and a numpy view of them.
 
 | topic | type | frame | content |

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """``fastslam-bench``: speed and memory figures of the FastSLAM core (prints them; no asserts).
 
 Four measurements on synthetic worlds (``fastslam_ros.tools.synthetic``), single process, on

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """``fastslam-benchmark``: every dataset found -> convert -> replay -> eval, one Markdown table.
 
 Datasets are looked for under ``--datasets`` (default ``../shared/datasets``): MRCLAM folders

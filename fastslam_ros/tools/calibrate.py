@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """``fastslam-calibrate BAG [BAG ...]``: sensor and odometry noise fitted from bags with ground
 truth, printed and optionally written as a parameter file.
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Direct CDR reading and writing of the few message types a replay handles per message.
 
 A replay reads about ten odometry messages per landmark cloud and writes a pose and a transform

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Conventions shared by the console commands: one help style, one-line errors, exit codes.
 
 Every command builds its parser with ``parser()`` (defaults shown after each option's help),

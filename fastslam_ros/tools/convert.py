@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """``fastslam-convert KIND SRC --out BAG``: public datasets -> bag schema v1.
 
 KIND is ``mrclam`` (UTIAS MRCLAM, one robot), ``victoria-park`` (ACFR Victoria Park,

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The main job end to end, no download: simulate the loop, replay it through the node,
 evaluate and plot.
 

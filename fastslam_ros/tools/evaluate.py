@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Accuracy of a recorded run against ground truth: trajectory ATE, landmark RMSE and OSPA.
 
 ``fastslam-eval OUT`` reads a bag recorded by ``fastslam-replay`` (or by ``ros2 bag record`` on

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Live load test over DDS: a ``fastslam_node`` process fed by this one at chosen rates.
 
 Starts ``fastslam_node`` in a child process on a private domain id, publishes odometry of a

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Map, then localize on the saved map: the map lifecycle measured on simulated runs.
 
     python3 -m fastslam_ros.tools.localization_bench --seeds 1 2 3 4 5

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Trajectory and map metrics shared by the evaluations of both nodes (ROS-free).
 
 SE(2) alignment, ATE statistics with jumps, interpolation of the ground truth (never across a

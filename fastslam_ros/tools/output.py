@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """The one rule every tool follows before it writes: never lose what the user owns.
 
 An existing output path is refused unless the user passed ``--overwrite``; with it, only what

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Write config/fastslam.yaml and docs/parameters.md from the parameter specs.
 
     python3 -m fastslam_ros.tools.params_doc            # rewrite both files

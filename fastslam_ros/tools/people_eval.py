@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Score a people-tracking run: robot ATE, CLEAR MOT (MOTA, MOTP, identity switches) and OSPA.
 
 ``fastslam-eval OUT`` dispatches here when OUT (recorded by ``fastslam-replay --node

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """People simulator: rooms and corridors on a grid, a robot with a 2-D laser, people walking.
 
 A 20 m x 20 m floor (five rooms off a corridor open at both ends, furniture) as a 0.05 m

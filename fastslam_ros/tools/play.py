@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Publish a rosbag2 folder over DDS with ``/clock``, for machines without ``ros2 bag play``.
 
 Messages go out in bag-time order, paced by bag time divided by ``--rate``, each as its raw CDR

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Figure of an evaluated run: paths and landmarks in the ground-truth frame, error over time."""
 from __future__ import annotations
 

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """``fastslam-poison BAG --out OUT``: a copy of a schema-v1 bag with bad input mixed in.
 
 Every valid message is kept; about ``--rate`` faults per second of data are added, drawn in

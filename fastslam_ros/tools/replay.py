@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
 Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into

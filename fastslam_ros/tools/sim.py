@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Landmark-world simulator in the style of the classic FastSLAM simulator (Bailey et al.).
 
 A car-like vehicle (bicycle model) follows waypoints at constant speed. Controls run at 40 Hz;

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Soak benchmark: hours of simulated data through the real node; memory and output costs.
 
 The simulated loop is driven lap after lap (odometry at 10 Hz, clouds at 2 Hz, so hours of data

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """In-memory synthetic worlds for the core's tests and ``fastslam-bench`` (no ROS, no bags).
 
 A robot drives a circle through a square field of point landmarks, with the generative model of

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Landmark worlds: the generative model behind the simulator's bags and the in-memory worlds.
 
 One model for ``fastslam-sim`` (``tools/sim.py``, written to bags) and for the core's tests and

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Dataset converters: parse public SLAM datasets into the arrays of bag schema v1.
 
 Each module (``mrclam``, ``victoria_park``, ``freiburg``) reads its dataset with vectorized numpy,

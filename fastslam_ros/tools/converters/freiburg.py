@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Freiburg "Robot Mapping" course world (``sensor_data.dat``, ``world.dat``) -> recording.
 
 The file has no time stamps: odometry step k (``ODOMETRY r1 t r2``) ends at the synthetic time

@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """UTIAS MRCLAM (multi-robot cooperative localization and mapping) -> one robot's recording.
 
 Two layouts of the same files are read, detected from the time stamps:

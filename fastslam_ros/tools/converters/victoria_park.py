@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """ACFR Victoria Park (``rfs_slam_txt`` files of RFS-SLAM) -> recording of the car.
 
 * Odometry: the rear-left wheel encoder speed is moved to the rear-axle centre,
