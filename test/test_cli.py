@@ -13,7 +13,8 @@ from rosbags.highlevel import AnyReader
 
 from fastslam_ros import node
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools import bench, benchmark, convert, demo, evaluate, play, replay, sim
+from fastslam_ros.tools import (bench, benchmark, convert, demo, evaluate, live_load, people_eval,
+                                people_sim, play, poison, replay, sim, soak)
 from fastslam_ros.tools.bag_schema import (TYPESTORE, LandmarkSet, PoseSeries, bag_topics,
                                            open_writer, quaternion_to_yaw, read_schema_bag,
                                            read_topics, write_schema_bag)
@@ -34,22 +35,37 @@ def test_every_command_has_help(command, capsys):
     assert "(default: None)" not in printed and "(default: [])" not in printed
 
 
+SECONDARY_COMMANDS = (people_sim, people_eval, poison, soak, live_load)
+"""Tools with ``--help`` beside the main console scripts' (``python3 -m`` or a scenario)."""
+
+
+@pytest.mark.parametrize("command", SECONDARY_COMMANDS)
+def test_secondary_commands_have_help(command, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        command.main(["--help"])
+    assert exit_info.value.code == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("usage: ") and "``" not in printed and "(default:" in printed
+
+
 def test_every_option_has_help(monkeypatch):
     """Each command's parser, captured as it parses --help: no option without a help text."""
     import argparse
 
     parsers = []
-    original = argparse.ArgumentParser.parse_args
+    original = argparse.ArgumentParser.parse_known_args
 
     def capture(self, *args, **kwargs):
         parsers.append(self)
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", capture)
-    for command in (sim, replay, play, evaluate, demo, bench, benchmark, convert):
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", capture)
+    commands = (sim, replay, play, evaluate, demo, bench, benchmark, convert) + SECONDARY_COMMANDS
+    for command in commands:
         with pytest.raises(SystemExit):
             command.main(["--help"])
-    assert len(parsers) == 8
+    parsers = list({id(parser): parser for parser in parsers}.values())
+    assert len(parsers) == len(commands)
     for parser in parsers:
         undocumented = [action.dest for action in parser._actions if not action.help]
         assert not undocumented, (parser.prog, undocumented)
@@ -381,3 +397,37 @@ def test_replay_output_carries_the_transform_tree(tmp_path):
         chained = compose(chains["map", "odom"][stamp], chains["odom", "base_link"][stamp])
         p = msg.pose.pose
         np.testing.assert_allclose(chained[:2], [p.position.x, p.position.y], atol=1e-9)
+
+
+def test_poison_without_its_bag_is_a_usage_error(tmp_path, capsys):
+    assert poison.main([str(tmp_path / "no_such_bag"), "--out", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("fastslam-poison: ") and error.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_people_eval_refuses_options_it_does_not_have(tmp_path, capsys):
+    """An option of the landmark evaluation (``--tum``) on a people run: one line, status 2."""
+    assert people_eval.main([str(tmp_path / "run"), "--tum", str(tmp_path / "tum")]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("fastslam-eval: ") and "--tum" in error and error.count("\n") == 1
+
+
+def test_people_eval_checks_the_plot_format_first(tmp_path, capsys):
+    assert people_eval.main([str(tmp_path / "run"), "--plot", str(tmp_path / "x.xyz")]) == 2
+    error = capsys.readouterr().err
+    assert "unsupported format" in error and error.count("\n") == 1
+
+
+def test_bench_checks_its_json_output_before_measuring(tmp_path, capsys):
+    tiny = ["--only", "sweep", "--sweep", "5", "--steps", "5", "--repeat", "1",
+            "--backend", "numpy"]
+    assert bench.main(tiny + ["--json", str(tmp_path / "no_dir" / "f.json")]) == 2
+    captured = capsys.readouterr()
+    assert "does not exist" in captured.err and "Time per reading" not in captured.out
+    existing = tmp_path / "figures.json"
+    existing.write_text("{}")
+    assert bench.main(tiny + ["--json", str(existing)]) == 1
+    assert "--overwrite" in capsys.readouterr().err and existing.read_text() == "{}"
+    assert bench.main(tiny + ["--json", str(existing), "--overwrite"]) == 0
+    assert "sweep" in json.loads(existing.read_text())

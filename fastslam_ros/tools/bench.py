@@ -30,6 +30,7 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import ASSOCIATION_MODES, numba_available
 from fastslam_ros.core.landmark_store import STATE_WIDTH
 from fastslam_ros.tools import cli
+from fastslam_ros.tools.output import check_output, prepare_output
 from fastslam_ros.tools.synthetic import make_world
 
 LANDMARK_RECORD_BYTES = STATE_WIDTH * 8 + 2 * 8 + 1
@@ -246,7 +247,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--threads", type=int, default=None,
                         help="at most this many threads in the compiled kernels")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing --json file (never a folder)")
     args = parser.parse_args(argv)
+    prog = "fastslam-bench"
+    if args.json:  # before measuring: a bad path should not cost the run
+        try:
+            check_output(cli.output_file(args.json, "--json"), args.overwrite, "file")
+        except cli.UsageError as error:
+            return cli.fail(prog, error)
+        except FileExistsError as error:
+            return cli.fail(prog, error, cli.EXIT_FAILURE)
     parts = args.only or ["throughput", "sweep", "scaling", "memory"]
     backends = tuple(args.backend or (("numpy", "numba") if numba_available() else ("numpy",)))
     if "numba" in backends:
@@ -277,7 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         from fastslam_ros.tools.soak import bench_soak
         results["soak"] = bench_soak()
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as handle:
+        path = prepare_output(args.json, args.overwrite, "file")
+        with path.open("w", encoding="utf-8") as handle:
             json.dump(results, handle, indent=2)
     return 0
 

@@ -11,7 +11,6 @@ Prints figures; no asserts.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import subprocess
@@ -29,6 +28,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
+from fastslam_ros.tools import cli
 
 LANDMARKS = np.array([[6.0, 0.0], [4.0, 5.0], [-2.0, 6.0], [-6.0, 1.0], [-4.0, -5.0],
                       [2.0, -6.0], [8.0, -3.0], [7.0, 5.0]])
@@ -152,17 +152,19 @@ def run_phase(context: Context, args, odom_rate: float,
 
 def main(argv: list[str] | None = None) -> int:
     """``python3 -m fastslam_ros.tools.live_load``: the live DDS load test."""
-    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.live_load",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
-    parser.add_argument("--odom-rate", type=float, default=100.0, help="Hz [100]")
-    parser.add_argument("--cloud-rate", type=float, default=20.0, help="Hz [20]")
+    parser = cli.parser("python3 -m fastslam_ros.tools.live_load", __doc__, first_paragraph=True)
+    parser.add_argument("--odom-rate", type=float, default=100.0,
+                        help="odometry rate of the first two phases (Hz)")
+    parser.add_argument("--cloud-rate", type=float, default=20.0, help="landmark cloud rate (Hz)")
     parser.add_argument("--burst-rate", type=float, default=1000.0,
-                        help="odometry rate of the last phase (Hz) [1000]")
-    parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase [10]")
-    parser.add_argument("--particles", type=int, default=100, help="M [100]")
-    parser.add_argument("--domain", type=int, default=90 + os.getpid() % 100,
-                        help="ROS domain id of the test [90 + pid % 100]")
+                        help="odometry rate of the last phase (Hz)")
+    parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase (s)")
+    parser.add_argument("--particles", type=int, default=100, help="number of particles M")
+    parser.add_argument("--domain", type=int, default=None,
+                        help="ROS domain id of the test (default: 90 + pid %% 100)")
     args = parser.parse_args(argv)
+    if args.domain is None:
+        args.domain = 90 + os.getpid() % 100
     context = Context()
     rclpy.init(context=context, domain_id=args.domain)
     phases = []

@@ -23,7 +23,6 @@ averaged.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -402,8 +401,8 @@ def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval OUT`` for a people-tracking run."""
-    parser = argparse.ArgumentParser(prog="fastslam-eval",
-                                     description=__doc__.split("\n\n")[0])
+    prog = "fastslam-eval"
+    parser = cli.parser(prog, __doc__, first_paragraph=True)
     parser.add_argument("out", type=Path, help="bag recorded by fastslam-replay --node "
                                                "people_tracker")
     parser.add_argument("--ground-truth", type=Path, default=None,
@@ -411,24 +410,31 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write the metrics here")
     parser.add_argument("--plot", type=Path, default=None, help="write a figure here")
     parser.add_argument("--min-existence", type=float, default=0.5,
-                        help="score estimated people at least this likely to exist [0.5]")
+                        help="score estimated people at least this likely to exist")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace existing --json / --plot files (never a folder or an input)")
-    args, _ = parser.parse_known_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        return cli.fail(prog, f"not an option for a people-tracking run: {' '.join(unknown)}",
+                        cli.EXIT_USAGE)
+    from fastslam_ros.tools.evaluate import plot_formats  # noqa: PLC0415 (evaluate imports us)
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     try:
+        if args.json is not None:
+            cli.output_file(args.json, "--json")
+        if args.plot is not None:
+            cli.output_file(args.plot, "--plot", suffixes=plot_formats())
         for path in (args.json, args.plot):
             if path is not None:
-                cli.output_file(path, "--json" if path is args.json else "--plot")
                 check_output(path, args.overwrite, "file", inputs)
     except cli.UsageError as error:
-        return cli.fail("fastslam-eval", error)
+        return cli.fail(prog, error)
     except FileExistsError as error:
-        return cli.fail("fastslam-eval", error, cli.EXIT_FAILURE)
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     try:
         metrics, plot_data = evaluate_people_bag(args.out, args.ground_truth, args.min_existence)
     except (FileNotFoundError, OSError, ValueError) as error:
-        return cli.fail("fastslam-eval", f"cannot score {args.out}: {error}", cli.EXIT_FAILURE)
+        return cli.fail(prog, f"cannot score {args.out}: {error}", cli.EXIT_FAILURE)
     print(markdown_table(metrics))
     if args.json:
         prepare_output(args.json, args.overwrite, "file", inputs).write_text(

@@ -20,7 +20,6 @@ The bag holds schema v1's ``/odom`` and ``/ground_truth/pose`` plus ``/map``
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from collections import deque
@@ -34,6 +33,7 @@ from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
                                            PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
                                            yaw_to_quaternion)
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.output import check_output, write_params_yaml
 
 MAP_TOPIC = "/map"
@@ -585,18 +585,21 @@ def recommended_params(config: PeopleSimConfig) -> dict[str, float | int | str]:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-sim --scenario people``: simulate and write the bag and its parameter file."""
-    parser = argparse.ArgumentParser(prog="fastslam-sim --scenario people",
-                                     description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scenario", choices=("people",), default="people")
+    parser = cli.parser("fastslam-sim --scenario people", __doc__, first_paragraph=True)
+    parser.add_argument("--scenario", choices=("people",), default="people",
+                        help="the simulated world (people: a known map with walking people)")
     parser.add_argument("--out", type=Path, default=Path("sim_people"), help="output bag folder")
     parser.add_argument("--params-out", type=Path, default=None,
-                        help="tracker parameters for this bag (default: <out>.yaml)")
-    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
+                        help="tracker parameters for this bag (default: OUT.yaml)")
+    parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
+                        help="rosbag2 storage of the output bag")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
     defaults = PeopleSimConfig()
-    parser.add_argument("--seed", type=int, default=defaults.seed, help="[1]")
-    parser.add_argument("--duration", type=float, default=defaults.duration, help="s [120]")
-    parser.add_argument("--people", type=int, default=defaults.people, help="[5]")
+    parser.add_argument("--seed", type=int, default=defaults.seed,
+                        help="seed of the world, the people's walks and the noise")
+    parser.add_argument("--duration", type=float, default=defaults.duration,
+                        help="simulated time (s)")
+    parser.add_argument("--people", type=int, default=defaults.people, help="number of people")
     parser.add_argument("--no-initial-pose", action="store_true",
                         help="write no /initialpose: the tracker must localize globally")
     args = parser.parse_args(argv)

@@ -12,7 +12,6 @@ The node should drop exactly the bad input, so replaying OUT gives the estimate 
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -26,6 +25,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC, ODOMETRY_TYPE,
                                            TYPESTORE, open_writer)
 
@@ -176,24 +176,24 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-poison``: write a copy of a bag with every fault class mixed in."""
-    parser = argparse.ArgumentParser(prog="fastslam-poison",
-                                     description=__doc__.split("\n\n")[0].replace("``", ""))
+    prog = "fastslam-poison"
+    parser = cli.parser(prog, __doc__, first_paragraph=True)
     parser.add_argument("bag", type=Path, help="schema-v1 bag")
     parser.add_argument("--out", type=Path, required=True, help="output bag folder")
     parser.add_argument("--rate", type=float, default=1.0,
-                        help="bad messages per second of data [1]")
-    parser.add_argument("--seed", type=int, default=0)
+                        help="bad messages per second of data")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the faults' draws")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing output bag (never another folder or the input)")
     args = parser.parse_args(argv)
-    if not args.bag.exists():
-        print(f"fastslam-poison: bag not found: {args.bag}", file=sys.stderr)
-        return 1
+    try:
+        cli.input_bag(args.bag)
+    except cli.UsageError as error:
+        return cli.fail(prog, error)
     try:
         counts = poison_bag(args.bag, args.out, args.rate, args.seed, args.overwrite)
     except (OSError, ValueError) as error:
-        print(f"fastslam-poison: {error}", file=sys.stderr)
-        return 1
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     print(f"wrote {args.out}: {sum(counts.values())} bad messages added "
           f"({', '.join(f'{name} {count}' for name, count in counts.items())})")
     return 0

@@ -11,7 +11,6 @@ no asserts.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -27,6 +26,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
+from fastslam_ros.tools import cli
 from fastslam_ros.tools.output import check_output, prepare_output
 from fastslam_ros.tools.replay import isolated_context
 from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
@@ -154,11 +154,10 @@ def bench_soak(hours: float = 10.0) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     """``python3 -m fastslam_ros.tools.soak``: hours of simulated data through the node."""
-    parser = argparse.ArgumentParser(prog="python3 -m fastslam_ros.tools.soak",
-                                     description=__doc__.split("\n\n")[0])
-    parser.add_argument("--hours", type=float, default=10.0, help="hours of data [10]")
-    parser.add_argument("--particles", type=int, default=10, help="M [10]")
-    parser.add_argument("--seed", type=int, default=1)
+    parser = cli.parser("python3 -m fastslam_ros.tools.soak", __doc__, first_paragraph=True)
+    parser.add_argument("--hours", type=float, default=10.0, help="hours of simulated data")
+    parser.add_argument("--particles", type=int, default=10, help="number of particles M")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the world and the filter")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --json")
     args = parser.parse_args(argv)
