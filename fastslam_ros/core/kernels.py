@@ -1,3 +1,5 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
 """Compiled (numba) backend of the per-reading math of ``FastSLAM``.
 
 The numpy core spends most of a reading at moderate M on call overhead (hundreds of small array
@@ -45,10 +47,9 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from .geometry import LOG_TWO_PI, TWO_PI
 from .landmark_store import STATE_WIDTH, LandmarkStore, WorkingSet
 
-LOG_TWO_PI = math.log(2.0 * math.pi)
-TWO_PI = 2.0 * math.pi
 POSE_JITTER = 1e-12
 LOG2 = math.log(2.0)
 
