@@ -682,3 +682,13 @@ def test_the_published_id_tables_forget_people_no_robot_particle_can_bring_back(
     tracker.lost_keys[:] = -1
     run(tracker, grid, pose, [], 1, t)
     assert tracker._id_of_key == {} and tracker._first_published == {}
+
+
+def test_simulated_people_stamps_are_dated_like_a_recording():
+    from fastslam_ros.tools.people_sim import PeopleSimConfig, simulate_people
+    config = PeopleSimConfig(duration=1.0, people=1)
+    run = simulate_people(config)
+    assert run.odometry.stamps[0] == config.start_time == 1_700_000_000.0
+    assert run.scan_stamps[0] == config.start_time
+    np.testing.assert_allclose(np.diff(run.odometry.stamps), 1 / config.odometry_rate, atol=1e-6)
+    np.testing.assert_allclose(np.diff(run.scan_stamps), 1 / config.scan_rate, atol=1e-6)

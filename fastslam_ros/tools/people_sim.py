@@ -115,6 +115,9 @@ class PeopleSimConfig:
     seed: int = 1
     duration: float = 120.0
     people: int = 5
+    start_time: float = 1_700_000_000.0
+    """Stamp of the first message (s since the Unix epoch): a date, as a recording has (as
+    ``SimConfig.start_time``)."""
     beams: int = 360
     scan_rate: float = 10.0
     odometry_rate: float = 50.0
@@ -439,8 +442,8 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
     scan_stamps, scans, people = [], [], []
     steps = int(round(config.duration * config.odometry_rate))
     for step in range(steps + 1):
-        t = step * dt
-        stamps.append(t)
+        t = step * dt  # time since the start; the stamps are start_time + t
+        stamps.append(config.start_time + t)
         true_poses.append(pose.copy())
         odometry_poses.append(odometry.copy())
         if step % per_scan == 0:
@@ -449,7 +452,7 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
             ranges = cast_scan(grid, pose, angles, positions, config.max_range)
             noisy = ranges + rng_laser.normal(0.0, config.range_noise, len(ranges))
             scans.append(np.where(np.isfinite(ranges), np.maximum(noisy, 0.0), np.inf))
-            scan_stamps.append(t)
+            scan_stamps.append(config.start_time + t)
             people.append((np.array([p.ident for p in crowd.people], dtype=np.int32), positions))
         if step == steps:
             break
