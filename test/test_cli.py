@@ -33,6 +33,7 @@ def test_every_command_has_help(command, capsys):
     # One style: plain text (no reStructuredText literals), defaults shown, none empty.
     assert "``" not in printed and "(default:" in printed
     assert "(default: None)" not in printed and "(default: [])" not in printed
+    assert "deg) (default:" not in " ".join(printed.split())  # one default per option
 
 
 SECONDARY_COMMANDS = (people_sim, people_eval, poison, soak, live_load)

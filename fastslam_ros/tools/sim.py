@@ -257,8 +257,8 @@ def build_parser() -> argparse.ArgumentParser:
         flag = "--" + item.name.replace("_", "-")
         help_text = item.metadata["help"]
         if item.name in ("max_steer", "max_steer_rate", "sigma_bearing", "sigma_steer"):
-            help_text += (f" (default: {item.default:.6g} = {math.degrees(item.default):g} "
-                          "deg)")
+            # %(default) in the text: the formatter then adds no second default.
+            help_text += f" (default: %(default).6g = {math.degrees(item.default):g} deg)"
         parser.add_argument(flag, dest=item.name, type=type(item.default), default=item.default,
                             help=help_text)
     return parser
