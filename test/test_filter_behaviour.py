@@ -166,7 +166,8 @@ def test_heaviest_best_particle_is_reported_and_kept_through_resampling():
     poses = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], float)
 
     def reweigh(threshold, weights) -> FastSLAM:
-        slam = FastSLAM(config(num_particles=4, resample_threshold=threshold))
+        slam = FastSLAM(config(num_particles=4, resample_threshold=threshold,
+                                  best_particle="heaviest"))
         slam.poses = poses.copy()
         slam.log_weights = np.log(np.asarray(weights, float))
         slam.resampled = slam.update([], []).resampled

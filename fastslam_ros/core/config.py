@@ -179,7 +179,7 @@ class FastSLAMConfig:
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",
         low=0.0, low_exclusive=True, high=1.0)
     best_particle: str = parameter(
-        "heaviest", "Which particle is reported (pose, map, path): heaviest, the highest "
+        "central", "Which particle is reported (pose, map, path): heaviest, the highest "
         "weight; central, the one nearest the weighted mean position (least expected squared "
         "position error when particles with turned maps weigh about the same).",
         choices=BEST_PARTICLE_RULES)
