@@ -509,3 +509,27 @@ def test_existence_from_a_detection_probability_is_the_same_on_both_backends():
     """tau+ and tau- derived from P_D and the clutter rate reach the compiled reading as the
     numpy one uses them: the same removals, the same runs."""
     assert_same_run("fastslam2", "ml", detection_probability=0.85, clutter_rate=0.5)
+
+
+@needs_numba
+def test_crew_runs_each_job_and_raises_a_workers_error_here():
+    """The chunked gather's hand-off: every job runs once (the first on this thread), and an
+    exception on a worker is raised on the calling thread."""
+    from fastslam_ros.core import kernels
+
+    crew = kernels._Crew(1)
+    done = []
+    try:
+        crew.run_each(lambda x: done.append(x), [(0,), (1,)])
+        assert sorted(done) == [0, 1]
+
+        def failing(x):
+            if x == 1:
+                raise RuntimeError("worker failed")
+
+        with pytest.raises(RuntimeError, match="worker failed"):
+            crew.run_each(failing, [(0,), (1,)])
+        with pytest.raises(ValueError, match="3 jobs"):
+            crew.run_each(failing, [(0,), (0,), (0,)])
+    finally:
+        crew.stop()

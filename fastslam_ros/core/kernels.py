@@ -38,7 +38,6 @@ import math
 import queue
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
@@ -975,7 +974,7 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
                       bearings, labels, draws, normals, log_weights, fp, ip, order, source,
                       moved, recorded, turn, prior_cov, chunks):
     """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
-    calling thread and the pool's (``_chunk_pool``), one hand-off per reading, each taking
+    calling thread and the crew's (``_Crew``), one hand-off per reading, each taking
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
     that starts late or runs slower takes fewer). Blocks write disjoint particles, so the
     results are those of the serial reading."""
@@ -991,25 +990,12 @@ def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, p
                    poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
 
 
-_pool: ThreadPoolExecutor | None = None
-
-
-def _chunk_pool() -> ThreadPoolExecutor:
-    """The worker threads of ``_reading_threaded`` (made on first use, as many as the
-    threads beyond the calling one)."""
-    global _pool
-    if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=max(1, _max_threads - 1),
-                                   thread_name_prefix="fastslam_kernel")
-    return _pool
-
-
 _crew: _Crew | None = None
 
 
 def _shared_crew() -> _Crew:
-    """The worker threads of ``_reading_threaded`` (made on first use, as many as the
-    threads beyond the calling one)."""
+    """The worker threads of ``_reading_threaded`` and ``_run_chunks`` (made on first use,
+    as many as the threads beyond the calling one)."""
     global _crew
     if _crew is None:
         _crew = _Crew(max(1, _max_threads - 1))
@@ -1060,10 +1046,15 @@ class _Crew:
             job = jobs.get()
             if job is None:
                 return
-            kernel, args = job
+            kernel, args, reply = job
+            error = None
             try:
                 kernel(*args)
-            except BaseException as error:  # noqa: BLE001 (raised on the calling thread)
+            except BaseException as caught:  # noqa: BLE001 (raised on the calling thread)
+                error = caught
+            if reply is not None:
+                reply.put(error)
+            elif error is not None:
                 self._errors.append(error)
 
     def run(self, kernel, workers: int, args, total: int) -> None:
@@ -1071,7 +1062,7 @@ class _Crew:
         blocks from the reading's counter ``args[0]`` and counting the particles it finished
         in it; returns when all ``total`` are done (a worker's exception is raised here)."""
         for jobs in self._queues[:workers]:
-            jobs.put((kernel, args))
+            jobs.put((kernel, args, None))
         kernel(*args)
         counter = args[0]
         while not _await_done(counter, total, DONE_POLLS):
@@ -1083,6 +1074,22 @@ class _Crew:
             self._errors.clear()
             raise error
 
+    def run_each(self, kernel, argument_sets) -> None:
+        """``kernel(*arguments)`` for each of ``argument_sets``: the first here, each other on
+        a worker of its own; returns when all are done (a worker's exception is raised
+        here)."""
+        if len(argument_sets) - 1 > len(self._queues):
+            raise ValueError(f"{len(argument_sets)} jobs for {len(self._queues)} workers and "
+                             "the calling thread")
+        reply = queue.SimpleQueue()
+        for jobs, arguments in zip(self._queues, argument_sets[1:]):
+            jobs.put((kernel, arguments, reply))
+        kernel(*argument_sets[0])
+        errors = [reply.get() for _ in argument_sets[1:]]
+        for error in errors:
+            if error is not None:
+                raise error
+
     def stop(self) -> None:
         for jobs in self._queues:
             jobs.put(None)
@@ -1090,12 +1097,9 @@ class _Crew:
 
 def _run_chunks(kernel, bounds, args) -> None:
     """``kernel(lo, hi, *args)`` for every (lo, hi) of ``bounds``: the first on this thread,
-    the others on the pool; returns when all are done (a worker's exception is raised
-    here)."""
-    pending = [_chunk_pool().submit(kernel, lo, hi, *args) for lo, hi in bounds[1:]]
-    kernel(bounds[0][0], bounds[0][1], *args)
-    for future in pending:
-        future.result()
+    the others on the crew's workers; returns when all are done (a worker's exception is
+    raised here)."""
+    _shared_crew().run_each(kernel, [(lo, hi, *args) for lo, hi in bounds])
 
 
 @njit(**_JIT)
@@ -2007,11 +2011,8 @@ def splits(num_particles: int) -> bool:
 def set_threads(count: int) -> None:
     """At most ``count`` threads for a reading (<= ``NUMBA_NUM_THREADS``, which defaults to
     the machine's cores)."""
-    global _max_threads, _pool, _crew
+    global _max_threads, _crew
     count = max(1, min(int(count), numba.config.NUMBA_NUM_THREADS))
-    if count != _max_threads and _pool is not None:
-        _pool.shutdown()
-        _pool = None
     if count != _max_threads and _crew is not None:
         _crew.stop()
         _crew = None
