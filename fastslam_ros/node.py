@@ -16,6 +16,7 @@ import sys
 import time
 from dataclasses import dataclass
 from os import PathLike
+from typing import Sequence
 
 import numpy as np
 from diagnostic_msgs.msg import KeyValue
@@ -34,6 +35,7 @@ from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
 from fastslam_ros.core.path_history import decimation
 from fastslam_ros.core.sensor_reach import ReachCheck
+from fastslam_ros.output import check_output
 from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS,
                                     STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,
                                     max_yaw_rate_parameter, run_node)
@@ -108,7 +110,11 @@ class NodeSettings:
         "mode localization).")
     save_map_file: str = parameter(
         "fastslam_map.yaml", "File written by ~/save_map: .csv is CSV, anything else YAML. "
-        "Not empty.")
+        "Not empty. Its folder must exist; an existing file is replaced only with "
+        "save_map_overwrite.")
+    save_map_overwrite: bool = parameter(
+        False, "Let ~/save_map replace an existing save_map_file (a regular file, or a link: "
+        "the link is replaced, never what it points to); false refuses it.")
     publish_tf: bool = parameter(
         True, "Broadcast map -> odom on /tf (when tf2_ros is installed).")
     max_speed: float = max_speed_parameter()
@@ -445,10 +451,16 @@ class FastSLAMNode(FilterNode):
             response.success, response.message = False, f"cannot write '{map_file}': {error}"
         return response
 
-    def save_map(self, map_file: str | PathLike) -> str:
+    def save_map(self, map_file: str | PathLike, overwrite: bool | None = None,
+                 inputs: Sequence[str | PathLike] = ()) -> str:
         """Write the best particle's confirmed map, refined by the least squares over its path
         (``map_refinement``; the filter's map, logged, when that fails; in localization the
-        fixed map); returns what was written (OSError when the file cannot be written)."""
+        fixed map); returns what was written. ``overwrite`` (default: ``save_map_overwrite``)
+        lets it replace an existing file, never one of ``inputs`` (``fastslam_ros.output``);
+        OSError when the file cannot be written."""
+        if overwrite is None:
+            overwrite = bool(self.settings["save_map_overwrite"])
+        check_output(map_file, overwrite, "file", inputs)  # before the refinement's work
         landmark_map = self.slam.best_map(self.config.map_min_existence)
         what = "the loaded map (localization)"
         if self.config.mode == "mapping":
@@ -463,7 +475,7 @@ class FastSLAMNode(FilterNode):
                                           "filter's map")
                 what = f"the filter's map: refinement failed ({error})"
         written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
-                                        self._last_update_stamp)
+                                        self._last_update_stamp, overwrite, inputs)
         message = f"{len(landmark_map.keys)} landmarks written to {written}, {what}"
         self.get_logger().info(message)
         return message

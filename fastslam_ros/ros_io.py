@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import csv
 import functools
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple, Protocol, Sequence
+from typing import Iterable, NamedTuple, Protocol, Sequence
 
 import numpy as np
 import yaml
@@ -28,6 +29,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros.core import geometry
 from fastslam_ros.core.timing import seconds_to_nanoseconds
+from fastslam_ros.output import write_text
 
 # sensor_msgs/PointField datatype codes -> numpy scalar types.
 POINT_FIELD_DTYPES = {PointField.INT8: np.int8, PointField.UINT8: np.uint8,
@@ -654,30 +656,33 @@ def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str
 # --- map file ----------------------------------------------------------------------------------
 
 def write_map_file(file_path: str | Path, landmark_map: LandmarkMapLike, frame_id: str,
-                   stamp: float) -> Path:
+                   stamp: float, overwrite: bool = False, inputs: Iterable[str | Path] = ()
+                   ) -> Path:
     """Write the map as CSV (``.csv``) or YAML (any other suffix); return the path written.
+    Through ``output.write_text``: an existing file is replaced only with ``overwrite`` (a
+    link, never its target), never one of ``inputs``, and no folder is made.
 
     One row per landmark with the columns of ``MAP_FILE_COLUMNS``: stable key, external id
     (-1 unknown), mean (m), covariance entries (m^2) and existence probability.
     """
     file_path = Path(file_path).expanduser()
-    file_path.parent.mkdir(parents=True, exist_ok=True)
     rows = [(int(key), int(landmark_id), *map(float, mean), float(cov[0, 0]), float(cov[0, 1]),
              float(cov[1, 1]), float(existence))
             for key, landmark_id, mean, cov, existence in zip(
                 landmark_map.keys, landmark_map.ids, landmark_map.means,
                 landmark_map.covariances, landmark_map.existence)]
     if file_path.suffix.lower() == ".csv":
-        with file_path.open("w", newline="") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(MAP_FILE_COLUMNS)
-            writer.writerows(rows)
+        stream = io.StringIO(newline="")
+        writer = csv.writer(stream)
+        writer.writerow(MAP_FILE_COLUMNS)
+        writer.writerows(rows)
+        text = stream.getvalue()
     else:
         document = {"frame_id": frame_id, "stamp": float(stamp), "count": len(rows),
                     "landmarks": [dict(zip(MAP_FILE_COLUMNS, row)) for row in rows]}
-        file_path.write_text("# fastslam_ros landmark map of the best particle\n" + yaml.safe_dump(
-            document, sort_keys=False, default_flow_style=None, width=1000))
-    return file_path
+        text = "# fastslam_ros landmark map of the best particle\n" + yaml.safe_dump(
+            document, sort_keys=False, default_flow_style=None, width=1000)
+    return write_text(file_path, text, overwrite, inputs)
 
 
 @dataclass
@@ -721,6 +726,9 @@ def read_map_file(file_path: str | Path) -> MapFile:
             raise
         raise MapFileError(f"map file '{file_path}': not a landmark map "
                            f"({type(error).__name__}: {error})") from None
+    if len(table) == 0:
+        raise MapFileError(f"map file '{file_path}': holds no landmark (an empty map is not "
+                           "loaded)")
     column = {name: table[:, index] for index, name in enumerate(MAP_FILE_COLUMNS)}
     covariances = np.stack([np.stack([column["cov_xx"], column["cov_xy"]], -1),
                             np.stack([column["cov_xy"], column["cov_yy"]], -1)], -2)

@@ -321,7 +321,7 @@ def saved_map(tmp_path, count: int = 5):
     means = np.column_stack([np.arange(count, dtype=float), np.ones(count)])
     landmark_map = LandmarkMap(means, np.tile(np.eye(2) * 0.01, (count, 1, 1)), np.ones(count),
                                np.arange(count) + 10, np.arange(count))
-    return ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 0.0)
+    return ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 0.0, overwrite=True)
 
 
 def node_with(context, **values) -> FastSLAMNode:

@@ -11,7 +11,7 @@ import pytest
 
 from fastslam_ros.tools import convert, demo, evaluate, replay, sim
 from fastslam_ros.tools.bag_schema import write_schema_bag
-from fastslam_ros.tools.output import OutputExistsError, check_output, prepare_output
+from fastslam_ros.output import OutputExistsError, check_output, staged_output
 from fastslam_ros.tools.sim import SimConfig, simulate
 
 
@@ -30,32 +30,37 @@ def precious_folder(root: Path) -> Path:
 
 def test_helper_refuses_without_overwrite_and_replaces_only_bags_and_files(tmp_path, bag):
     with pytest.raises(OutputExistsError, match="--overwrite"):
-        prepare_output(bag, overwrite=False)
+        check_output(bag, overwrite=False)
     folder = precious_folder(tmp_path)
     with pytest.raises(OutputExistsError, match="not a rosbag2 bag"):
-        prepare_output(folder, overwrite=True)
+        check_output(folder, overwrite=True)
     (folder / "metadata.yaml").write_text("looks like a bag")  # but holds other files too
     with pytest.raises(OutputExistsError, match="not a rosbag2 bag"):
-        prepare_output(folder, overwrite=True)
+        check_output(folder, overwrite=True)
     assert (folder / "thesis.tex").read_text() == "years of work"
     with pytest.raises(OutputExistsError, match="not a file"):
-        prepare_output(folder, overwrite=True, kind="file")
+        check_output(folder, overwrite=True, kind="file")
     with pytest.raises(OutputExistsError, match="input"):
-        prepare_output(bag, overwrite=True, inputs=[bag])
+        check_output(bag, overwrite=True, inputs=[bag])
     with pytest.raises(OutputExistsError, match="input"):
-        prepare_output(bag / "inside", overwrite=True, inputs=[bag])
+        check_output(bag / "inside", overwrite=True, inputs=[bag])
     with pytest.raises(OutputExistsError, match="input"):
-        prepare_output(bag.parent, overwrite=True, inputs=[bag])
+        check_output(bag.parent, overwrite=True, inputs=[bag])
     assert (bag / "metadata.yaml").exists()
     copy = tmp_path / "old_out"
     write_schema_bag(copy, simulate(SimConfig(duration=1.0, seed=1)))
-    assert prepare_output(copy, overwrite=True) == copy and not copy.exists()
+    with staged_output(copy, overwrite=True) as staged:
+        write_schema_bag(staged, simulate(SimConfig(duration=2.0, seed=1)))
+    assert sorted(os.listdir(tmp_path)) == ["old_out", "precious"]  # no stage left
     note = tmp_path / "note.json"
     note.write_text("{}")
-    assert check_output(note, overwrite=True, kind="file") and note.exists()
-    prepare_output(note, overwrite=True, kind="file")
-    assert not note.exists()
-    assert not check_output(tmp_path / "new" / "deep", overwrite=False)
+    assert check_output(note, overwrite=True, kind="file") and note.read_text() == "{}"
+    with staged_output(note, overwrite=True, kind="file") as staged:
+        staged.write_text("[]")
+    assert note.read_text() == "[]"
+    assert not check_output(tmp_path / "new", overwrite=False)
+    with pytest.raises(OutputExistsError, match="does not exist"):
+        check_output(tmp_path / "new" / "deep", overwrite=False)
 
 
 def test_helper_never_removes_the_working_directory(tmp_path, monkeypatch):
@@ -63,7 +68,7 @@ def test_helper_never_removes_the_working_directory(tmp_path, monkeypatch):
     (tmp_path / "metadata.yaml").write_text("")
     for path in (".", tmp_path, tmp_path.parent):
         with pytest.raises(OutputExistsError, match="working directory"):
-            prepare_output(path, overwrite=True)
+            check_output(path, overwrite=True)
     assert (tmp_path / "metadata.yaml").exists()
 
 

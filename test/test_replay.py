@@ -253,8 +253,8 @@ def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
                 for stamp, size in zip(rng.integers(0, 10**12, 6000), rng.integers(0, 900, 6000))]
     files = []
     for name, wrap in (("rosbags", lambda writer: writer), ("lean", lean_writer)):
-        writer = wrap(open_writer(tmp_path / name / "bag"))  # one name: it is in the file
-        with writer:
+        (tmp_path / name).mkdir()
+        with open_writer(tmp_path / name / "bag", wrap=wrap) as writer:  # one name: in the file
             assert (type(writer.storage) is LeanMcapWriter) == (name == "lean")
             recorder = OutputRecorder(writer)
             assert (recorder._write == writer.write) == (name == "rosbags")

@@ -195,7 +195,7 @@ def test_write_map_file_yaml_reads_back(tmp_path):
     yaml = pytest.importorskip("yaml")
     landmark_map = example_map()
     landmark_map.covariances[2] = np.diag([1e-5, 2e-5])  # exponent floats stay floats in YAML 1.1
-    written = ros_io.write_map_file(tmp_path / "sub" / "map.yaml", landmark_map, "map", 12.5)
+    written = ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 12.5)
     content = yaml.safe_load(written.read_text())
     assert content["frame_id"] == "map" and content["count"] == 3
     rows = content["landmarks"]

@@ -263,7 +263,7 @@ def test_bad_settings_are_rejected_by_name():
 
 def test_written_parameter_file_applies_under_any_namespace(tmp_path):
     from fastslam_ros.node import read_params_file
-    from fastslam_ros.tools.output import write_params_yaml
+    from fastslam_ros.output import write_params_yaml
     params = recommended_params(SimConfig().resolved())
     path = write_params_yaml(tmp_path / "sim.yaml", params, "Recommended\nparameters")
     assert path.read_text().startswith("# Recommended\n# parameters\n/**:\n")

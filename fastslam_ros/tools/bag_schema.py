@@ -21,9 +21,10 @@ logged at its header stamp.
 from __future__ import annotations
 
 import importlib
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 from rosbags.highlevel import AnyReader
@@ -32,8 +33,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
-from fastslam_ros.tools.output import prepare_output
 from fastslam_ros.core.timing import seconds_to_nanoseconds
+from fastslam_ros.output import staged_output
 
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
@@ -303,14 +304,20 @@ def _serialize(msg: Any, msgtype: str) -> bytes:
 # ---------------------------------------------------------------- writing
 
 
+@contextmanager
 def open_writer(path: str | Path, storage: str = "mcap", overwrite: bool = False,
-                inputs: Iterable[str | Path] = ()) -> Writer:
-    """An unopened rosbags ``Writer`` for a rosbag2 folder; ``overwrite`` replaces an old bag
-    there (``output.prepare_output``: never another folder, nor one of ``inputs``)."""
+                inputs: Iterable[str | Path] = (),
+                wrap: Callable[[Writer], Writer] | None = None) -> Iterator[Writer]:
+    """An open rosbags ``Writer`` for a rosbag2 folder at ``path`` (``wrap`` adapts it before it
+    opens), through ``output.staged_output``: the bag appears at ``path`` only when the block
+    ends without an error; ``overwrite`` replaces an old bag there, never another folder nor
+    one of ``inputs``."""
     if storage not in STORAGE_PLUGINS:
         raise ValueError(f"storage: must be one of {sorted(STORAGE_PLUGINS)} (got {storage!r})")
-    path = prepare_output(path, overwrite, "bag", inputs)
-    return Writer(path, version=9, storage_plugin=STORAGE_PLUGINS[storage])
+    with staged_output(path, overwrite, "bag", inputs) as staged:
+        writer = Writer(staged, version=9, storage_plugin=STORAGE_PLUGINS[storage])
+        with wrap(writer) if wrap is not None else writer as opened:
+            yield opened
 
 
 def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
@@ -319,13 +326,12 @@ def write_schema_bag(path: str | Path, bag: SchemaBag, storage: str = "mcap",
                      inputs: Iterable[str | Path] = ()) -> Path:
     """Write ``bag`` as a schema-v1 rosbag2 folder at ``path`` (``mcap`` or ``sqlite3``);
     ``extra`` adds serialized messages (topic, msgtype, stamp ns, CDR bytes) of other topics;
-    ``inputs`` are never replaced (``tools.output``)."""
+    ``inputs`` are never replaced (``fastslam_ros.output``)."""
     extra = list(extra)
     records = list(_schema_records(bag))
     records += [_Record(stamp_ns, 4, topic, data) for topic, _, stamp_ns, data in extra]
     records.sort(key=lambda record: (record.stamp_ns, record.order))
-    writer = open_writer(path, storage, overwrite, inputs)
-    with writer:
+    with open_writer(path, storage, overwrite, inputs) as writer:
         connections = {}
         for topic, msgtype in dict((topic, msgtype) for topic, msgtype, _, _ in extra).items():
             connections[topic] = writer.add_connection(topic, msgtype, typestore=TYPESTORE)

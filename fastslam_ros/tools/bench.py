@@ -30,7 +30,7 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import ASSOCIATION_MODES, numba_available
 from fastslam_ros.core.landmark_store import STATE_WIDTH
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.output import check_output, write_text
 from fastslam_ros.tools.synthetic import make_world
 
 LANDMARK_RECORD_BYTES = STATE_WIDTH * 8 + 2 * 8 + 1
@@ -288,9 +288,7 @@ def main(argv: list[str] | None = None) -> int:
         from fastslam_ros.tools.soak import bench_soak
         results["soak"] = bench_soak()
     if args.json:
-        path = prepare_output(args.json, args.overwrite, "file")
-        with path.open("w", encoding="utf-8") as handle:
-            json.dump(results, handle, indent=2)
+        write_text(args.json, json.dumps(results, indent=2), args.overwrite)
     return 0
 
 

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from fastslam_ros.output import write_text
 from fastslam_ros.tools import cli, convert
 
 FAMILY_CONFIGS = {"mrclam": "mrclam.yaml", "victoria-park": "victoria_park.yaml",
@@ -300,10 +301,11 @@ def main(argv: list[str] | None = None) -> int:
                   f"{rows[-1]['association']}", file=sys.stderr)
     failed = [row for row in rows if "error" in row]
     table = markdown([row for row in rows if "error" not in row], baselines)
-    (args.out_dir / "benchmark.md").write_text(table + "\n")
-    (args.out_dir / "benchmark.json").write_text(json.dumps(
+    write_text(args.out_dir / "benchmark.md", table + "\n", overwrite=True)
+    write_text(args.out_dir / "benchmark.json", json.dumps(
         {"rows": rows, "dead_reckoning": baselines, "sequences": [
-            {**asdict(s), "source": str(s.source)} for s in sequences]}, indent=2, default=str))
+            {**asdict(s), "source": str(s.source)} for s in sequences]}, indent=2, default=str),
+        overwrite=True)
     print(table)
     for row in failed:
         print(f"FAILED {row['sequence']} {row['algorithm']} {row['association']}: {row['error']}",

@@ -423,8 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
     from fastslam_ros.tools.bag_schema import read_schema_bag
-    from fastslam_ros.tools.output import check_output
-    from fastslam_ros.tools.output import write_params_yaml
+    from fastslam_ros.output import check_output
+    from fastslam_ros.output import write_params_yaml
 
     prog = "fastslam-calibrate"
     parser = build_parser()

@@ -37,12 +37,15 @@ def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_
             odometry: dict | None = None) -> Recording:
     """Convert a dataset to a schema-v1 bag at ``out``; return the recording written."""
     from fastslam_ros.tools.bag_schema import write_schema_bag
-    from fastslam_ros.tools.output import check_output
+    from fastslam_ros.output import check_output
 
     check_output(out, overwrite, "bag", inputs=[source])  # before the parsing work
     recording = load_recording(kind, source, robot, use_ids, odometry)
     if duration is not None:
         recording = recording.head(duration)
+    if len(recording.odometry_stamps) < 2 or len(recording.scan_stamps) == 0:
+        raise ValueError(f"{source}: no run to convert ({len(recording.odometry_stamps)} "
+                         f"odometry poses, {len(recording.scan_stamps)} readings)")
     write_schema_bag(out, recording.to_schema_bag(), storage=storage, overwrite=overwrite,
                      inputs=[source])
     return recording

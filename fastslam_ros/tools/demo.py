@@ -17,7 +17,8 @@ from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import write_schema_bag
 from fastslam_ros.tools.evaluate import evaluate_run, load_run, markdown_table
 from fastslam_ros.tools.metrics import json_ready
-from fastslam_ros.tools.output import check_output, prepare_output, write_params_yaml
+from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
+                                 write_text)
 from fastslam_ros.tools.plot import plot_evaluation
 from fastslam_ros.tools.replay import replay_bag, summary_lines
 from fastslam_ros.tools.sim import SCENARIOS, SimConfig, recommended_params, simulate
@@ -37,8 +38,18 @@ def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: 
                                                          "result.png")]
     for path, kind in [(bag_path, "bag"), (out_dir / "replay", "bag")] + [(f, "file")
                                                                           for f in files]:
-        check_output(path, overwrite, kind)
-    out_dir.mkdir(parents=True, exist_ok=True)
+        if out_dir.is_dir():
+            check_output(path, overwrite, kind)
+    with all_or_nothing([out_dir, bag_path, out_dir / "replay"] + files):
+        out_dir.mkdir(exist_ok=True)
+        return _demo_outputs(out_dir, bag_path, params_path, overwrite, progress,
+                             (scenario, particles, seed, algorithm, association, duration))
+
+
+def _demo_outputs(out_dir: Path, bag_path: Path, params_path: Path, overwrite: bool,
+                  progress: bool, run: tuple) -> dict:
+    """``run_demo``'s work once its outputs are checked."""
+    scenario, particles, seed, algorithm, association, duration = run
     config = SimConfig(scenario=scenario, seed=seed, duration=duration)
     write_schema_bag(bag_path, simulate(config), overwrite=overwrite)
     params = dict(recommended_params(config), num_particles=particles, seed=seed,
@@ -51,11 +62,13 @@ def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: 
     print("\n".join(summary_lines(result)), file=sys.stderr)
     evaluation = evaluate_run(load_run(out_dir / "replay"))
     table = markdown_table(evaluation.metrics)
-    prepare_output(out_dir / "summary.md", overwrite, "file").write_text(table + "\n")
-    prepare_output(out_dir / "metrics.json", overwrite, "file").write_text(
-        json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
-    plot_evaluation(evaluation, prepare_output(out_dir / "result.png", overwrite, "file"),
-                    title=f"{scenario}: {algorithm}, {association} association, M = {particles}")
+    write_text(out_dir / "summary.md", table + "\n", overwrite)
+    write_text(out_dir / "metrics.json", json.dumps(json_ready(evaluation.metrics), indent=2)
+               + "\n", overwrite)
+    with staged_output(out_dir / "result.png", overwrite, "file") as staged:
+        plot_evaluation(evaluation, staged,
+                        title=f"{scenario}: {algorithm}, {association} association, "
+                              f"M = {particles}")
     print(table)
     print(f"\nfiles in {out_dir}: summary.md, metrics.json, result.png, replay/, "
           f"{bag_path.name}/, {params_path.name}")

@@ -35,7 +35,7 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -50,7 +50,7 @@ from fastslam_ros.tools.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHOLD, OSPA_CU
                                         TrajectoryResult, Transform2D, evaluate_trajectory,
                                         json_ready, landmark_metrics, pose_stamped_series,
                                         reference_positions)
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.output import check_output, staged_output, write_text
 
 POSE_TOPIC = "/fastslam/pose"
 PATH_TOPIC = "/fastslam/path"
@@ -318,16 +318,18 @@ def _tum_lines(stamps: np.ndarray, positions: np.ndarray, yaws: np.ndarray) -> s
     return "".join(" ".join(f"{value:.9f}" for value in row) + "\n" for row in rows)
 
 
-def write_tum(evaluation: Evaluation, folder: str | Path) -> list[Path]:
+def write_tum(evaluation: Evaluation, folder: str | Path, overwrite: bool = False,
+              inputs: Iterable[str | Path] = ()) -> list[Path]:
     """Write the scored trajectories as TUM files for evo (``evo_ape tum ground_truth.tum
     estimate.tum -a``); return the files written.
 
     Each trajectory file holds the samples the evaluation scored (those with ground truth), at
     the point the ground truth measures; ``ground_truth.tum`` holds the reference interpolated
     at the same stamps, so evo pairs exactly the samples compared here and reports the same
-    ATE."""
+    ATE. ``folder`` is made if missing (its parent must exist); an existing file is replaced
+    only with ``overwrite``."""
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder.mkdir(exist_ok=True)
     run = evaluation.run
     series = {"estimate": run.estimate, "final_path": run.final_path,
               "dead_reckoning": run.odometry}
@@ -335,9 +337,8 @@ def write_tum(evaluation: Evaluation, folder: str | Path) -> list[Path]:
     for name, result in evaluation.trajectories.items():
         source = series[name]
         index = np.searchsorted(source.stamps, result.stamps)
-        path = folder / TUM_NAMES[name]
-        path.write_text(_tum_lines(result.stamps, result.estimate, source.poses[index, 2]))
-        written.append(path)
+        written.append(write_text(folder / TUM_NAMES[name], _tum_lines(
+            result.stamps, result.estimate, source.poses[index, 2]), overwrite, inputs))
     if evaluation.trajectories and run.ground_truth is not None:
         results = list(evaluation.trajectories.values())
         stamps = np.concatenate([r.stamps for r in results])
@@ -346,9 +347,8 @@ def write_tum(evaluation: Evaluation, folder: str | Path) -> list[Path]:
         truth = run.ground_truth
         yaws = (np.zeros(len(stamps)) if truth.position_only else
                 interpolate_poses(truth.stamps, truth.poses, stamps)[:, 2])
-        path = folder / TUM_GROUND_TRUTH
-        path.write_text(_tum_lines(stamps, positions[first], yaws))
-        written.append(path)
+        written.append(write_text(folder / TUM_GROUND_TRUTH,
+                                  _tum_lines(stamps, positions[first], yaws), overwrite, inputs))
     return written
 
 
@@ -401,7 +401,8 @@ def main(argv: list[str] | None = None) -> int:
         return people_eval.main(argv)
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     written = [args.json, args.plot] + ([args.tum / name for name in TUM_NAMES.values()]
-                                        + [args.tum / TUM_GROUND_TRUTH] if args.tum else [])
+                                        + [args.tum / TUM_GROUND_TRUTH]
+                                        if args.tum and args.tum.is_dir() else [])
     try:
         cli.input_bag(args.out)
         if args.ground_truth is not None:
@@ -432,15 +433,14 @@ def main(argv: list[str] | None = None) -> int:
     print(markdown_table(evaluation.metrics))
     try:
         if args.json:
-            prepare_output(args.json, args.overwrite, "file", inputs).write_text(
-                json.dumps(json_ready(evaluation.metrics), indent=2) + "\n")
+            write_text(args.json, json.dumps(json_ready(evaluation.metrics), indent=2) + "\n",
+                       args.overwrite, inputs)
         if args.plot:
             from fastslam_ros.tools.plot import plot_evaluation
-            plot_evaluation(evaluation, prepare_output(args.plot, args.overwrite, "file", inputs))
+            with staged_output(args.plot, args.overwrite, "file", inputs) as staged:
+                plot_evaluation(evaluation, staged)
         if args.tum:
-            for path in written[2:]:
-                prepare_output(path, args.overwrite, "file", inputs)
-            write_tum(evaluation, args.tum)
+            write_tum(evaluation, args.tum, args.overwrite, inputs)
     except OSError as error:
         return cli.fail(prog, f"cannot write: {error}", cli.EXIT_USAGE)
     return 0

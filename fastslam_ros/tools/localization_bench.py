@@ -30,12 +30,12 @@ import numpy as np
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag2 import StoragePlugin, Writer
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools.bag_schema import INITIAL_POSE_TOPIC, TYPESTORE, write_schema_bag
+from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, open_writer,
+                                           write_schema_bag)
 from fastslam_ros.tools.evaluate import evaluate_run, load_run
 from fastslam_ros.tools.replay import replay_bag
 from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
@@ -73,8 +73,7 @@ def with_initial_pose(bag: Path, out: Path, pose: np.ndarray, covariance: np.nda
     """A copy of ``bag`` with one ``/initialpose`` (map frame) at its first message."""
     with AnyReader([bag], default_typestore=TYPESTORE) as reader:
         first_ns = min(c.msgcount and reader.start_time for c in reader.connections)
-        writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
-        with writer:
+        with open_writer(out) as writer:
             connections = {c.topic: writer.add_connection(c.topic, c.msgtype, typestore=TYPESTORE)
                            for c in reader.connections}
             msg = PoseWithCovarianceStamped(header=Header(

@@ -21,6 +21,7 @@ import yaml
 
 from fastslam_ros.core.params import Spec
 from fastslam_ros.node import CORE_PARAMETERS, NODE_NAME, NODE_PARAMETERS
+from fastslam_ros.output import write_text
 
 REPO = Path(__file__).resolve().parents[2]
 YAML_PATH = Path("config") / "fastslam.yaml"
@@ -128,8 +129,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"params_doc: {path} was not written by this tool; not replacing it",
                   file=sys.stderr)
             return 1
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
+        path.parent.mkdir(exist_ok=True)  # config/ or docs/ of the repository at --root
+        write_text(path, text, overwrite=True)
         print(f"wrote {path}")
     if args.check and stale:
         print(f"params_doc: out of date: {', '.join(stale)}", file=sys.stderr)

@@ -35,7 +35,8 @@ from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
+                                 write_text)
 from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_POSE_TOPIC, REPLAY_INFO_TOPIC,
                                            PoseSeries, cloud_to_arrays,
                                            pose_series_from_messages, read_topics,
@@ -364,20 +365,27 @@ def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
     """``fastslam-demo --scenario people``: simulate, replay through the node, score, plot into
     ``out_dir`` (sim_people/, sim_people.yaml, replay/, metrics.json, summary.md,
     result.png). Every output is checked before anything is written; an existing one is
-    replaced only with ``overwrite`` (``tools.output``)."""
-    from fastslam_ros.tools.replay import replay_people_bag
-    from fastslam_ros.tools.people_sim import (PeopleSimConfig, recommended_params,
-                                               simulate_people, write_people_bag)
-    from fastslam_ros.tools.replay import summary_lines
-    from fastslam_ros.tools.output import write_params_yaml
+    replaced only with ``overwrite`` (``fastslam_ros.output``)."""
     out_dir = Path(out_dir)
     bag_path, replay_path = out_dir / "sim_people", out_dir / "replay"
     files = {name: out_dir / name for name in ("sim_people.yaml", "summary.md", "metrics.json",
                                                "result.png")}
     for path, kind in [(bag_path, "bag"), (replay_path, "bag")] + [(f, "file")
                                                                    for f in files.values()]:
-        check_output(path, overwrite, kind)
-    out_dir.mkdir(parents=True, exist_ok=True)
+        if out_dir.is_dir():
+            check_output(path, overwrite, kind)
+    with all_or_nothing([out_dir, bag_path, replay_path] + list(files.values())):
+        out_dir.mkdir(exist_ok=True)
+        return _people_demo_outputs(out_dir, files, seed, duration, progress, overwrite)
+
+
+def _people_demo_outputs(out_dir: Path, files: dict[str, Path], seed: int, duration: float,
+                         progress: bool, overwrite: bool) -> dict:
+    """``run_people_demo``'s work once its outputs are checked."""
+    from fastslam_ros.tools.people_sim import (PeopleSimConfig, recommended_params,
+                                               simulate_people, write_people_bag)
+    from fastslam_ros.tools.replay import replay_people_bag, summary_lines
+    bag_path, replay_path = out_dir / "sim_people", out_dir / "replay"
     config = PeopleSimConfig(seed=seed, duration=duration).validate()
     write_people_bag(bag_path, simulate_people(config), config, overwrite=overwrite)
     params_path = write_params_yaml(files["sim_people.yaml"], recommended_params(config),
@@ -388,11 +396,11 @@ def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
     print("\n".join(summary_lines(result)), file=sys.stderr)
     metrics, plot_data = evaluate_people_bag(replay_path)
     table = markdown_table(metrics)
-    prepare_output(files["summary.md"], overwrite, "file").write_text(table + "\n")
-    prepare_output(files["metrics.json"], overwrite, "file").write_text(
-        json.dumps(json_ready(metrics), indent=2) + "\n")
-    plot_people(plot_data, prepare_output(files["result.png"], overwrite, "file"),
-                title=f"people tracking, seed {seed}, {duration:g} s")
+    write_text(files["summary.md"], table + "\n", overwrite)
+    write_text(files["metrics.json"], json.dumps(json_ready(metrics), indent=2) + "\n",
+               overwrite)
+    with staged_output(files["result.png"], overwrite, "file") as staged:
+        plot_people(plot_data, staged, title=f"people tracking, seed {seed}, {duration:g} s")
     print(table)
     print(f"\nfiles in {out_dir}: summary.md, metrics.json, result.png, replay/, sim_people/, "
           "sim_people.yaml")
@@ -437,10 +445,11 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail(prog, f"cannot score {args.out}: {error}", cli.EXIT_FAILURE)
     print(markdown_table(metrics))
     if args.json:
-        prepare_output(args.json, args.overwrite, "file", inputs).write_text(
-            json.dumps(json_ready(metrics), indent=2) + "\n")
+        write_text(args.json, json.dumps(json_ready(metrics), indent=2) + "\n", args.overwrite,
+                   inputs)
     if args.plot:
-        plot_people(plot_data, prepare_output(args.plot, args.overwrite, "file", inputs))
+        with staged_output(args.plot, args.overwrite, "file", inputs) as staged:
+            plot_people(plot_data, staged)
     return 0
 
 

@@ -34,7 +34,7 @@ from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, Landma
                                            PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
                                            yaw_to_quaternion)
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.output import check_output, write_params_yaml
+from fastslam_ros.output import check_output, write_params_yaml
 
 MAP_TOPIC = "/map"
 SCAN_TOPIC = "/scan"

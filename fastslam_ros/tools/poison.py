@@ -137,8 +137,8 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
     rng = np.random.default_rng(seed)
     builders = fault_builders(rng)
     counts = dict.fromkeys((name for name, _ in builders), 0)
-    writer = open_writer(out, "mcap", overwrite, inputs=[bag])
-    with AnyReader([Path(bag)], default_typestore=TYPESTORE) as reader, writer:
+    with AnyReader([Path(bag)], default_typestore=TYPESTORE) as reader, \
+            open_writer(out, "mcap", overwrite, inputs=[bag]) as writer:
         connections = {}
         last: dict[str, object] = {}
         next_fault, turn, amend = None, 0, None

@@ -69,7 +69,7 @@ from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_
                                            TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
                                            open_writer, ros_message_class, tf_message_bytes,
                                            transform_message)
-from fastslam_ros.tools.output import check_output
+from fastslam_ros.output import check_output
 
 TF_TOPIC = "/tf"
 STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL,
@@ -465,9 +465,8 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                        for name in sorted(set(merged) | set(target.recorded_params))}
         recorder = None
         if out_path is not None:
-            writer = lean_writer(open_writer(out_path, "mcap", overwrite, inputs))
-            writer.open()
-            cleanup.callback(writer.close)
+            writer = cleanup.enter_context(open_writer(out_path, "mcap", overwrite, inputs,
+                                                       wrap=lean_writer))
             recorder = OutputRecorder(writer)
             node.output_listeners.append(recorder.record)
             _record_static_transforms(node, reader, recorder, topics, target)
@@ -478,7 +477,7 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                               Path(out_path) if out_path is not None else None, used_params,
                               time.process_time() - start_cpu)
         if save_map is not None:
-            result.saved_map = node.save_map(save_map)
+            result.saved_map = node.save_map(save_map, overwrite, inputs)
         if recorder is not None:
             info = {"bag": str(bag_path), "node": target.node_name,
                     "wall_time": result.wall_time, "cpu_time": result.cpu_time,

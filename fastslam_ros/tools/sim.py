@@ -28,7 +28,7 @@ from fastslam_ros.tools import cli
 from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
 from fastslam_ros.tools.converters import polar_to_points
-from fastslam_ros.tools.output import check_output, write_params_yaml
+from fastslam_ros.output import check_output, write_params_yaml
 from fastslam_ros.tools.world import (Car, RangeBearingSensor, distance_to_route,
                                       scatter_landmarks)
 

@@ -27,7 +27,7 @@ from std_msgs.msg import Header
 from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.output import check_output, prepare_output
+from fastslam_ros.output import check_output, write_text
 from fastslam_ros.tools.replay import isolated_context
 from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
 
@@ -171,9 +171,7 @@ def main(argv: list[str] | None = None) -> int:
                   progress=lambda line: print(line, file=sys.stderr, flush=True))
     print(report(result))
     if args.json:
-        path = prepare_output(args.json, args.overwrite, "file")
-        with path.open("w", encoding="utf-8") as handle:
-            json.dump(result, handle, indent=2, default=str)
+        write_text(args.json, json.dumps(result, indent=2, default=str), args.overwrite)
     return 0
 
 

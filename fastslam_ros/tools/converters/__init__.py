@@ -9,6 +9,7 @@ parameters from the data. :func:`Recording.to_schema_bag` turns a recording into
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +23,9 @@ def read_table(path: Path | str, columns: int) -> np.ndarray:
 
     Handles ``#`` comment lines, tabs, CRLF line ends and an empty file.
     """
-    table = np.loadtxt(path, comments="#", ndmin=2)
+    with warnings.catch_warnings():  # an empty file is an empty table, not a warning
+        warnings.simplefilter("ignore", UserWarning)
+        table = np.loadtxt(path, comments="#", ndmin=2)
     if table.size == 0:
         return np.zeros((0, columns))
     if table.shape[1] < columns:
