@@ -1,6 +1,30 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""The compiled backend against the numpy one at a larger M, and the core without numba."""
+"""The compiled backend against the numpy one at a larger M, and the core without numba.
+
+Each numba twin in ``core/compiled/`` and the numpy module it mirrors, and the tests that run
+both on the same draws:
+
+- ``association``, ``proposal``, ``landmark_ekf`` (inside ``reading``) vs ``core.association``,
+  ``core.proposal``, ``core.landmark_ekf`` through ``FastSLAM``: the whole-reading tests
+  ``test_compiled_backend_makes_the_same_choices_as_numpy``,
+  ``test_parallel_reading_makes_the_same_choices_as_numpy``,
+  ``test_loop_closure_shifts_the_same_particles_on_both_backends``,
+  ``test_existence_from_a_detection_probability_is_the_same_on_both_backends``;
+- ``motion`` vs ``core.motion``: ``test_prior_moved_in_the_reading_matches_numpy``,
+  ``test_compiled_odometry_prior_matches_the_numpy_steps``;
+- ``resampling`` vs ``core.resampling``:
+  ``test_compiled_systematic_resampling_draws_the_numpy_indices``,
+  ``test_compiled_take_matches_the_working_set_take``,
+  ``test_in_place_reindex_matches_the_working_set_take``,
+  ``test_compiled_resampling_of_the_poses_matches_numpy``;
+- ``path_history`` vs ``core.path_history``:
+  ``test_compiled_path_pruning_keeps_the_numpy_history``;
+- ``landmark_store`` vs ``core.landmark_store``: ``test_compiled_gather_matches_the_store_gather``,
+  ``test_compiled_write_back_leaves_the_store_of_the_numpy_one``,
+  ``test_compiled_write_back_reads_through_a_pending_resampling``;
+- ``crew``: ``test_crew_runs_each_job_and_raises_a_workers_error_here``.
+"""
 from __future__ import annotations
 
 import os
@@ -39,8 +63,8 @@ def test_parallel_reading_makes_the_same_choices_as_numpy(algorithm, association
                                                           monkeypatch):
     """The reading split into chunks of particles on two threads (what M >= 500 runs with
     two cores) gives the numpy reference's results too."""
-    from fastslam_ros.core import kernels
-    monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: 2)
+    from fastslam_ros.core import compiled as kernels
+    monkeypatch.setattr(kernels.crew, "threads_for", lambda num_particles: 2)
     assert_same_run(algorithm, association)
 
 
@@ -67,9 +91,9 @@ def test_prior_moved_in_the_reading_matches_numpy(threads, monkeypatch):
     """FastSLAM 2.0's prior moved by ``advance_mean``, its covariance propagated in the next
     reading's blocks: from none, from a prior moved by an earlier ``predict`` (its covariance
     then propagated at once), and too wide (sampled): the numpy reference's results."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     from fastslam_ros.core.fastslam import MAX_PRIOR_HEADING_SIGMA
-    monkeypatch.setattr(kernels, "_threads_for", lambda num_particles: threads)
+    monkeypatch.setattr(kernels.crew, "threads_for", lambda num_particles: threads)
     seen = set()
     advance_mean = kernels.advance_mean
 
@@ -148,7 +172,7 @@ def assert_same_run(algorithm: str, association: str, halves: bool = False,
 def test_compiled_systematic_resampling_draws_the_numpy_indices():
     """Same weights and generator state: the same indices as ``systematic_resample``, also
     with degenerate weights (one particle holds all, zeros, ties at the pointers)."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(5)
     cases = [rng.gamma(0.3, size=count) for count in (1, 7, 100, 1000) for _ in range(20)]
     cases += [np.eye(50)[17], np.full(64, 1.0), np.repeat([0.0, 1.0], 40)]
@@ -165,7 +189,7 @@ def test_compiled_systematic_resampling_draws_the_numpy_indices():
 def test_compiled_take_matches_the_working_set_take():
     """Resampling the working set: every array equal to ``WorkingSet.take``'s, in fresh
     arrays (the source is left as it was)."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(2)
     particles, width = 40, 9
     ws = WorkingSet(row=rng.integers(-1, 50, (particles, width)),
@@ -192,7 +216,7 @@ def test_in_place_reindex_matches_the_working_set_take():
     """The working set reindexed in place after resampling (systematic draws: sorted indices,
     also compositions of them and collapses onto one particle; other indices are copied)
     holds what ``WorkingSet.take`` gives, the free columns left empty as gathered."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(8)
     for particles in (1, 7, 60):
         store = LandmarkStore(particles, 5.0)
@@ -223,7 +247,7 @@ def test_in_place_reindex_matches_the_working_set_take():
 def test_compiled_resampling_of_the_poses_matches_numpy():
     """``resample_poses``: the indices of ``systematic_resample`` on the same draw, the poses
     they pick and the first copy of the given particle (-1 when it has none)."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(6)
     for count in (1, 7, 100, 1000):
         for _ in range(10):
@@ -245,7 +269,7 @@ def test_compiled_resampling_of_the_poses_matches_numpy():
 def test_compiled_path_pruning_keeps_the_numpy_history():
     """The path history pruned by the compiled kernels holds the same generations, parents,
     poses and chain as the numpy one, through sorted, unsorted and collapsing resamplings."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     from fastslam_ros.core.path_history import PathHistory
     for particles in (1, 6, 50):
         rng = np.random.default_rng(particles)
@@ -278,7 +302,7 @@ def test_compiled_path_pruning_keeps_the_numpy_history():
 def test_compiled_gather_matches_the_store_gather():
     """The working set of some cells of a shared store with copy-on-write blocks, full cells
     and particles without a landmark there: equal to ``LandmarkStore.gather``'s."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     world = make_world(seed=4, num_landmarks=40, extent=20.0, num_steps=40, max_range=6.0)
     slam = FastSLAM(FastSLAMConfig(num_particles=30, association="ml", max_range=6.0,
                                    cell_size=3.0, backend="numpy"),
@@ -297,7 +321,7 @@ def test_compiled_gather_matches_the_store_gather():
         expected = store.gather(columns, 4)
         # On the calling thread and in chunks of particles on two threads.
         for threads in (1, 2):
-            got = kernels._gather(store, columns, 4, threads)
+            got = kernels.landmark_store._gather(store, columns, 4, threads)
             assert got.first_new_slot == expected.first_new_slot > 0
             for name in vars(expected):
                 np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
@@ -317,7 +341,7 @@ def test_compiled_gather_matches_the_store_gather():
 def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
     """Random insertions (overflowing blocks), resamplings, updates and removals with known
     labels: the compiled write-back gives the numpy store's pool, tables and counts."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(8)
     count = 6
     stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
@@ -349,7 +373,7 @@ def test_compiled_write_back_reads_through_a_pending_resampling():
     are particle ``order[m]``'s, some copied twice, none of some): the compiled write-back,
     which reads through ``order``, leaves the store of the numpy one, which applies it first;
     copies of a keyless new landmark get a key each."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(5)
     count = 8
     stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
@@ -398,7 +422,7 @@ def test_compiled_odometry_prior_matches_the_numpy_steps():
     """``kernels.advance_mean`` and ``propagate_cov`` against ``from_delta``,
     ``control_variances`` and ``propagate_gaussian``: forward, backward, turning in place,
     with random-walk terms."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
     from fastslam_ros.core.motion import OdometryControl, control_variances, propagate_gaussian
     from fastslam_ros.core.observation import SensorOffset
     rng = np.random.default_rng(4)
@@ -442,7 +466,7 @@ def test_core_runs_without_numba():
         "from fastslam_ros.core import FastSLAM, FastSLAMConfig\n"
         "slam = FastSLAM(FastSLAMConfig(num_particles=5, seed=1))\n"
         "slam.update([2.0], [0.1])\n"
-        "assert slam.backend == 'numpy' and 'fastslam_ros.core.kernels' not in sys.modules\n"
+        "assert slam.backend == 'numpy' and 'fastslam_ros.core.compiled' not in sys.modules\n"
         "try:\n"
         "    FastSLAMConfig(backend='numba').validate()\n"
         "except ValueError as error:\n"
@@ -476,12 +500,15 @@ def test_no_kernel_compiles_on_a_reading_after_warm_up(particles):
     PARALLEL_MIN_PARTICLES on) adds no compiled signature to any kernel."""
     script = (
         "from numba.core.registry import CPUDispatcher\n"
-        "from fastslam_ros.core import FastSLAM, FastSLAMConfig, kernels\n"
+        "from fastslam_ros.core import FastSLAM, FastSLAMConfig, compiled as kernels\n"
         "from fastslam_ros.tools.synthetic import make_world\n"
         "kernels.warm_up()\n"
-        "kernels._threads_for = lambda m: 1 if m < kernels.PARALLEL_MIN_PARTICLES else 2\n"
+        "kernels.crew.threads_for = lambda m: 1 if m < kernels.PARALLEL_MIN_PARTICLES else 2\n"
+        "import sys\n"
         "def compiled():\n"
-        "    return {name: len(value.signatures) for name, value in vars(kernels).items()\n"
+        "    return {f'{module}.{name}': len(value.signatures)\n"
+        "            for module in list(sys.modules) if module.startswith(kernels.__name__)\n"
+        "            for name, value in vars(sys.modules[module]).items()\n"
         "            if isinstance(value, CPUDispatcher)}\n"
         "before = compiled()\n"
         "world = make_world(seed=3, num_landmarks=20, extent=24.0, num_steps=15, max_range=9.0)\n"
@@ -515,9 +542,9 @@ def test_existence_from_a_detection_probability_is_the_same_on_both_backends():
 def test_crew_runs_each_job_and_raises_a_workers_error_here():
     """The chunked gather's hand-off: every job runs once (the first on this thread), and an
     exception on a worker is raised on the calling thread."""
-    from fastslam_ros.core import kernels
+    from fastslam_ros.core import compiled as kernels
 
-    crew = kernels._Crew(1)
+    crew = kernels.crew._Crew(1)
     done = []
     try:
         crew.run_each(lambda x: done.append(x), [(0,), (1,)])

@@ -135,7 +135,7 @@ class FastSLAM:
         """Readings after which ``localization`` mode redrew particles at a pose found from
         the reading (``relocalization_fraction``)."""
         self.kernels = self._load_kernels()
-        """The compiled backend (``core.kernels``) when it runs, else None (numpy)."""
+        """The compiled backend (``core.compiled``) when it runs, else None (numpy)."""
         self.backend = "numpy" if self.kernels is None else "numba"
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
@@ -147,12 +147,12 @@ class FastSLAM:
         self.reset(initial_pose)
 
     def _load_kernels(self):
-        """``core.kernels``, compiled (or loaded from cache) now, when ``backend`` asks for it
+        """``core.compiled``, compiled (or loaded from cache) now, when ``backend`` asks for it
         and the configuration is one it covers; None: the numpy path."""
         config = self.config
         if config.backend == "numpy" or (config.backend == "auto" and not numba_available()):
             return None
-        from . import kernels  # noqa: PLC0415 (optional dependency)
+        from . import compiled as kernels  # noqa: PLC0415 (optional dependency)
         kernels.warm_up()
         return kernels
 
@@ -304,7 +304,7 @@ class FastSLAM:
     def _prior(self) -> tuple[np.ndarray, np.ndarray] | None:
         """FastSLAM 2.0's Gaussian prior (mean (M, 3), cov (M, 3, 3)) or None; a covariance
         left to the next reading (``_deferred``: the turn, the covariance it moves from and
-        the motion of ``kernels.advance_mean``) is propagated here first."""
+        the motion of ``compiled.advance_mean``) is propagated here first."""
         if self._deferred is not None:
             turn, cov, motion = self._deferred
             self._deferred = None
@@ -400,7 +400,7 @@ class FastSLAM:
     def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
                          farthest: float, stamp: float) -> UpdateReport:
         """``update`` on the compiled backend: the reading's math in one call
-        (``kernels.update_reading``), on the numpy path's random draws in its order;
+        (``compiled.update_reading``), on the numpy path's random draws in its order;
         ``farthest``: the largest of ``ranges`` (0 when empty)."""
         config, count = self.config, self.num_particles
         known = config.association == "known"

@@ -204,7 +204,7 @@ class LandmarkStore(RecordViews):
                  initial_rows: int = 64, kernels=None) -> None:
         self.num_particles = num_particles
         self.kernels = kernels
-        """The compiled backend (``core.kernels``) that gathers working sets, writes them back
+        """The compiled backend (``core.compiled``) that gathers working sets, writes them back
         and reads one particle's map (the cache reindexes with it too), or None: numpy."""
         self.cell_size = float(cell_size)
         self.capacity = capacity

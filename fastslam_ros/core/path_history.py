@@ -39,7 +39,7 @@ class PathHistory:
                  chain_capacity: int = CHAIN_CAPACITY, kernels=None) -> None:
         self.num_particles = num_particles
         self.kernels = kernels
-        """The compiled backend (``core.kernels``, which then prunes) or None."""
+        """The compiled backend (``core.compiled``, which then prunes) or None."""
         self.prune_every = prune_every
         self.chain_capacity = max(chain_capacity, 2 * prune_every)
         self._chain_stamps = np.zeros(0)

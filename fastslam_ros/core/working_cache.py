@@ -33,7 +33,7 @@ class WorkingSetCache:
         self.pending: np.ndarray | None = None
         """Compiled backend: the resampling (particle m takes the entries of particle
         ``pending[m]``) not yet applied to the working set; the next reading's kernels apply
-        it on their way (``kernels.update_reading``), anything else through ``current``."""
+        it on their way (``compiled.update_reading``), anything else through ``current``."""
         self._box = (0, 0, 0, 0)
         self._labels: set[int] = set()
 

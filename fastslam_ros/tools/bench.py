@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     parts = args.only or ["throughput", "sweep", "scaling", "memory"]
     backends = tuple(args.backend or (("numpy", "numba") if numba_available() else ("numpy",)))
     if "numba" in backends:
-        from fastslam_ros.core import kernels  # noqa: PLC0415 (optional dependency)
+        from fastslam_ros.core import compiled as kernels  # noqa: PLC0415 (optional)
         print(f"numba kernels ready in {kernels.warm_up():.1f} s", flush=True)
         if args.threads is not None:
             kernels.set_threads(args.threads)

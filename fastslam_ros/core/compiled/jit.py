@@ -1,0 +1,45 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
+"""What every numba twin shares: the compile options and the scalar helpers (angle wrap,
+sensor lever arm, log-add-exp) that the numpy modules write as array operations."""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..geometry import TWO_PI
+
+
+LOG2 = math.log(2.0)
+
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+
+@njit(**_JIT)
+def _wrap(angle):
+    """``geometry.wrap_scalar``."""
+    return min(angle - TWO_PI * math.ceil(angle * (1.0 / TWO_PI) - 0.5), math.pi)
+
+
+@njit(**_JIT)
+def _lever(theta, ox, oy):
+    """Sensor position relative to the robot in the world frame (0 without an offset)."""
+    if ox == 0.0 and oy == 0.0:
+        return 0.0, 0.0
+    c, s = math.cos(theta), math.sin(theta)
+    return c * ox - s * oy, s * ox + c * oy
+
+
+@njit(**_JIT)
+def _logaddexp(x, y):
+    """``numpy.logaddexp`` of two floats (same branches)."""
+    if x == y:
+        return x + LOG2
+    difference = x - y
+    if difference > 0.0:
+        return x + math.log1p(math.exp(-difference))
+    if difference <= 0.0:
+        return y + math.log1p(math.exp(difference))
+    return difference

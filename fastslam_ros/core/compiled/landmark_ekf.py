@@ -1,0 +1,175 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
+"""numba twin of ``core/landmark_ekf.py``: one particle's map step of a reading (Joseph-form
+updates of the associated landmarks, new landmarks by the inverse model, negative evidence for
+landmarks in view not seen) and the placing of new landmarks in its working set."""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..association import NEW
+from ..geometry import TWO_PI
+from .jit import _JIT, _lever, _wrap
+from .settings import (F_FOV, F_LOGODDS_MAX, F_LOGODDS_MISSED, F_LOGODDS_OBSERVED, F_LOGODDS_REMOVE,
+                       F_MAX_RANGE, F_MIN_RANGE, F_NOISE_B, F_OX, F_OY, F_OYAW)
+
+
+@njit(**_JIT)
+def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r, noise_b,
+            logodds_observed, logodds_max):
+    """Joseph-form EKF update (``update_landmarks``) of particle m's landmark ``slot`` by
+    observation k, its log-odds raised; False if the result is not finite."""
+    mx, my = state[m, slot, 0], state[m, slot, 1]
+    sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
+    dx = mx - (px + lx)
+    dy = my - (py + ly)
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    r0, r1 = noise_r[k], noise_b
+    g00, g01 = dx / r, dy / r
+    g10, g11 = -dy / q, dx / q
+    a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
+    b0, b1 = sxx * g10 + sxy * g11, sxy * g10 + syy * g11
+    s00 = g00 * a0 + g01 * a1 + r0
+    s01 = g10 * a0 + g11 * a1
+    s11 = g10 * b0 + g11 * b1 + r1
+    det = s00 * s11 - s01 * s01
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    k00, k01 = a0 * i00 + b0 * i01, a0 * i01 + b0 * i11
+    k10, k11 = a1 * i00 + b1 * i01, a1 * i01 + b1 * i11
+    nu0 = ranges[k] - r
+    nu1 = _wrap(bearings[k] + heading - math.atan2(dy, dx))
+    state[m, slot, 0] = mx + (k00 * nu0 + k01 * nu1)
+    state[m, slot, 1] = my + (k10 * nu0 + k11 * nu1)
+    a00, a01 = 1.0 - (k00 * g00 + k01 * g10), -(k00 * g01 + k01 * g11)
+    a10, a11 = -(k10 * g00 + k11 * g10), 1.0 - (k10 * g01 + k11 * g11)
+    m00, m01 = a00 * sxx + a01 * sxy, a00 * sxy + a01 * syy
+    m10, m11 = a10 * sxx + a11 * sxy, a10 * sxy + a11 * syy
+    state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
+    state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
+    state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
+    state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
+    finite = True
+    for i in range(6):
+        if not math.isfinite(state[m, slot, i]):
+            finite = False
+    return finite
+
+
+@njit(**_JIT)
+def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, ranges, bearings,
+                  noise_r, fp, observed, fresh):
+    """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m, but for placing
+    its new landmarks: the mean and packed covariance of each landmark it creates into
+    ``fresh[k, m]`` (``_place_new`` puts them in their columns, known once every particle
+    has chosen), the Joseph-form updates of its associated landmarks (observations in turn),
+    then the log-odds of the landmarks in the perceptual range it did not observe. False if an
+    updated landmark is not finite (``FastSLAM.check_state`` then repairs)."""
+    count = choice.shape[0]
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
+    lx, ly = _lever(pth, ox, oy)
+    heading = pth + oyaw
+    finite = True
+    for j in range(existing):
+        observed[j] = False
+    for k in range(count):
+        if choice[k, m] != NEW or creator[k] != k:
+            continue
+        # Mean g^-1(z, s), covariance G_m^-1 R G_m^-T (``initialize_landmarks``).
+        c, s = math.cos(pth), math.sin(pth)
+        sensor_x = px + c * ox - s * oy
+        sensor_y = py + s * ox + c * oy
+        angle = pth + oyaw + bearings[k]
+        mx = sensor_x + ranges[k] * math.cos(angle)
+        my = sensor_y + ranges[k] * math.sin(angle)
+        dx = mx - (px + lx)
+        dy = my - (py + ly)
+        q = dx * dx + dy * dy
+        r = math.sqrt(q)
+        inv00, inv01 = r * dx / q, -dy
+        inv10, inv11 = r * dy / q, dx
+        r0 = noise_r[k]
+        fresh[k, m, 0], fresh[k, m, 1] = mx, my
+        fresh[k, m, 2] = inv00 * inv00 * r0 + inv01 * inv01 * noise_b
+        fresh[k, m, 3] = inv00 * inv10 * r0 + inv01 * inv11 * noise_b
+        fresh[k, m, 4] = inv10 * inv10 * r0 + inv11 * inv11 * noise_b
+    for k in range(count):
+        # Before ``_place_new`` every landmark chosen existed before this reading.
+        slot = choice[k, m]
+        if slot < 0:
+            continue
+        if not _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r,
+                       noise_b, logodds_observed, logodds_max):
+            finite = False
+        dirty[m, slot] = True
+        observed[slot] = True
+    logodds_missed = fp[F_LOGODDS_MISSED]
+    if logodds_missed == 0.0:
+        return finite
+    # Negative evidence on the landmarks that existed before this reading (the new ones were
+    # all observed).
+    min_range, max_range, field_of_view = fp[F_MIN_RANGE], fp[F_MAX_RANGE], fp[F_FOV]
+    logodds_remove = fp[F_LOGODDS_REMOVE]
+    limited = field_of_view < TWO_PI
+    cos_half = math.cos(0.5 * field_of_view)
+    cos_h, sin_h = math.cos(heading), math.sin(heading)
+    for j in range(existing):
+        if not valid[m, j] or observed[j]:
+            continue
+        dx = state[m, j, 0] - (px + lx)
+        dy = state[m, j, 1] - (py + ly)
+        r = math.sqrt(dx * dx + dy * dy)
+        if r < min_range or r > max_range:
+            continue
+        if limited and dx * cos_h + dy * sin_h < r * cos_half:
+            continue
+        state[m, j, 5] += logodds_missed
+        dirty[m, j] = True
+        if state[m, j, 5] < logodds_remove:
+            valid[m, j] = False
+    return finite
+
+
+@njit(**_JIT)
+def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, creating, column,
+               keys, fresh, poses, ranges, bearings, labels, noise_r, fp, finite):
+    """The new landmarks into their columns (``fresh``, from ``_map_particle``), then, with
+    known ids, the updates of each by the later observations of its id in this reading
+    (``choice`` points them at its column); ``finite[m]`` False for a non-finite update."""
+    count, num_particles = choice.shape
+    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    repeated = False
+    for k in range(count):
+        repeated = repeated or creator[k] != k
+        slot = column[k]
+        if slot < 0:
+            continue
+        for m in range(num_particles):
+            if not creating[k, m]:
+                continue
+            for i in range(5):
+                state[m, slot, i] = fresh[k, m, i]
+            state[m, slot, 5] = logodds_observed
+            ident[m, slot, 0] = labels[k]
+            ident[m, slot, 1] = keys[k, m]
+            valid[m, slot] = True
+            is_new[m, slot] = True
+            choice[k, m] = slot
+    if not repeated:
+        return
+    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    for m in range(num_particles):
+        for k in range(count):
+            slot = choice[k, m]
+            if slot < existing or creating[k, m]:
+                continue
+            px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
+            lx, ly = _lever(pth, ox, oy)
+            if not _joseph(m, slot, k, state, px, py, lx, ly, pth + oyaw, ranges, bearings,
+                           noise_r, noise_b, logodds_observed, logodds_max):
+                finite[m] = False
+            dirty[m, slot] = True
