@@ -38,7 +38,7 @@ from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, M
                                     max_yaw_rate_parameter, run_node)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
-                                           same_map)
+                                           repair, same_map)
 
 NODE_NAME = "people_tracker"
 POSE_ESTIMATES = ("best", "mean")
@@ -48,7 +48,7 @@ COUNTERS = (
     "late_scans", "stale_scans", "resets", "time_jumps", "odometry_jumps",
     "odom_missing", "scan_missing",
     "people_created", "people_removed", "global_localizations", "converged",
-    "repeated_maps", "map_changes", "lost",
+    "repeated_maps", "map_changes", "lost", "filter_recoveries",
     "dropped_malformed_map", "dropped_oversized_map", "dropped_malformed_scan",
     "dropped_oversized_scan", "dropped_wrong_frame", "dropped_initialpose_off_map",
     "dropped_initialpose_covariance",
@@ -62,7 +62,8 @@ DIAGNOSED = (("late_scans", "scans older than the filter's time"),
              ("odometry_jumps", "odometry jumps bridged"),
              ("time_jumps", "time jumps"),
              ("map_changes", "changed map(s) installed"),
-             ("lost", "times lost (localizing globally again)"))
+             ("lost", "times lost (localizing globally again)"),
+             ("filter_recoveries", "filter state repaired"))
 """Counters whose growth /diagnostics reports (after drops, lost messages, silence and lag)."""
 
 
@@ -289,8 +290,16 @@ class PeopleTrackerNode(FilterNode):
         if not self.tracker.ready:
             return self._drop("no_map", "scan dropped: no map yet")
         self._predict_to(pending.stamp, "late_scans")
+        self._repaired()
         localizing = self.tracker.globally_localizing
-        report = self.tracker.update(pending.stamp, pending.scan)
+        try:
+            report = self.tracker.update(pending.stamp, pending.scan)
+        except (ValueError, ArithmeticError, IndexError) as error:
+            if not self._repaired():  # not a broken state: a real bug, reported as such
+                raise
+            return self._drop("internal_error", f"update failed on a non-finite filter state "
+                                                f"({error!r}): repaired, scan lost")
+        self._repaired()
         self._note_lag(pending.stamp)
         if localizing and report.converged:
             self.stats["converged"] += 1
@@ -303,6 +312,17 @@ class PeopleTrackerNode(FilterNode):
         self._publish_estimate()
         if self._lost_watch.lost(self.tracker, pending.scan):
             self._relocalize()
+
+    def _repaired(self) -> bool:
+        """Self-check before and after an update: repair a non-finite state (counted,
+        warned)."""
+        if not repair(self.tracker):
+            return False
+        self.stats["filter_recoveries"] += 1
+        self._warn("filter_recoveries", "the filter's state was not finite: "
+                   "repaired from the finite particles (or localizing globally) "
+                   "[filter_recoveries]")
+        return True
 
     def _relocalize(self) -> None:
         """The tracker is lost: forget the pose and the people, localize globally."""

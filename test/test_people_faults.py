@@ -593,3 +593,37 @@ def test_random_maps_are_installed_or_dropped_and_counted(running_node, msg):
     check_state(node)
     node.on_map(map_message(room()))  # back to the room for the next example
     check_state(node)
+
+
+# --- self-check and repair (the SLAM node's last line of defence) ------------------------------
+
+@pytest.mark.parametrize("poison", ["pose", "weight", "person", "everything"])
+def test_a_non_finite_filter_state_is_repaired_and_counted(context, poison):
+    """A state made non-finite behind the gates (fault injected into the tracker): the next
+    scan repairs it from the finite particles (counted, WARN) and tracking goes on."""
+    node = make_node(context, **CAPS)
+    outputs = []
+    node.output_listeners.append(lambda topic, msg: outputs.append((topic, msg)))
+    try:
+        clock = node.get_clock()
+        for index, (arrival, callback, msg) in enumerate(stream()):
+            clock.set_ros_time_override(Time(nanoseconds=round(arrival * 1e9)))
+            getattr(node, callback)(msg)
+            if index == 2 + 3 * INJECT_AT:
+                tracker = node.tracker
+                rows = slice(None) if poison == "everything" else slice(0, 5)
+                if poison in ("pose", "everything"):
+                    tracker.poses[rows, 0] = math.nan
+                elif poison == "weight":
+                    tracker.log_weights[rows] = math.nan
+                else:
+                    tracker.people[rows][tracker.alive[rows]] = math.inf
+        node.flush()
+        check_state(node)
+        assert node.stats["filter_recoveries"] == 1
+        assert node.stats["used_scan"] == STEPS
+        assert node.tracker.globally_localizing == (poison == "everything")
+        statuses = [msg.status[0] for topic, msg in outputs if topic == "/diagnostics"]
+        assert any("filter state repaired" in s.message for s in statuses)
+    finally:
+        node.destroy_node()

@@ -132,3 +132,25 @@ class LostWatch:
         bad = in_free < LOST_FREE_WEIGHT or scan_fit(tracker, scan) < LOST_FIT
         self.count = self.count + 1 if bad else 0
         return self.count >= LOST_READINGS
+
+
+def repair(tracker: PeopleTracker) -> bool:
+    """Repair a non-finite state left by an update (the SLAM core's ``check_state`` rule);
+    True if it had to. Inputs are gated before they get here, so this is the last line of
+    defence: a robot particle whose pose, weight or live people are not finite is replaced
+    by a copy of a finite one (weights uniform, as after resampling); with none finite the
+    robot is localized globally."""
+    count = tracker.num_particles
+    bad = ~np.isfinite(tracker.poses).all(axis=1) | np.isnan(tracker.log_weights)
+    m, n = np.nonzero(tracker.alive)
+    bad[m[~np.isfinite(tracker.people[m, n]).all(axis=(1, 2))]] = True
+    if not bad.any():
+        return False
+    good = np.flatnonzero(~bad)
+    if len(good) == 0:
+        tracker.reset()
+        return True
+    index = np.arange(count)
+    index[bad] = good[np.arange(int(bad.sum())) % len(good)]
+    tracker._gather(index)
+    return True
