@@ -30,27 +30,53 @@ PERSON_DIAMETER = 0.4
 
 
 class MalformedScanError(ValueError):
-    """A LaserScan whose geometry cannot be used (no beams, zero or non-finite increment)."""
+    """A LaserScan whose geometry cannot be used (no beams, zero or non-finite increment, an
+    angle_max that is not the last beam's angle, NaN or crossed range limits)."""
 
 
 class MalformedMapError(ValueError):
-    """An OccupancyGrid or map file that cannot be read as a grid."""
+    """An OccupancyGrid or map file that cannot be read as a grid, or one with no free cell."""
 
 
-def read_scan(msg) -> Scan:
-    """``sensor_msgs/LaserScan`` -> ``Scan``; NaN and +-inf ranges are no return (REP 117)."""
-    ranges = np.asarray(msg.ranges, dtype=float)
-    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
-    if ranges.size == 0:
+class OversizedError(ValueError):
+    """A scan or a map beyond its size cap (``max_beams_per_scan``, ``max_map_cells``)."""
+
+
+ANGLE_MAX_TOLERANCE = 0.5
+"""angle_max may differ from angle_min + (n - 1) angle_increment by this many increments (the
+float32 fields' rounding; a whole increment off is another beam count)."""
+
+
+def read_scan(msg, max_beams: int | None = None) -> Scan:
+    """``sensor_msgs/LaserScan`` -> ``Scan`` (REP 117): +inf is nothing within range_max (kept
+    as inf: the beam saw free space); NaN, -inf and every range outside [range_min,
+    range_max] carry no evidence at all (NaN in the Scan). ``OversizedError`` beyond
+    ``max_beams`` (checked before the ranges are read)."""
+    count = len(msg.ranges)
+    if count == 0:
         raise MalformedScanError("no beams")
+    if max_beams is not None and count > max_beams:
+        raise OversizedError(f"{count} beams (max_beams_per_scan {max_beams})")
+    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
+    angle_max = float(msg.angle_max)
     if not (math.isfinite(increment) and math.isfinite(angle_min)) or increment == 0.0:
         raise MalformedScanError(f"angle_min {angle_min} / angle_increment {increment} unusable")
-    if abs(increment) * (ranges.size - 1) > 2.0 * math.pi + 1e-3:
-        raise MalformedScanError(f"{ranges.size} beams of {increment} rad span more than a turn")
-    range_max = float(msg.range_max) if math.isfinite(msg.range_max) and msg.range_max > 0 \
-        else math.inf
-    ranges = np.where(np.isfinite(ranges) & (ranges >= max(float(msg.range_min), 0.0)), ranges,
-                      np.inf)
+    if abs(increment) * (count - 1) > 2.0 * math.pi + 1e-3:
+        raise MalformedScanError(f"{count} beams of {increment} rad span more than a turn")
+    last = angle_min + (count - 1) * increment
+    if not abs(angle_max - last) <= ANGLE_MAX_TOLERANCE * abs(increment):
+        raise MalformedScanError(f"angle_max {angle_max} is not angle_min + (n - 1) "
+                                 f"angle_increment = {last} for {count} beams")
+    range_min, range_max = float(msg.range_min), float(msg.range_max)
+    if math.isnan(range_min) or math.isnan(range_max) or range_min == math.inf \
+            or range_max < range_min:
+        raise MalformedScanError(f"range_min {range_min} / range_max {range_max} unusable")
+    range_min = max(range_min, 0.0)
+    range_max = range_max if range_max > 0.0 else math.inf  # 0: a driver that leaves it unset
+    ranges = np.asarray(msg.ranges, dtype=float)
+    with np.errstate(invalid="ignore"):
+        evidence = (ranges >= range_min) & (ranges <= range_max)
+    ranges = np.where(evidence | (ranges == math.inf), ranges, math.nan)
     return Scan(ranges, angle_min, increment, range_max)
 
 
@@ -61,26 +87,57 @@ def _check_origin(x: float, y: float, yaw: float) -> None:
         raise MalformedMapError(f"origin yaw {yaw} rad: rotated maps are not supported")
 
 
-def read_occupancy_grid(msg, max_distance: float) -> OccupancyMap:
+def _check_resolution(resolution: float) -> None:
+    if not (math.isfinite(resolution) and resolution > 0.0):
+        raise MalformedMapError(f"resolution {resolution} is not a cell size (> 0 m)")
+
+
+def _check_cells(width: int, height: int, max_cells: int | None) -> None:
+    if max_cells is not None and width * height > max_cells:
+        raise OversizedError(f"{width} x {height} cells (max_map_cells {max_cells})")
+
+
+def _usable(grid: OccupancyMap) -> OccupancyMap:
+    """The grid, or ``MalformedMapError`` when it has no free cell to be in."""
+    if not grid.free.any():
+        raise MalformedMapError(f"no free cell in {grid.shape[1]} x {grid.shape[0]} cells")
+    return grid
+
+
+def read_occupancy_grid(msg, max_distance: float, max_cells: int | None = None
+                        ) -> OccupancyMap:
     """``nav_msgs/OccupancyGrid`` -> ``OccupancyMap`` (likelihood field clipped at
-    ``max_distance`` m)."""
+    ``max_distance`` m); ``MalformedMapError`` for a grid that cannot be used (no free cell
+    included), ``OversizedError`` beyond ``max_cells`` (checked before the cells are read)."""
     info = msg.info
     width, height, resolution = int(info.width), int(info.height), float(info.resolution)
-    data = np.asarray(msg.data, dtype=np.int16)
-    if width <= 0 or height <= 0 or data.size != width * height:
-        raise MalformedMapError(f"{data.size} cells for {width} x {height}")
-    if not (math.isfinite(resolution) and resolution > 0.0):
-        raise MalformedMapError(f"resolution {resolution}")
+    _check_cells(width, height, max_cells)
+    if width <= 0 or height <= 0 or len(msg.data) != width * height:
+        raise MalformedMapError(f"{len(msg.data)} cells for {width} x {height}")
+    _check_resolution(resolution)
     origin = info.origin
     _check_origin(origin.position.x, origin.position.y,
                   ros_io.quaternion_to_yaw(origin.orientation))
-    return OccupancyMap.from_occupancy(data.reshape(height, width), resolution,
-                                       (origin.position.x, origin.position.y), max_distance)
+    data = np.asarray(msg.data, dtype=np.int16)
+    return _usable(OccupancyMap.from_occupancy(data.reshape(height, width), resolution,
+                                               (origin.position.x, origin.position.y),
+                                               max_distance))
 
 
-def load_map_file(path: str | Path, max_distance: float) -> OccupancyMap:
+def _threshold(description: dict, name: str, default: float) -> float:
+    """A nav2 threshold in [0, 1] (``MalformedMapError`` naming it otherwise)."""
+    value = description.get(name, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not 0.0 <= value <= 1.0:
+        raise MalformedMapError(f"{name} {value!r} is not a number in [0, 1]")
+    return float(value)
+
+
+def load_map_file(path: str | Path, max_distance: float, max_cells: int | None = None
+                  ) -> OccupancyMap:
     """A nav2 map (YAML with image, resolution, origin, negate, occupied_thresh, free_thresh;
-    trinary or scale mode) as an ``OccupancyMap``."""
+    trinary or scale mode) as an ``OccupancyMap``; ``MalformedMapError`` (or
+    ``OversizedError``) naming what cannot be used."""
     path = Path(path).expanduser()
     try:
         description = yaml.safe_load(path.read_text())
@@ -91,18 +148,25 @@ def load_map_file(path: str | Path, max_distance: float) -> OccupancyMap:
         raise MalformedMapError(f"{path}: not a nav2 map description ({error})") from None
     if not image_path.is_absolute():
         image_path = path.parent / image_path
+    _check_resolution(resolution)
     _check_origin(x, y, yaw)
+    occupied_threshold = _threshold(description, "occupied_thresh", 0.65)
+    free_threshold = _threshold(description, "free_thresh", 0.25)
+    negate = description.get("negate", 0)
+    if negate not in (0, 1):  # True and False are 1 and 0
+        raise MalformedMapError(f"negate {negate!r} is not 0 or 1")
     from PIL import Image
     try:
         with Image.open(image_path) as image:
+            _check_cells(*image.size, max_cells)
             pixels = np.asarray(image.convert("L"), dtype=float)
-    except OSError as error:
+    except (OSError, Image.DecompressionBombError) as error:
         raise MalformedMapError(f"{image_path}: {error}") from None
-    occupancy = (pixels / 255.0) if description.get("negate", 0) else (255.0 - pixels) / 255.0
-    occupied = occupancy > float(description.get("occupied_thresh", 0.65))
-    free = occupancy < float(description.get("free_thresh", 0.25))
+    occupancy = (pixels / 255.0) if negate else (255.0 - pixels) / 255.0
+    occupied = occupancy > occupied_threshold
+    free = occupancy < free_threshold
     # image row 0 is the top of the map; grid row 0 is its bottom
-    return OccupancyMap(occupied[::-1], free[::-1], resolution, (x, y), max_distance)
+    return _usable(OccupancyMap(occupied[::-1], free[::-1], resolution, (x, y), max_distance))
 
 
 def people_cloud(header: Header, people: PeopleEstimate) -> PointCloud2:

@@ -9,19 +9,26 @@ odometry that covers their stamp and are used at the robot pose interpolated the
 (core.timing). ``initialpose`` (RViz's "2D Pose Estimate") places the robot; without it the
 tracker localizes globally over the free space. Parameters, bad-input gates (frames, stamps,
 time going backwards, implausible odometry) and ``/diagnostics`` are the SLAM node's
-(``node_base.FilterNode``): bad input is counted, warned about (throttled) and dropped. See
-docs/people.md.
+(``node_base.FilterNode``): bad input is counted, warned about (throttled) and dropped.
+The people tracker's own gates: maps and scans beyond their size caps, scans whose geometry
+does not hold (angle_max, range limits) or in another frame than the first scan's, maps with
+no free cell, initial poses off the map. A map sent again changes nothing; a changed one keeps
+the pose (people.lifecycle); a lost tracker localizes globally again. Every output of a scan
+carries the scan's exact ``header.stamp``. See docs/people.md.
 """
 from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import KeyValue
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from sensor_msgs.msg import LaserScan, PointCloud2
+from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import people_io, ros_io
@@ -30,6 +37,8 @@ from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, M
                                     STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,
                                     max_yaw_rate_parameter, run_node)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
+from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
+                                           repair, same_map)
 
 NODE_NAME = "people_tracker"
 POSE_ESTIMATES = ("best", "mean")
@@ -39,7 +48,10 @@ COUNTERS = (
     "late_scans", "stale_scans", "resets", "time_jumps", "odometry_jumps",
     "odom_missing", "scan_missing",
     "people_created", "people_removed", "global_localizations", "converged",
-    "dropped_malformed_map", "dropped_malformed_scan", "dropped_wrong_frame",
+    "repeated_maps", "map_changes", "lost", "filter_recoveries",
+    "dropped_malformed_map", "dropped_oversized_map", "dropped_malformed_scan",
+    "dropped_oversized_scan", "dropped_wrong_frame", "dropped_initialpose_off_map",
+    "dropped_initialpose_covariance",
     "dropped_invalid_quaternion", "dropped_nan", "dropped_implausible_odometry",
     "dropped_invalid_stamp", "dropped_outlier_stamp", "dropped_duplicate_stamp",
     "dropped_time_backwards", "dropped_stale", "dropped_no_map", "dropped_internal_error",
@@ -48,7 +60,10 @@ THROTTLED_OUTPUTS = ("particles_rate", "markers_rate")
 DIAGNOSED = (("late_scans", "scans older than the filter's time"),
              ("stale_scans", "scans used without their odometry"),
              ("odometry_jumps", "odometry jumps bridged"),
-             ("time_jumps", "time jumps"))
+             ("time_jumps", "time jumps"),
+             ("map_changes", "changed map(s) installed"),
+             ("lost", "times lost (localizing globally again)"),
+             ("filter_recoveries", "filter state repaired"))
 """Counters whose growth /diagnostics reports (after drops, lost messages, silence and lag)."""
 
 
@@ -61,7 +76,7 @@ class NodeSettings:
     odom_frame: str = parameter("odom", "Odometry frame (REP 105); '' accepts any.")
     base_frame: str = parameter("base_link", "Robot frame: odometry's child_frame_id; '' "
                                              "accepts any.")
-    scan_frame: str = parameter("", "Frame the scans must be in; '' accepts any.")
+    scan_frame: str = parameter("", "Frame the scans must be in; '': the first scan's frame.")
     map_file: str = parameter("", "nav2 map YAML to load at start; '': subscribe to 'map'.")
     pose_estimate: str = parameter("mean", "~/pose is the weighted 'mean' of the robot "
                                            "particles or the 'best' one.", choices=POSE_ESTIMATES)
@@ -105,6 +120,8 @@ class PendingScan:
     stamp: float
     scan: Scan
     arrival: float
+    exact: tuple[int, int]
+    """The scan's header.stamp (sec, nanosec), which every output of the scan carries."""
 
 
 class PeopleTrackerNode(FilterNode):
@@ -120,6 +137,12 @@ class PeopleTrackerNode(FilterNode):
         self.tracker = PeopleTracker(self.tracker_settings)
         self._initial: tuple[np.ndarray, np.ndarray] | None = None
         self._published_keys: set[int] = set()
+        self._scan_frame: str | None = None
+        """The frame of the first scan (the expected one while scan_frame is empty)."""
+        self._lost_watch = LostWatch()
+        self._relocalizing = False
+        self._last_exact: tuple[int, int] = (0, 0)
+        self._exact_header: tuple[Any, Header | None] = (None, None)
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._particles_pub = self.create_publisher(PoseArray, "~/particles", LATEST_QOS)
@@ -127,10 +150,11 @@ class PeopleTrackerNode(FilterNode):
         self._markers_pub = self.create_publisher(MarkerArray, "~/people_markers", STREAM_QOS)
         map_file = self.settings["map_file"]
         if map_file:
+            s = self.tracker_settings
             try:
-                grid = people_io.load_map_file(map_file,
-                                               self.tracker_settings.likelihood_max_distance)
-            except people_io.MalformedMapError as error:
+                grid = people_io.load_map_file(map_file, s.likelihood_max_distance,
+                                               s.max_map_cells)
+            except (people_io.MalformedMapError, people_io.OversizedError) as error:
                 raise ParameterError(f"parameter 'map_file': {error}") from None
             self._use_map(grid)
         else:
@@ -161,49 +185,101 @@ class PeopleTrackerNode(FilterNode):
         self._run_callback("initialpose", self._handle_initial_pose, msg)
 
     def _handle_map(self, msg: OccupancyGrid) -> None:
+        """Validate a map before it replaces the current one: the same map again is a no-op,
+        a changed one keeps the pose estimate (``lifecycle.change_map``)."""
         if not self._frame_ok("map_frame", msg.header.frame_id, "map"):
             return
+        s = self.tracker_settings
         try:
-            grid = people_io.read_occupancy_grid(msg,
-                                                 self.tracker_settings.likelihood_max_distance)
+            grid = people_io.read_occupancy_grid(msg, s.likelihood_max_distance,
+                                                 s.max_map_cells)
+        except people_io.OversizedError as error:
+            return self._drop("oversized_map", f"map dropped: {error}")
         except (people_io.MalformedMapError, ros_io.InvalidQuaternionError) as error:
             return self._drop("malformed_map", f"map dropped: {error}")
-        self._use_map(grid)
+        if same_map(self.tracker.grid, grid):
+            self.stats["repeated_maps"] += 1
+            return
+        if self.tracker.grid is None:
+            return self._use_map(grid)
+        change = change_map(self.tracker, grid)
+        self.stats["used_map"] += 1
+        self.stats["map_changes"] += 1
+        self.stats["people_removed"] += change.people_removed
+        self._lost_watch.clear()
+        if not change.kept_pose:
+            self.stats["global_localizations"] += 1
+            self._warn("map_changes", "changed map: no robot particle is in its free space, "
+                                      "localizing globally")
 
     def _use_map(self, grid) -> None:
+        """The first usable map: the filter starts on it."""
         self.tracker.set_map(grid)
         self.stats["used_map"] += 1
         self._start_filter()
 
     def _start_filter(self) -> None:
-        """(Re)start the particles: at the initial pose if one was given, else globally."""
-        if self._initial is not None:
+        """(Re)start the particles: at the initial pose if one was given (and fits the
+        map), else globally."""
+        self._lost_watch.clear()
+        self._relocalizing = False
+        if self._initial is not None and self._initial_pose_fits(*self._initial):
             self.tracker.reset(*self._initial)
         else:
+            self._initial = None
             self.tracker.reset()
             self.stats["global_localizations"] += 1
+
+    def _initial_pose_fits(self, pose: np.ndarray, covariance: np.ndarray) -> bool:
+        """Whether an initial pose can place the robot on the map (counted when not)."""
+        problem = initial_pose_problem(self.tracker.grid, pose, covariance)
+        if problem is not None:
+            self._drop(problem[0], f"{problem[1]}: dropped")
+        return problem is None
 
     def _handle_initial_pose(self, msg: PoseWithCovarianceStamped) -> None:
         given = self._initial_pose_input(msg)
         if given is None:
             return
+        if self.tracker.grid is not None and not self._initial_pose_fits(*given):
+            return
         self._initial = given
         self.stats["used_initialpose"] += 1
         if self.tracker.grid is not None:
+            self._lost_watch.clear()
+            self._relocalizing = False
             self.tracker.reset(*self._initial)
 
     def _handle_scan(self, msg: LaserScan) -> None:
-        if not self._frame_ok("scan_frame", msg.header.frame_id, "scan"):
+        if not (self._frame_ok("scan_frame", msg.header.frame_id, "scan")
+                and self._scan_frame_ok(msg.header.frame_id)):
             return
         try:
-            scan = people_io.read_scan(msg)
+            scan = people_io.read_scan(msg, self.tracker_settings.max_beams_per_scan)
+        except people_io.OversizedError as error:
+            return self._drop("oversized_scan", f"scan dropped: {error}")
         except people_io.MalformedScanError as error:
             return self._drop("malformed_scan", f"scan dropped: {error}")
         now = self._now()
         stamp = self._reading_stamp(msg.header.stamp, "scan", now)
         if stamp is None:
             return
-        self._queue(PendingScan(stamp, scan, now), now)
+        exact = (int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
+        self._queue(PendingScan(stamp, scan, now, exact), now)
+
+    def _scan_frame_ok(self, frame_id: str) -> bool:
+        """With scan_frame empty, the first scan's frame is the expected one: a scan in
+        another frame is dropped (counted)."""
+        frame = frame_id.lstrip("/")
+        if self.settings["scan_frame"] or not frame:
+            return True
+        if self._scan_frame is None:
+            self._scan_frame = frame
+        if frame == self._scan_frame:
+            return True
+        self._drop("wrong_frame", f"scan frame '{frame}' is not the first scan's "
+                                  f"'{self._scan_frame}' (set scan_frame to choose)")
+        return False
 
     # --- filter --------------------------------------------------------------------------------
 
@@ -214,16 +290,49 @@ class PeopleTrackerNode(FilterNode):
         if not self.tracker.ready:
             return self._drop("no_map", "scan dropped: no map yet")
         self._predict_to(pending.stamp, "late_scans")
+        self._repaired()
         localizing = self.tracker.globally_localizing
-        report = self.tracker.update(pending.stamp, pending.scan)
+        try:
+            report = self.tracker.update(pending.stamp, pending.scan)
+        except (ValueError, ArithmeticError, IndexError) as error:
+            if not self._repaired():  # not a broken state: a real bug, reported as such
+                raise
+            return self._drop("internal_error", f"update failed on a non-finite filter state "
+                                                f"({error!r}): repaired, scan lost")
+        self._repaired()
         self._note_lag(pending.stamp)
         if localizing and report.converged:
             self.stats["converged"] += 1
+            self._relocalizing = False
         self.stats["used_scan"] += 1
         self.stats["people_created"] += report.created
         self.stats["people_removed"] += report.removed
         self._last_reading_stamp = pending.stamp
-        self._publish_estimate(pending.stamp)
+        self._last_exact = pending.exact
+        self._publish_estimate()
+        if self._lost_watch.lost(self.tracker, pending.scan):
+            self._relocalize()
+
+    def _repaired(self) -> bool:
+        """Self-check before and after an update: repair a non-finite state (counted,
+        warned)."""
+        if not repair(self.tracker):
+            return False
+        self.stats["filter_recoveries"] += 1
+        self._warn("filter_recoveries", "the filter's state was not finite: "
+                   "repaired from the finite particles (or localizing globally) "
+                   "[filter_recoveries]")
+        return True
+
+    def _relocalize(self) -> None:
+        """The tracker is lost: forget the pose and the people, localize globally."""
+        self.stats["lost"] += 1
+        self.stats["global_localizations"] += 1
+        self._warn("lost", "lost: the scans do not fit the map at the estimated pose; "
+                           "localizing globally [lost]")
+        self._lost_watch.clear()
+        self._relocalizing = True
+        self.tracker.reset()
 
     def reset(self) -> None:
         """Forget odometry, queued scans and people; keep the map and restart the particles."""
@@ -235,18 +344,27 @@ class PeopleTrackerNode(FilterNode):
         """Run every queued scan now (end of a bag) and publish the throttled outputs once."""
         self._process_ready(self._now(), force=True)
         if self.stats["used_scan"]:
-            stamp = self._last_reading_stamp
             if self._throttles["particles_rate"].rate > 0.0:
-                self._publish_particles(stamp)
+                self._publish_particles()
             if self._throttles["markers_rate"].rate > 0.0:
-                self._publish_markers(stamp)
+                self._publish_markers()
         self._publish_diagnostics("tracker")
 
     # --- outputs -------------------------------------------------------------------------------
 
-    def _publish_estimate(self, stamp: float) -> None:
-        """~/pose, ~/people and map -> odom at the scan's stamp."""
-        header = self._map_header(stamp)
+    def _scan_header(self) -> Header:
+        """The map-frame header of the last scan's outputs: its exact stamp (sec, nanosec,
+        never through float seconds); one object for every output of that scan."""
+        key = (self._last_exact, self.settings["map_frame"])
+        if self._exact_header[0] != key:
+            sec, nanosec = self._last_exact
+            self._exact_header = (key, Header(stamp=Time(sec=sec, nanosec=nanosec),
+                                              frame_id=key[1]))
+        return self._exact_header[1]
+
+    def _publish_estimate(self) -> None:
+        """~/pose, ~/people and map -> odom at the scan's exact stamp."""
+        header = self._scan_header()
         mean, covariance = self.tracker.mean_pose_and_covariance()
         pose = mean if self.settings["pose_estimate"] == "mean" else self.tracker.best_pose()
         build = ros_io.pose_with_covariance_view if self._lean() else ros_io.pose_with_covariance
@@ -258,22 +376,22 @@ class PeopleTrackerNode(FilterNode):
     def _publish_throttled(self, now: float) -> None:
         if self.stats["used_scan"]:
             if self._throttles["particles_rate"].due(now):
-                self._publish_particles(self._last_reading_stamp)
+                self._publish_particles()
             if self._throttles["markers_rate"].due(now):
-                self._publish_markers(self._last_reading_stamp)
+                self._publish_markers()
         if self._diagnostics_throttle.due(now):
             self._publish_diagnostics("tracker")
 
-    def _publish_particles(self, stamp: float) -> None:
+    def _publish_particles(self) -> None:
         self._publish(self._particles_pub,
-                      ros_io.pose_array(self._map_header(stamp), self.tracker.poses))
+                      ros_io.pose_array(self._scan_header(), self.tracker.poses))
 
-    def _publish_markers(self, stamp: float) -> None:
+    def _publish_markers(self) -> None:
         people = self.tracker.published_people()
         keys = set(people.keys.tolist())
         removed = sorted(self._published_keys - keys)
         self._publish(self._markers_pub,
-                      people_io.people_markers(self._map_header(stamp), people, removed))
+                      people_io.people_markers(self._scan_header(), people, removed))
         self._published_keys = keys
 
     def _diagnostic_state(self) -> list[KeyValue]:
@@ -287,7 +405,13 @@ class PeopleTrackerNode(FilterNode):
         return state
 
     def _standing_problems(self) -> list[str]:
-        return ["waiting for a map"] if self.tracker.grid is None else []
+        if self.tracker.grid is None:
+            dropped = self.stats["dropped_malformed_map"] + self.stats["dropped_oversized_map"]
+            return [f"waiting for a usable map ({dropped} dropped)" if dropped
+                    else "waiting for a usable map"]
+        if self._relocalizing:
+            return ["lost: localizing globally again"]
+        return []
 
 
 USAGE = """People tracker on a known map: nav_msgs/OccupancyGrid on map (or map_file),

@@ -174,14 +174,16 @@ def test_nav2_map_file_reads_like_the_grid(tmp_path):
     np.testing.assert_array_equal(loaded.free, grid.free)
 
 
-def test_read_scan_maps_invalid_ranges_to_no_return():
-    ranges = np.array([1.0, np.nan, -np.inf, 0.01, 13.0, 2.0])
-    msg = LaserScan(angle_min=-0.1, angle_increment=0.04, range_min=0.05, range_max=12.0,
-                    ranges=ranges.astype(np.float32).tolist())
+def test_read_scan_keeps_inf_as_no_return_and_invalid_ranges_as_no_evidence():
+    ranges = np.array([1.0, np.nan, -np.inf, 0.01, 13.0, 2.0, np.inf, -1.0])
+    msg = LaserScan(angle_min=-0.1, angle_max=-0.1 + 7 * 0.04, angle_increment=0.04,
+                    range_min=0.05, range_max=12.0, ranges=ranges.astype(np.float32).tolist())
     scan = people_io.read_scan(msg)
-    assert np.isinf(scan.ranges[[1, 2, 3]]).all()
+    assert np.isnan(scan.ranges[[1, 2, 3, 4, 7]]).all()   # REP 117: no evidence
+    assert scan.ranges[6] == np.inf                       # nothing within range_max
     returns = scan.returns(0.1, 12.0)
-    np.testing.assert_array_equal(returns, [True, False, False, False, False, True])
+    np.testing.assert_array_equal(returns, [True, False, False, False, False, True, False,
+                                            False])
     with pytest.raises(people_io.MalformedScanError):
         people_io.read_scan(LaserScan(angle_increment=0.0, ranges=[1.0]))
 

@@ -214,7 +214,10 @@ class PeopleTracker:
         return self.grid is not None and self.num_particles > 0
 
     def set_map(self, grid: OccupancyMap) -> None:
-        """Use a (new) map; the robot is localized again globally unless reset with a pose."""
+        """Use a (new) map; the robot is localized again globally unless reset with a pose. A
+        map with no free cell is refused (``ValueError``) and the old one kept."""
+        if not grid.free.any():
+            raise ValueError("the map has no free cell to localize in")
         self.grid = grid
         self.reset()
 
@@ -565,8 +568,10 @@ class PeopleTracker:
             dy = particles[..., 1] - sensors[m, None, 1]
             distance = np.hypot(dx, dy)
             bearing = wrap_angle(np.arctan2(dy, dx) - sensors[m, None, 2])
-            measured = np.where(np.isfinite(scan.ranges) & (scan.ranges >= s.min_range),
-                                scan.ranges, np.inf)[scan.beam_index(bearing)]
+            # NaN: no evidence (never seen free); inf or below min_range: no return
+            measured = np.where(np.isnan(scan.ranges), -np.inf, np.where(
+                np.isfinite(scan.ranges) & (scan.ranges >= s.min_range), scan.ranges,
+                np.inf))[scan.beam_index(bearing)]
             seen_free = in_perceptual_range(distance, bearing, s.min_range, max_range) & (
                 measured > distance + s.person_radius)
             fraction = seen_free.mean(axis=1)

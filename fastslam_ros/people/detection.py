@@ -20,8 +20,9 @@ from fastslam_ros.core.geometry import wrap_angle
 
 @dataclass(frozen=True)
 class Scan:
-    """One planar laser reading in the sensor frame: ``ranges`` (B,) m (inf or NaN: no return)
-    at ``angles`` (B,) rad, evenly spaced from ``angle_min`` by ``angle_increment``."""
+    """One planar laser reading in the sensor frame: ``ranges`` (B,) m (inf: no return, the
+    beam saw free space; NaN: no evidence at all) at ``angles`` (B,) rad, evenly spaced from
+    ``angle_min`` by ``angle_increment``."""
 
     ranges: np.ndarray
     angle_min: float
