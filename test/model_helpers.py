@@ -96,7 +96,8 @@ def drifting_loop(seed: int, heading_bias: float = 3e-4, laps: float = 1.2,
     sensor, its random generator)."""
     from fastslam_ros.core.geometry import relative_pose
     from fastslam_ros.core.motion import apply_control
-    from fastslam_ros.tools.world import RangeBearingSensor, circle_path, scatter_landmarks
+    from fastslam_ros.tools.simulation.world import (RangeBearingSensor, circle_path,
+                                                     scatter_landmarks)
 
     rng = np.random.default_rng(seed)
     truth = circle_path(15.0, int(300 * laps), laps)

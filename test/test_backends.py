@@ -39,7 +39,7 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.core.landmark_store import LandmarkStore, WorkingSet
 from fastslam_ros.core.resampling import systematic_resample
-from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.simulation.synthetic import make_world
 from model_helpers import edit_box
 
 from conftest import REPO_ROOT
@@ -501,7 +501,7 @@ def test_no_kernel_compiles_on_a_reading_after_warm_up(particles):
     script = (
         "from numba.core.registry import CPUDispatcher\n"
         "from fastslam_ros.core import FastSLAM, FastSLAMConfig, compiled as kernels\n"
-        "from fastslam_ros.tools.synthetic import make_world\n"
+        "from fastslam_ros.tools.simulation.synthetic import make_world\n"
         "kernels.warm_up()\n"
         "kernels.crew.threads_for = lambda m: 1 if m < kernels.PARALLEL_MIN_PARTICLES else 2\n"
         "import sys\n"

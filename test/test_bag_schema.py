@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC, TF_STATIC_TOPIC,
-                                           TYPESTORE,
-                                           LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
-                                           SchemaError, bag_topics, landmark_cloud_arrays,
-                                           ns_to_stamp, read_last, read_schema_bag, read_topic,
-                                           stamp_to_ns, write_schema_bag)
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools.bags.bag_schema import (CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC,
+                                                TF_STATIC_TOPIC, TYPESTORE, LandmarkScans,
+                                                LandmarkSet, PoseSeries, SchemaBag, SchemaError,
+                                                bag_topics, landmark_cloud_arrays, ns_to_stamp,
+                                                read_last, read_schema_bag, read_topic, stamp_to_ns,
+                                                write_schema_bag)
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 
 @pytest.fixture(scope="module")

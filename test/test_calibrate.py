@@ -13,10 +13,10 @@ import pytest
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.core.observation import SensorOffset
-from fastslam_ros.tools import calibrate
-from fastslam_ros.tools.bag_schema import PoseSeries, write_schema_bag
-from fastslam_ros.tools.replay import load_params_file
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools.evaluation import calibrate
+from fastslam_ros.tools.bags.bag_schema import PoseSeries, write_schema_bag
+from fastslam_ros.tools.bags.replay import load_params_file
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 SIGMA_RANGE, SIGMA_BEARING = 0.2, 0.03
 

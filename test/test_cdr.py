@@ -18,8 +18,8 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate
 
 from fastslam_ros import ros_io
-from fastslam_ros.tools import cdr
-from fastslam_ros.tools.bag_schema import TYPESTORE
+from fastslam_ros.tools.bags import cdr
+from fastslam_ros.tools.bags.bag_schema import TYPESTORE
 
 FRAMES = st.sampled_from(["", "odom", "base_link", "a_frame_with_a_longer_name", "kart\u00e9"])
 FLOATS = st.floats(allow_nan=False, allow_infinity=False, width=64)

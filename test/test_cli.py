@@ -13,12 +13,16 @@ from rosbags.highlevel import AnyReader
 
 from fastslam_ros import node
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools import (bench, benchmark, convert, demo, evaluate, live_load, people_eval,
-                                people_sim, play, poison, replay, sim, soak)
-from fastslam_ros.tools.bag_schema import (TYPESTORE, LandmarkSet, PoseSeries, bag_topics,
+from fastslam_ros.tools import demo
+from fastslam_ros.tools.bags import play, poison, replay
+from fastslam_ros.tools.benchmarks import bench, benchmark, live_load, soak
+from fastslam_ros.tools.datasets import convert
+from fastslam_ros.tools.evaluation import evaluate, people_eval
+from fastslam_ros.tools.simulation import people_sim, sim
+from fastslam_ros.tools.bags.bag_schema import (TYPESTORE, LandmarkSet, PoseSeries, bag_topics,
                                            open_writer, quaternion_to_yaw, read_schema_bag,
                                            read_topics, write_schema_bag)
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

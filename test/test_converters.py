@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fastslam_ros.tools import convert
-from fastslam_ros.tools.converters import freiburg, integrate_unicycle, mrclam, victoria_park
+from fastslam_ros.tools.datasets import convert
+from fastslam_ros.tools.datasets.converters import (freiburg, integrate_unicycle, mrclam,
+                                                    victoria_park)
 
 MRCLAM6 = "MRCLAM/MRCLAM_Dataset6"
 
@@ -84,7 +85,7 @@ def test_mrclam_distributed_files(dataset_dir):
 
 
 def test_mrclam_bag_round_trip(dataset_dir, tmp_path):
-    from fastslam_ros.tools.bag_schema import read_schema_bag
+    from fastslam_ros.tools.bags.bag_schema import read_schema_bag
 
     folder = dataset_dir(MRCLAM6)
     written = convert.convert("mrclam", folder, tmp_path / "r3", robot=3, duration=60.0)
@@ -104,8 +105,8 @@ def test_mrclam_calibration_is_fastslam_calibrates_on_the_converted_bag(dataset_
     disk (so the written bag holds what was fitted), and a command correction that lowers the
     heading residual."""
     from fastslam_ros.core.observation import SensorOffset
-    from fastslam_ros.tools.bag_schema import read_schema_bag
-    from fastslam_ros.tools.calibrate import calibrate_bags
+    from fastslam_ros.tools.bags.bag_schema import read_schema_bag
+    from fastslam_ros.tools.evaluation.calibrate import calibrate_bags
 
     folder = dataset_dir(MRCLAM6)
     fit = mrclam.calibrate(folder, robots=(3,))

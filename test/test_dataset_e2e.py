@@ -4,8 +4,8 @@
 the node with the shipped ``config/mrclam.yaml`` and evaluated against Vicon."""
 from __future__ import annotations
 
-from fastslam_ros.tools import convert
-from fastslam_ros.tools.benchmark import config_dir
+from fastslam_ros.tools.datasets import convert
+from fastslam_ros.tools.benchmarks.benchmark import config_dir
 
 DURATION = 120.0
 """Seconds of MRCLAM Dataset 6, robot 3 replayed (about 10 s of CPU)."""
@@ -14,8 +14,8 @@ ALIGNED_ATE_BOUND = 0.35
 
 
 def test_mrclam_first_minutes_end_to_end(dataset_dir, tmp_path):
-    from fastslam_ros.tools.evaluate import evaluate
-    from fastslam_ros.tools.replay import replay_bag
+    from fastslam_ros.tools.evaluation.evaluate import evaluate
+    from fastslam_ros.tools.bags.replay import replay_bag
 
     bag = tmp_path / "mrclam6_r3"
     convert.convert("mrclam", dataset_dir("MRCLAM/MRCLAM_Dataset6"), bag, robot=3,

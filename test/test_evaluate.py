@@ -8,12 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from fastslam_ros.tools.bag_schema import LandmarkSet, PoseSeries
-from fastslam_ros.tools.evaluate import (LandmarkEstimate, RunData, evaluate_run, markdown_table,
-                                         matches_by_id)
-from fastslam_ros.tools.metrics import (Transform2D, align_se2, error_stats, evaluate_trajectory,
-                                        interpolate_positions, json_ready, landmark_metrics,
-                                        match_landmarks, ospa, truth_covers)
+from fastslam_ros.tools.bags.bag_schema import LandmarkSet, PoseSeries
+from fastslam_ros.tools.evaluation.evaluate import (LandmarkEstimate, RunData, evaluate_run,
+                                                    markdown_table, matches_by_id)
+from fastslam_ros.tools.evaluation.metrics import (Transform2D, align_se2, error_stats,
+                                                   evaluate_trajectory, interpolate_positions,
+                                                   json_ready, landmark_metrics, match_landmarks,
+                                                   ospa, truth_covers)
 
 RNG = np.random.default_rng(7)
 

@@ -15,7 +15,7 @@ from fastslam_ros.core.config import LOGODDS_MAX
 from fastslam_ros.core.existence import (detection_evidence, existence_probability,
                                          update_logodds)
 from fastslam_ros.core.params import ParameterValueError
-from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.simulation.synthetic import make_world
 
 
 def test_without_clutter_a_detection_is_certain_and_a_miss_is_log_one_minus_pd():

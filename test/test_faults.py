@@ -29,7 +29,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
-from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
+from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 DOMAIN_ID = 100 + os.getpid() % 100
 PARAMS = dict(recommended_params(SimConfig()), num_particles=15, seed=5, use_sim_time=True,
@@ -430,9 +430,9 @@ def test_random_clouds_never_break_the_node(running_node, msg, offset):
 
 def test_poisoned_bag_replays_to_the_clean_estimate(tmp_path):
     """fastslam-poison mixes every class into a bag; the replay drops exactly the faults."""
-    from fastslam_ros.tools.bag_schema import read_topic, write_schema_bag
-    from fastslam_ros.tools.poison import poison_bag
-    from fastslam_ros.tools.replay import replay_bag
+    from fastslam_ros.tools.bags.bag_schema import read_topic, write_schema_bag
+    from fastslam_ros.tools.bags.poison import poison_bag
+    from fastslam_ros.tools.bags.replay import replay_bag
 
     bag = write_schema_bag(tmp_path / "clean", simulate(SimConfig(duration=25.0, seed=4)))
     counts = poison_bag(bag, tmp_path / "poisoned", rate=2.0, seed=1)

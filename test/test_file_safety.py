@@ -21,9 +21,13 @@ from fastslam_ros import ros_io
 from fastslam_ros.core import LandmarkMap
 from fastslam_ros.node import FastSLAMNode, ParameterError
 from fastslam_ros.output import OutputExistsError, is_bag, staged_output
-from fastslam_ros.tools import convert, demo, evaluate, replay, sim
-from fastslam_ros.tools.bag_schema import write_schema_bag
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools import demo
+from fastslam_ros.tools.bags import replay
+from fastslam_ros.tools.datasets import convert
+from fastslam_ros.tools.evaluation import evaluate
+from fastslam_ros.tools.simulation import sim
+from fastslam_ros.tools.bags.bag_schema import write_schema_bag
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 DOMAIN_ID = 100 + os.getpid() % 100
 PARTICLES = ["--set", "num_particles=5"]

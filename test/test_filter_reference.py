@@ -8,7 +8,7 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core import fastslam as fastslam_module
-from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.simulation.synthetic import make_world
 from reference_fastslam import ReferenceFastSLAM
 
 CASES = [

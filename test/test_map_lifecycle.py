@@ -22,7 +22,7 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.core.relocalization import MIN_PAIR_DISTANCE, find_pose
 from fastslam_ros.node import FastSLAMNode, ParameterError
-from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.simulation.synthetic import make_world
 
 DOMAIN_ID = 100 + os.getpid() % 100
 CONFIG = FastSLAMConfig(num_particles=40, sigma_range=0.1, sigma_bearing=0.02, alpha1=0.01,
@@ -393,8 +393,8 @@ def test_node_initial_pose_redraws_the_particles_before_and_after_odometry(conte
 
 def test_a_saved_map_localizes_a_second_run_of_the_same_world(tmp_path):
     """fastslam-sim, 15 s: map, save, then localize a second run on the map (the full-size
-    figures: python3 -m fastslam_ros.tools.localization_bench)."""
-    from fastslam_ros.tools.localization_bench import run_seed
+    figures: python3 -m fastslam_ros.tools.benchmarks.localization_bench)."""
+    from fastslam_ros.tools.benchmarks.localization_bench import run_seed
     args = argparse.Namespace(duration=15.0, offset=2.0, yaw_offset=0.5, start_sigma=1.0,
                               start_yaw_sigma=0.2, converged=0.5)
     result = run_seed(2, tmp_path, args)

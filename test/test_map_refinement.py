@@ -12,7 +12,7 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
 from fastslam_ros.core import map_refinement as mr
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
 from fastslam_ros.core.observation import SensorOffset, inverse_observe
-from fastslam_ros.tools.world import RangeBearingSensor
+from fastslam_ros.tools.simulation.world import RangeBearingSensor
 from model_helpers import drifting_loop, observe
 
 LOOP_CONFIG = FastSLAMConfig(num_particles=30, sigma_range=0.05, sigma_bearing=0.01,

@@ -345,7 +345,7 @@ def test_association_score_from_the_best_particles_labels_equals_the_best_maps()
     """The node scores with the best particle's labels (``particle_map``), not a built map."""
     from fastslam_ros.core import FastSLAM, FastSLAMConfig
     from fastslam_ros.core.association import association_score
-    from fastslam_ros.tools.synthetic import make_world
+    from fastslam_ros.tools.simulation.synthetic import make_world
 
     world = make_world(seed=3, num_steps=60, num_landmarks=60, min_separation=0.8,
                        sigma_range=0.3, sigma_bearing=0.05, clutter_per_step=1.0,

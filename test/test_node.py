@@ -37,7 +37,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from fastslam_ros import ros_io
 from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
-from fastslam_ros.tools import cdr
+from fastslam_ros.tools.bags import cdr
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 100 + os.getpid() % 100

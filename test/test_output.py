@@ -9,10 +9,14 @@ from pathlib import Path
 
 import pytest
 
-from fastslam_ros.tools import convert, demo, evaluate, replay, sim
-from fastslam_ros.tools.bag_schema import write_schema_bag
+from fastslam_ros.tools import demo
+from fastslam_ros.tools.bags import replay
+from fastslam_ros.tools.datasets import convert
+from fastslam_ros.tools.evaluation import evaluate
+from fastslam_ros.tools.simulation import sim
+from fastslam_ros.tools.bags.bag_schema import write_schema_bag
 from fastslam_ros.output import OutputExistsError, check_output, staged_output
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 
 @pytest.fixture(scope="module")

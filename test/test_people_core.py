@@ -14,7 +14,7 @@ from fastslam_ros.core.existence import (LOGODDS_MAX, in_perceptual_range, remov
 from fastslam_ros.people import OccupancyMap, PeopleTracker, Scan, TrackerSettings
 from fastslam_ros.people.conditional_filter import batched_systematic_resample
 from fastslam_ros.people.localization import roughen
-from fastslam_ros.tools.people_sim import cast_scan
+from fastslam_ros.tools.simulation.people_sim import cast_scan
 
 BEAMS = 360
 ANGLES = -math.pi + (np.arange(BEAMS) + 0.5) * (2.0 * math.pi / BEAMS)
@@ -685,7 +685,7 @@ def test_the_published_id_tables_forget_people_no_robot_particle_can_bring_back(
 
 
 def test_simulated_people_stamps_are_dated_like_a_recording():
-    from fastslam_ros.tools.people_sim import PeopleSimConfig, simulate_people
+    from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, simulate_people
     config = PeopleSimConfig(duration=1.0, people=1)
     run = simulate_people(config)
     assert run.odometry.stamps[0] == config.start_time == 1_700_000_000.0

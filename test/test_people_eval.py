@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fastslam_ros.tools import people_eval
-from fastslam_ros.tools.bag_schema import bag_topics
-from fastslam_ros.tools.people_eval import Frame, clear_mot, hidden_by_people
+from fastslam_ros.tools.evaluation import people_eval
+from fastslam_ros.tools.bags.bag_schema import bag_topics
+from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot, hidden_by_people
 
 
 def frame(ids, positions) -> Frame:

@@ -32,7 +32,7 @@ from std_msgs.msg import Header
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.lifecycle import LOST_READINGS, change_map, same_map
-from fastslam_ros.tools.people_sim import cast_scan
+from fastslam_ros.tools.simulation.people_sim import cast_scan
 from test_people_core import ANGLES, room
 from test_people_node import (PERSON, POSE, initial_pose_message, make_node,
                               map_message, odometry_message, scan_message)

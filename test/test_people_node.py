@@ -20,8 +20,8 @@ from std_msgs.msg import Header
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.node import ParameterError
 from fastslam_ros.people_node import PeopleTrackerNode
-from fastslam_ros.tools.bag_schema import cloud_to_arrays
-from fastslam_ros.tools.people_sim import cast_scan
+from fastslam_ros.tools.bags.bag_schema import cloud_to_arrays
+from fastslam_ros.tools.simulation.people_sim import cast_scan
 from test_people_core import ANGLES, room
 
 BASE = {"scan_frame": "laser", "seed": 1, "num_particles": 20, "people_particles": 20,

@@ -15,10 +15,10 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import PointCloud2
 
-from fastslam_ros.tools.bag_schema import write_schema_bag
-from fastslam_ros.tools.play import main as play_main
-from fastslam_ros.tools.play import play_bag
-from fastslam_ros.tools.sim import SimConfig, simulate
+from fastslam_ros.tools.bags.bag_schema import write_schema_bag
+from fastslam_ros.tools.bags.play import main as play_main
+from fastslam_ros.tools.bags.play import play_bag
+from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
 SPIN_LIMIT = 60.0

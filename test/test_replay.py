@@ -9,12 +9,12 @@ import json
 import numpy as np
 import pytest
 
-from fastslam_ros.tools.bag_schema import (REPLAY_INFO_TOPIC, LandmarkScans, PoseSeries,
+from fastslam_ros.tools.bags.bag_schema import (REPLAY_INFO_TOPIC, LandmarkScans, PoseSeries,
                                            SchemaBag, SchemaError, read_last, read_topic,
                                            read_topics, write_schema_bag)
-from fastslam_ros.tools.replay import (load_params_file, node_parameters, parse_assignment,
+from fastslam_ros.tools.bags.replay import (load_params_file, node_parameters, parse_assignment,
                                        replay_bag)
-from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
+from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 PARAMS = dict(recommended_params(SimConfig()), num_particles=20)
 
@@ -120,7 +120,7 @@ def test_parameter_file_sections_merge_and_integers_widen(tmp_path):
 def test_message_types_come_from_a_fixed_table_never_from_an_import():
     import sys
 
-    from fastslam_ros.tools.bag_schema import ros_message_class
+    from fastslam_ros.tools.bags.bag_schema import ros_message_class
     from nav_msgs.msg import Odometry
     assert ros_message_class("nav_msgs/msg/Odometry") is Odometry
     sys.modules.pop("this", None)
@@ -145,7 +145,7 @@ def test_replay_is_invisible_to_other_processes(tmp_path):
     env = {**os.environ, "ROS_DOMAIN_ID": domain}
     bag = write_schema_bag(tmp_path / "long", simulate(SimConfig(duration=60.0, seed=2)))
     replay_process = subprocess.Popen(
-        [sys.executable, "-m", "fastslam_ros.tools.replay", str(bag), "--no-record",
+        [sys.executable, "-m", "fastslam_ros.tools.bags.replay", str(bag), "--no-record",
          "--set", "num_particles=30", "--set", "seed=1"], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     control = subprocess.Popen(
@@ -177,8 +177,8 @@ def test_replay_is_invisible_to_other_processes(tmp_path):
     (5, "", "a_frame_with_a_longer_name", (1.0, 2.0, -0.25), (0.1, -0.2, 0.3, 0.927)),
 ])
 def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, translation, rotation):
-    from fastslam_ros.tools.bag_schema import TYPESTORE, TF_TYPE, tf_message_bytes
-    from fastslam_ros.tools.replay import tf_message_cdr
+    from fastslam_ros.tools.bags.bag_schema import TYPESTORE, TF_TYPE, tf_message_bytes
+    from fastslam_ros.tools.bags.replay import tf_message_cdr
     types = TYPESTORE.types
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     transform = types["geometry_msgs/msg/TransformStamped"](
@@ -206,9 +206,9 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     from visualization_msgs.msg import MarkerArray
 
     from fastslam_ros import ros_io
-    from fastslam_ros.tools.replay import MarkerArrayCdr
+    from fastslam_ros.tools.bags.replay import MarkerArrayCdr
 
-    from fastslam_ros.tools.bag_schema import TYPESTORE
+    from fastslam_ros.tools.bags.bag_schema import TYPESTORE
 
     rng = np.random.default_rng(3)
     builder, cdr = ros_io.MarkerBuilder(), MarkerArrayCdr()
@@ -241,8 +241,8 @@ def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
     identical files and metadata."""
     from importlib.metadata import version
 
-    from fastslam_ros.tools.bag_schema import open_writer
-    from fastslam_ros.tools.replay import (LEAN_WRITER_ROSBAGS, LeanMcapWriter, OutputRecorder,
+    from fastslam_ros.tools.bags.bag_schema import open_writer
+    from fastslam_ros.tools.bags.replay import (LEAN_WRITER_ROSBAGS, LeanMcapWriter, OutputRecorder,
                                            lean_writer)
 
     if not version("rosbags").startswith(LEAN_WRITER_ROSBAGS):

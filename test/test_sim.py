@@ -15,11 +15,11 @@ import pytest
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.core.observation import inverse_observe
-from fastslam_ros.tools import people_sim
-from fastslam_ros.tools.sim import SimConfig, build_world, recommended_params, simulate
-from fastslam_ros.tools.synthetic import make_world
-from fastslam_ros.tools.world import (RangeBearingSensor, circle_path, odometry_with_noise,
-                                      scatter_landmarks)
+from fastslam_ros.tools.simulation import people_sim
+from fastslam_ros.tools.simulation.sim import SimConfig, build_world, recommended_params, simulate
+from fastslam_ros.tools.simulation.synthetic import make_world
+from fastslam_ros.tools.simulation.world import (RangeBearingSensor, circle_path,
+                                                 odometry_with_noise, scatter_landmarks)
 
 
 def within_standard_errors(samples: np.ndarray, expected: float, spread: float,

@@ -14,14 +14,14 @@ import sys
 from pathlib import Path
 
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bag_schema import write_schema_bag
-from fastslam_ros.tools.evaluate import evaluate_run, load_run, markdown_table
-from fastslam_ros.tools.metrics import json_ready
+from fastslam_ros.tools.bags.bag_schema import write_schema_bag
+from fastslam_ros.tools.evaluation.evaluate import evaluate_run, load_run, markdown_table
+from fastslam_ros.tools.evaluation.metrics import json_ready
 from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
                                  write_text)
-from fastslam_ros.tools.plot import plot_evaluation
-from fastslam_ros.tools.replay import replay_bag, summary_lines
-from fastslam_ros.tools.sim import SCENARIOS, SimConfig, recommended_params, simulate
+from fastslam_ros.tools.evaluation.plot import plot_evaluation
+from fastslam_ros.tools.bags.replay import replay_bag, summary_lines
+from fastslam_ros.tools.simulation.sim import SCENARIOS, SimConfig, recommended_params, simulate
 
 
 def run_demo(out_dir: Path, scenario: str = "loop", particles: int = 100, seed: int = 0,
@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail("fastslam-demo", error)
     try:
         if args.scenario == "people":
-            from fastslam_ros.tools.people_eval import run_people_demo
+            from fastslam_ros.tools.evaluation.people_eval import run_people_demo
             run_people_demo(args.out_dir, args.seed or 1, args.duration or 60.0,
                             args.progress or sys.stderr.isatty(), args.overwrite)
             return 0

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from fastslam_ros.output import write_text
-from fastslam_ros.tools import cli, convert
+from fastslam_ros.tools import cli
+from fastslam_ros.tools.datasets import convert
 
 FAMILY_CONFIGS = {"mrclam": "mrclam.yaml", "victoria-park": "victoria_park.yaml",
                   "freiburg": "freiburg.yaml"}
@@ -71,7 +72,7 @@ def default_datasets_dir() -> Path:
 
 def config_dir() -> Path:
     """The shipped ``config`` folder: the source tree's, else the installed share folder."""
-    source_tree = Path(__file__).resolve().parents[2] / "config"
+    source_tree = Path(__file__).resolve().parents[3] / "config"
     if source_tree.is_dir():
         return source_tree
     return Path(sys.prefix) / "share" / "fastslam_ros" / "config"
@@ -110,8 +111,8 @@ def bag_for(sequence: Sequence, bag_dir: Path, duration: float | None) -> Path:
 
 def dead_reckoning(bag: Path) -> dict[str, Any] | None:
     """ATE of the odometry itself (raw and aligned RMSE) against the bag's ground truth."""
-    from fastslam_ros.tools.bag_schema import read_schema_bag
-    from fastslam_ros.tools.metrics import evaluate_trajectory
+    from fastslam_ros.tools.bags.bag_schema import read_schema_bag
+    from fastslam_ros.tools.evaluation.metrics import evaluate_trajectory
 
     schema = read_schema_bag(bag)
     if schema.ground_truth is None:
@@ -123,8 +124,8 @@ def dead_reckoning(bag: Path) -> dict[str, Any] | None:
 
 def run_one(spec: RunSpec, bag: Path, out_dir: Path) -> dict[str, Any]:
     """Replay one configuration through the node and evaluate it; a flat row of metrics."""
-    from fastslam_ros.tools.evaluate import evaluate
-    from fastslam_ros.tools.replay import replay_bag
+    from fastslam_ros.tools.evaluation.evaluate import evaluate
+    from fastslam_ros.tools.bags.replay import replay_bag
 
     out_path = out_dir / "runs" / f"{bag.name}_{spec.label}"
     params = {"algorithm": spec.algorithm, "association": spec.association,
@@ -213,7 +214,7 @@ def markdown(rows: list[dict[str, Any]], baselines: dict[str, dict[str, Any]]) -
 
 def shipped_association(kind: str) -> str:
     """The association named by a family's shipped parameter file."""
-    from fastslam_ros.tools.replay import load_params_file
+    from fastslam_ros.tools.bags.replay import load_params_file
 
     return load_params_file(config_dir() / FAMILY_CONFIGS[kind]).get("association", "ml")
 

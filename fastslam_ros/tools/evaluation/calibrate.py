@@ -48,8 +48,8 @@ from fastslam_ros.core.observation import ObservationTerms, SensorOffset, observ
 from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.converters import robust_std
-from fastslam_ros.tools.metrics import truth_covers
+from fastslam_ros.tools.datasets.converters import robust_std
+from fastslam_ros.tools.evaluation.metrics import truth_covers
 
 CHI2_99_2DOF = 9.21
 """Squared Mahalanobis distance of the 99 % bound of a 2-D Gaussian."""
@@ -422,7 +422,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
-    from fastslam_ros.tools.bag_schema import read_schema_bag
+    from fastslam_ros.tools.bags.bag_schema import read_schema_bag
     from fastslam_ros.output import check_output
     from fastslam_ros.output import write_params_yaml
 
@@ -438,7 +438,7 @@ def main(argv: list[str] | None = None) -> int:
             cli.input_bag(bag)
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
-            from fastslam_ros.tools.replay import load_params_file
+            from fastslam_ros.tools.bags.replay import load_params_file
             base = load_params_file(args.params)
         if args.out is not None:
             cli.output_file(args.out, "--out")

@@ -29,7 +29,7 @@ from rosbags.highlevel import AnyReader, AnyReaderError
 from rosgraph_msgs.msg import Clock
 
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bag_schema import TYPESTORE, ros_message_class
+from fastslam_ros.tools.bags.bag_schema import TYPESTORE, ros_message_class
 
 CLOCK_TOPIC = "/clock"
 PUBLISHER_DEPTH = 1000

@@ -27,7 +27,7 @@ import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.core.timing import interpolate_poses
-from fastslam_ros.tools.converters import (Recording, group_by_stamp, integrate_unicycle,
+from fastslam_ros.tools.datasets.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table)
 
 WHEELBASE = 2.83
@@ -136,7 +136,7 @@ def calibrate(folder: Path | str) -> dict[str, float]:
     """
     from scipy.optimize import least_squares
 
-    from fastslam_ros.tools.metrics import align_se2
+    from fastslam_ros.tools.evaluation.metrics import align_se2
 
     folder = Path(folder)
     if (folder / "rfs_slam_txt").is_dir():

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.converters import Recording, freiburg, mrclam, victoria_park
+from fastslam_ros.tools.datasets.converters import Recording, freiburg, mrclam, victoria_park
 
 KINDS = ("mrclam", "victoria-park", "freiburg")
 
@@ -36,7 +36,7 @@ def convert(kind: str, source: Path | str, out: Path | str, robot: int = 1, use_
             duration: float | None = None, storage: str = "mcap", overwrite: bool = False,
             odometry: dict | None = None) -> Recording:
     """Convert a dataset to a schema-v1 bag at ``out``; return the recording written."""
-    from fastslam_ros.tools.bag_schema import write_schema_bag
+    from fastslam_ros.tools.bags.bag_schema import write_schema_bag
     from fastslam_ros.output import check_output
 
     check_output(out, overwrite, "bag", inputs=[source])  # before the parsing work

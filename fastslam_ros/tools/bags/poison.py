@@ -26,8 +26,8 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC, ODOMETRY_TYPE,
-                                           TYPESTORE, open_writer)
+from fastslam_ros.tools.bags.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC,
+                                                ODOMETRY_TYPE, TYPESTORE, open_writer)
 
 
 def _odometry(stamp: float, pose, frame: str, child: str) -> Odometry:

@@ -3,7 +3,7 @@
 """In-memory synthetic worlds for the core's tests and ``fastslam-bench`` (no ROS, no bags).
 
 A robot drives a circle through a square field of point landmarks, with the generative model of
-``fastslam_ros.tools.world``: its odometry carries the odometry-model noise the filter assumes,
+``tools.simulation.world``: its odometry carries the odometry-model noise the filter assumes,
 and its range-bearing sensor has Gaussian noise, optional missed detections and clutter.
 """
 from __future__ import annotations
@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fastslam_ros.tools.world import (RangeBearingSensor, circle_path, odometry_with_noise,
-                                      scatter_landmarks)
+from fastslam_ros.tools.simulation.world import (RangeBearingSensor, circle_path,
+                                                 odometry_with_noise, scatter_landmarks)
 
 
 @dataclass

@@ -80,3 +80,11 @@ def _draw_landmarks(axes, positions: np.ndarray, covariances: np.ndarray, alignm
         facecolors="none", edgecolors="tab:purple", linewidths=0.8))
     axes.scatter(*aligned.T, s=6, color="tab:purple", label="landmarks, estimate (2-sigma)",
                  zorder=4)
+
+
+def plot_formats() -> tuple[str, ...]:
+    """File suffixes matplotlib can write (``--plot``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    return tuple(sorted(FigureCanvasAgg(Figure()).get_supported_filetypes()))

@@ -151,8 +151,9 @@ def run_phase(context: Context, args, odom_rate: float,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python3 -m fastslam_ros.tools.live_load``: the live DDS load test."""
-    parser = cli.parser("python3 -m fastslam_ros.tools.live_load", __doc__, first_paragraph=True)
+    """``python3 -m fastslam_ros.tools.benchmarks.live_load``: the live DDS load test."""
+    parser = cli.parser("python3 -m fastslam_ros.tools.benchmarks.live_load", __doc__,
+                        first_paragraph=True)
     parser.add_argument("--odom-rate", type=float, default=100.0,
                         help="odometry rate of the first two phases (Hz)")
     parser.add_argument("--cloud-rate", type=float, default=20.0, help="landmark cloud rate (Hz)")

@@ -41,15 +41,17 @@ import numpy as np
 
 from fastslam_ros.core.timing import interpolate_poses
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
-                                           TF_STATIC_TOPIC, LandmarkSet, PoseSeries, bag_topics,
-                                           cloud_to_arrays, landmark_cloud_arrays,
-                                           pose_series_from_messages, read_last, read_topics)
-from fastslam_ros.tools.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHOLD, OSPA_CUTOFF, OSPA_ORDER,
-                                        TrajectoryResult, Transform2D, evaluate_trajectory,
-                                        json_ready, landmark_metrics, pose_stamped_series,
-                                        reference_positions)
+from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
+                                                GROUND_TRUTH_POSE_TOPIC, LANDMARKS_TOPIC,
+                                                ODOM_TOPIC, REPLAY_INFO_TOPIC, TF_STATIC_TOPIC,
+                                                LandmarkSet, PoseSeries, bag_topics,
+                                                cloud_to_arrays, landmark_cloud_arrays,
+                                                pose_series_from_messages, read_last, read_topics)
+from fastslam_ros.tools.evaluation.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHOLD, OSPA_CUTOFF,
+                                                   OSPA_ORDER, TrajectoryResult, Transform2D,
+                                                   evaluate_trajectory, json_ready,
+                                                   landmark_metrics, pose_stamped_series,
+                                                   reference_positions)
 from fastslam_ros.output import check_output, staged_output, write_text
 
 POSE_TOPIC = "/fastslam/pose"
@@ -352,14 +354,6 @@ def write_tum(evaluation: Evaluation, folder: str | Path, overwrite: bool = Fals
     return written
 
 
-def plot_formats() -> tuple[str, ...]:
-    """File suffixes matplotlib can write (``--plot``)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    return tuple(sorted(FigureCanvasAgg(Figure()).get_supported_filetypes()))
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The ``fastslam-eval`` argument parser."""
     parser = cli.parser("fastslam-eval", __doc__, first_paragraph=True)
@@ -396,7 +390,7 @@ def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval``: print the Markdown summary; optionally write JSON, a plot, TUM files."""
     args = build_parser().parse_args(argv)
     prog = "fastslam-eval"
-    from fastslam_ros.tools import people_eval
+    from fastslam_ros.tools.evaluation import people_eval
     if args.out.is_dir() and people_eval.is_people_run(bag_topics(args.out)):
         return people_eval.main(argv)
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
@@ -410,6 +404,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.json is not None:
             cli.output_file(args.json, "--json")
         if args.plot is not None:
+            from fastslam_ros.tools.evaluation.plot import plot_formats
             cli.output_file(args.plot, "--plot", plot_formats())
         if args.tum is not None:
             cli.output_folder(args.tum, "--tum")
@@ -436,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
             write_text(args.json, json.dumps(json_ready(evaluation.metrics), indent=2) + "\n",
                        args.overwrite, inputs)
         if args.plot:
-            from fastslam_ros.tools.plot import plot_evaluation
+            from fastslam_ros.tools.evaluation.plot import plot_evaluation
             with staged_output(args.plot, args.overwrite, "file", inputs) as staged:
                 plot_evaluation(evaluation, staged)
         if args.tum:

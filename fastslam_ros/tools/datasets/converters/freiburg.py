@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
-from fastslam_ros.tools.converters import (Recording, group_by_stamp, polar_to_points, read_table,
-                                           robust_std)
+from fastslam_ros.tools.datasets.converters import (Recording, group_by_stamp, polar_to_points,
+                                                    read_table, robust_std)
 
 STEP_DURATION = 1.0
 """Synthetic duration of one odometry step (s)."""

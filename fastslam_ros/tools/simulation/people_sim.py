@@ -30,7 +30,7 @@ import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
-from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
+from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
                                            PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
                                            yaw_to_quaternion)
 from fastslam_ros.tools import cli

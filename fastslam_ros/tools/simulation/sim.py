@@ -11,7 +11,7 @@ clutter). True poses and the landmark map are written as ground truth (bag schem
 Scenarios: ``loop`` (one closed loop through a landmark field, 3.5 minutes), ``large``
 (thousands of landmarks, a long route with crossings), ``clutter`` (the loop with false
 detections and missed detections). The vehicle, the sensor and the landmark placement are those
-of ``fastslam_ros.tools.world``, which the in-memory test worlds share.
+of ``fastslam_ros.tools.simulation.world``, which the in-memory test worlds share.
 """
 from __future__ import annotations
 
@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
+from fastslam_ros.tools.bags.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
-from fastslam_ros.tools.converters import polar_to_points
+from fastslam_ros.tools.datasets.converters import polar_to_points
 from fastslam_ros.output import check_output, write_params_yaml
-from fastslam_ros.tools.world import (Car, RangeBearingSensor, distance_to_route,
+from fastslam_ros.tools.simulation.world import (Car, RangeBearingSensor, distance_to_route,
                                       scatter_landmarks)
 
 SCENARIOS = ("loop", "large", "clutter")
@@ -269,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
     arguments = sys.argv[1:] if argv is None else list(argv)
     if "people" in (arguments[i + 1] for i, a in enumerate(arguments[:-1]) if a == "--scenario") \
             or "--scenario=people" in arguments:
-        from fastslam_ros.tools import people_sim
+        from fastslam_ros.tools.simulation import people_sim
         return people_sim.main(arguments)
     args = build_parser().parse_args(argv)
     values = {item.name: getattr(args, item.name) for item in dataclasses.fields(SimConfig)}

@@ -5,7 +5,7 @@
 Each module (``mrclam``, ``victoria_park``, ``freiburg``) reads its dataset with vectorized numpy,
 returns a :class:`Recording` (plain arrays, no ROS types) and knows how to calibrate its noise
 parameters from the data. :func:`Recording.to_schema_bag` turns a recording into the
-``SchemaBag`` that ``fastslam_ros.tools.bag_schema.write_schema_bag`` writes.
+``SchemaBag`` that ``fastslam_ros.tools.bags.bag_schema.write_schema_bag`` writes.
 """
 from __future__ import annotations
 
@@ -127,7 +127,8 @@ class Recording:
 
     def to_schema_bag(self):
         """The ``bag_schema.SchemaBag`` of this recording."""
-        from fastslam_ros.tools.bag_schema import LandmarkScans, LandmarkSet, PoseSeries, SchemaBag
+        from fastslam_ros.tools.bags.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries,
+                                                        SchemaBag)
 
         ground_truth = None
         if self.ground_truth_stamps is not None:

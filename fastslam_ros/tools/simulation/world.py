@@ -2,15 +2,16 @@
 # Copyright 2026 fastslam_ros maintainers
 """Landmark worlds: the generative model behind the simulator's bags and the in-memory worlds.
 
-One model for ``fastslam-sim`` (``tools/sim.py``, written to bags) and for the core's tests and
-``fastslam-bench`` (``tools/synthetic.py``, kept in memory): point landmarks scattered at least a
-minimum distance apart, a true path, odometry that drifts from it, and a range-bearing sensor
-(:class:`RangeBearingSensor`) that detects each landmark within its reach with a probability,
-adds Gaussian range and bearing noise, and reports Poisson clutter. Two vehicles drive the
-worlds: a car (:class:`Car`, a bicycle model steering towards waypoints) whose odometry
-integrates noisy controls, as wheel odometry does, and a robot on a circle (:func:`circle_path`)
-whose odometry carries the filter's own odometry-model noise (:func:`odometry_with_noise`), so
-that tests meet exactly the model the filter assumes. Plain numpy, no ROS.
+One model for ``fastslam-sim`` (``simulation/sim.py``, written to bags) and for the core's tests
+and ``fastslam-bench`` (``simulation/synthetic.py``, kept in memory): point landmarks scattered
+at least a minimum distance apart, a true path, odometry that drifts from it, and a range-
+bearing sensor (:class:`RangeBearingSensor`) that detects each landmark within its reach with a
+probability, adds Gaussian range and bearing noise, and reports Poisson clutter. Two vehicles
+drive the worlds: a car (:class:`Car`, a bicycle model steering towards waypoints) whose
+odometry integrates noisy controls, as wheel odometry does, and a robot on a circle
+(:func:`circle_path`) whose odometry carries the filter's own odometry-model noise
+(:func:`odometry_with_noise`), so that tests meet exactly the model the filter assumes. Plain
+numpy, no ROS.
 """
 from __future__ import annotations
 

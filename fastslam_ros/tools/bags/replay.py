@@ -3,7 +3,7 @@
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
 Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into
-a look-alike object (``tools/cdr.py``: the attributes the node's readers use), any other input
+a look-alike object (``tools/bags/cdr.py``: the attributes the node's readers use), any other input
 (``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
 subscription callbacks; before each one the node's time is set to the message's bag time
 (``set_node_time``, as ``use_sim_time`` with a clock would). Nothing goes through
@@ -58,17 +58,17 @@ from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, P
 from fastslam_ros.ros_io import (MarkerArrayView, PathView, PlanarPoseArray,
                                  PoseWithCovarianceStampedView, TransformStampedView)
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
+from fastslam_ros.tools.bags.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
                                     odometry_tf_cdr, planar_pose_array_cdr, point_cloud2_cdr,
                                     pose_array_cdr, pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
-from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC, GROUND_TRUTH_POSE_TOPIC,
-                                           INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, ODOM_TOPIC,
-                                           REPLAY_INFO_TOPIC,
-                                           TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
-                                           open_writer, ros_message_class, tf_message_bytes,
-                                           transform_message)
+from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
+                                                GROUND_TRUTH_POSE_TOPIC, INITIAL_POSE_TOPIC,
+                                                LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
+                                                TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
+                                                open_writer, ros_message_class, tf_message_bytes,
+                                                transform_message)
 from fastslam_ros.output import check_output
 
 TF_TOPIC = "/tf"
@@ -399,7 +399,7 @@ SLAM_TARGET = ReplayTarget(
 def people_target() -> ReplayTarget:
     """The people tracker's target (its node is imported only when a people bag is replayed)."""
     from fastslam_ros.people_node import NODE_NAME, PeopleTrackerNode, parameter_specs
-    from fastslam_ros.tools.people_sim import MAP_TOPIC, PEOPLE_TRUTH_TOPIC, SCAN_TOPIC
+    from fastslam_ros.tools.simulation.people_sim import MAP_TOPIC, PEOPLE_TRUTH_TOPIC, SCAN_TOPIC
     return ReplayTarget(
         NODE_NAME, PeopleTrackerNode, parameter_specs(),
         lambda node: {MAP_TOPIC: node.on_map, INITIAL_POSE_TOPIC: node.on_initial_pose,

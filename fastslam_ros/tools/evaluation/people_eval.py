@@ -37,11 +37,11 @@ from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools import cli
 from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
                                  write_text)
-from fastslam_ros.tools.bag_schema import (GROUND_TRUTH_POSE_TOPIC, REPLAY_INFO_TOPIC,
+from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_POSE_TOPIC, REPLAY_INFO_TOPIC,
                                            PoseSeries, cloud_to_arrays,
                                            pose_series_from_messages, read_topics,
                                            time_msg_to_stamp)
-from fastslam_ros.tools.metrics import (evaluate_trajectory, json_ready, ospa,
+from fastslam_ros.tools.evaluation.metrics import (evaluate_trajectory, json_ready, ospa,
                                         pose_stamped_series)
 
 PEOPLE_TOPIC = "/people_tracker/people"
@@ -382,9 +382,9 @@ def run_people_demo(out_dir: Path, seed: int = 1, duration: float = 60.0,
 def _people_demo_outputs(out_dir: Path, files: dict[str, Path], seed: int, duration: float,
                          progress: bool, overwrite: bool) -> dict:
     """``run_people_demo``'s work once its outputs are checked."""
-    from fastslam_ros.tools.people_sim import (PeopleSimConfig, recommended_params,
+    from fastslam_ros.tools.simulation.people_sim import (PeopleSimConfig, recommended_params,
                                                simulate_people, write_people_bag)
-    from fastslam_ros.tools.replay import replay_people_bag, summary_lines
+    from fastslam_ros.tools.bags.replay import replay_people_bag, summary_lines
     bag_path, replay_path = out_dir / "sim_people", out_dir / "replay"
     config = PeopleSimConfig(seed=seed, duration=duration).validate()
     write_people_bag(bag_path, simulate_people(config), config, overwrite=overwrite)
@@ -425,7 +425,7 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         return cli.fail(prog, f"not an option for a people-tracking run: {' '.join(unknown)}",
                         cli.EXIT_USAGE)
-    from fastslam_ros.tools.evaluate import plot_formats  # noqa: PLC0415 (evaluate imports us)
+    from fastslam_ros.tools.evaluation.plot import plot_formats
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     try:
         if args.json is not None:

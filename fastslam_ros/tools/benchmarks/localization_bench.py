@@ -2,7 +2,7 @@
 # Copyright 2026 fastslam_ros maintainers
 """Map, then localize on the saved map: the map lifecycle measured on simulated runs.
 
-    python3 -m fastslam_ros.tools.localization_bench --seeds 1 2 3 4 5
+    python3 -m fastslam_ros.tools.benchmarks.localization_bench --seeds 1 2 3 4 5
 
 Per seed: ``fastslam-sim`` drives the loop scenario (world ``seed``, noise ``seed``) and the
 node maps it (replayed in-process); its final map is saved as ``~/save_map`` writes it (the
@@ -34,11 +34,11 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose
-from fastslam_ros.tools.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, open_writer,
+from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, open_writer,
                                            write_schema_bag)
-from fastslam_ros.tools.evaluate import evaluate_run, load_run
-from fastslam_ros.tools.replay import replay_bag
-from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
+from fastslam_ros.tools.evaluation.evaluate import evaluate_run, load_run
+from fastslam_ros.tools.bags.replay import replay_bag
+from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 INITIAL_POSE_TYPE = "geometry_msgs/msg/PoseWithCovarianceStamped"
 
@@ -132,9 +132,9 @@ def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python3 -m fastslam_ros.tools.localization_bench``: map, save, localize."""
+    """``python3 -m fastslam_ros.tools.benchmarks.localization_bench``: map, save, localize."""
     parser = argparse.ArgumentParser(
-        prog="python3 -m fastslam_ros.tools.localization_bench",
+        prog="python3 -m fastslam_ros.tools.benchmarks.localization_bench",
         description=__doc__.splitlines()[0],
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5],

@@ -2,7 +2,7 @@
 # Copyright 2026 fastslam_ros maintainers
 """``fastslam-bench``: speed and memory figures of the FastSLAM core (prints them; no asserts).
 
-Four measurements on synthetic worlds (``fastslam_ros.tools.synthetic``), single process, on
+Four measurements on synthetic worlds (``tools.simulation.synthetic``), single process, on
 each ``--backend`` in turn (numpy and, when installed, numba: side by side in one run, so their
 ratio holds on a busy machine), timed in wall-clock seconds (the compiled kernels may use
 several threads) and, for the throughput, also in CPU seconds of all threads:
@@ -31,7 +31,7 @@ from fastslam_ros.core.config import ASSOCIATION_MODES, numba_available
 from fastslam_ros.core.landmark_store import STATE_WIDTH
 from fastslam_ros.tools import cli
 from fastslam_ros.output import check_output, write_text
-from fastslam_ros.tools.synthetic import make_world
+from fastslam_ros.tools.simulation.synthetic import make_world
 
 LANDMARK_RECORD_BYTES = STATE_WIDTH * 8 + 2 * 8 + 1
 """Bytes of one landmark copy: mean, covariance, log-odds (float64), label, key, occupied."""
@@ -284,8 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     if "memory" in parts:
         results["memory"] = memory(args.particles, args.seed)
         print(markdown("Landmark store memory and resampling", results["memory"]))
-    if "soak" in parts:  # on request only: 10 h of data through the node (tools/soak.py)
-        from fastslam_ros.tools.soak import bench_soak
+    if "soak" in parts:  # on request only: 10 h of data through the node (tools/benchmarks/soak.py)
+        from fastslam_ros.tools.benchmarks.soak import bench_soak
         results["soak"] = bench_soak()
     if args.json:
         write_text(args.json, json.dumps(results, indent=2), args.overwrite)

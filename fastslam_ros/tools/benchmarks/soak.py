@@ -6,8 +6,8 @@ The simulated loop is driven lap after lap (odometry at 10 Hz, clouds at 2 Hz, s
 take minutes) and fed to ``FastSLAMNode``'s callbacks as ``fastslam-replay`` does. Every hour
 of data it prints the process RSS and, at the first and the last hour, the cost of building and
 serializing each output once (what one publish costs the callback thread). Run it as
-``fastslam-bench --only soak`` or ``python3 -m fastslam_ros.tools.soak --hours 10``. Figures,
-no asserts.
+``fastslam-bench --only soak`` or ``python3 -m fastslam_ros.tools.benchmarks.soak --hours
+10``. Figures, no asserts.
 """
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.tools import cli
 from fastslam_ros.output import check_output, write_text
-from fastslam_ros.tools.replay import isolated_context
-from fastslam_ros.tools.sim import SimConfig, recommended_params, simulate
+from fastslam_ros.tools.bags.replay import isolated_context
+from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 OUTPUTS = ("pose", "path", "particles", "map", "diagnostics")
 """The node's outputs, as its publish methods group them (map: ~/landmarks and ~/map_cloud;
@@ -153,8 +153,10 @@ def bench_soak(hours: float = 10.0) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python3 -m fastslam_ros.tools.soak``: hours of simulated data through the node."""
-    parser = cli.parser("python3 -m fastslam_ros.tools.soak", __doc__, first_paragraph=True)
+    """``python3 -m fastslam_ros.tools.benchmarks.soak``: hours of simulated data through the
+    node."""
+    parser = cli.parser("python3 -m fastslam_ros.tools.benchmarks.soak", __doc__,
+                        first_paragraph=True)
     parser.add_argument("--hours", type=float, default=10.0, help="hours of simulated data")
     parser.add_argument("--particles", type=int, default=10, help="number of particles M")
     parser.add_argument("--seed", type=int, default=1, help="seed of the world and the filter")
