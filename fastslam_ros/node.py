@@ -34,7 +34,7 @@ from fastslam_ros.core.map_refinement import refine_best_map
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
 from fastslam_ros.core.path_history import decimation
-from fastslam_ros.core.sensor_reach import ReachCheck
+from fastslam_ros.node_support.sensor_reach import ReachCheck
 from fastslam_ros.output import check_output
 from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS,
                                     STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,

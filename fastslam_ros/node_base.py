@@ -42,8 +42,9 @@ from std_msgs.msg import Header
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
 from fastslam_ros.core.params import ParameterValueError, Spec, parameter
-from fastslam_ros.core.timing import (MAX_ODOMETRY_COORDINATE, STAMP_CONFIRMATIONS, InputRate,
-                                      OdometryGate, OdometryHistory, StampGate, Throttle)
+from fastslam_ros.node_support.timing import (MAX_ODOMETRY_COORDINATE, STAMP_CONFIRMATIONS,
+                                              InputRate, OdometryGate, OdometryHistory, StampGate,
+                                              Throttle)
 
 try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same transform anyway.
     from tf2_ros import TransformBroadcaster

@@ -28,7 +28,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros.core import geometry
-from fastslam_ros.core.timing import seconds_to_nanoseconds
+from fastslam_ros.node_support.timing import seconds_to_nanoseconds
 from fastslam_ros.output import write_text
 
 # sensor_msgs/PointField datatype codes -> numpy scalar types.

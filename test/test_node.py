@@ -35,7 +35,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io
-from fastslam_ros.core.timing import OdometryHistory, interpolate_pose
+from fastslam_ros.node_support.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
 from fastslam_ros.tools.bags import cdr
 

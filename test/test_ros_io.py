@@ -273,7 +273,7 @@ def test_path_decimation_is_bounded_even_and_stable():
 
 
 def test_input_rate_counts_lost_messages_not_jitter_or_bursts():
-    from fastslam_ros.core.timing import InputRate
+    from fastslam_ros.node_support.timing import InputRate
     rate = InputRate()
     stamps = list(np.arange(0.0, 2.0, 0.01))
     del stamps[100:110]                                   # ten lost at 1.0 s

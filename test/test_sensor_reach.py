@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from fastslam_ros.core.sensor_reach import MIN_POINTS, ReachCheck
+from fastslam_ros.node_support.sensor_reach import MIN_POINTS, ReachCheck
 
 
 def observations(rng: np.random.Generator, count: int, max_range: float,

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fastslam_ros.core.timing import (ODOMETRY_CONFIRMATIONS, STAMP_CONFIRMATIONS,
+from fastslam_ros.node_support.timing import (ODOMETRY_CONFIRMATIONS, STAMP_CONFIRMATIONS,
                                       TIME_JUMP_BACK, TIME_JUMP_FORWARD, Confirmation,
                                       OdometryGate, StampGate, seconds_to_nanoseconds)
 

@@ -33,7 +33,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from fastslam_ros.core.geometry import quaternion_to_yaw, yaw_to_quaternion
-from fastslam_ros.core.timing import seconds_to_nanoseconds
+from fastslam_ros.node_support.timing import seconds_to_nanoseconds
 from fastslam_ros.output import staged_output
 
 ODOM_TOPIC = "/odom"
@@ -158,7 +158,7 @@ class _Record:
 
 
 def stamp_to_ns(stamp: float) -> int:
-    """Float seconds -> integer nanoseconds (``core.timing.seconds_to_nanoseconds``)."""
+    """Float seconds -> integer nanoseconds (``node_support.timing.seconds_to_nanoseconds``)."""
     return seconds_to_nanoseconds(stamp)
 
 

@@ -46,7 +46,7 @@ from fastslam_ros.core.config import TWO_PI, FastSLAMConfig
 from fastslam_ros.core.geometry import compose, wrap_angle
 from fastslam_ros.core.observation import ObservationTerms, SensorOffset, observation_terms
 from fastslam_ros.core.params import ParameterValueError
-from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.node_support.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.datasets.converters import robust_std
 from fastslam_ros.tools.evaluation.metrics import truth_covers

@@ -39,7 +39,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.node_support.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
                                                 GROUND_TRUTH_POSE_TOPIC, LANDMARKS_TOPIC,

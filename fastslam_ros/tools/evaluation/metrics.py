@@ -16,7 +16,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.geometry import compose, quaternion_to_yaw, rigid_fit
-from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.node_support.timing import interpolate_poses
 from fastslam_ros.tools.bags.bag_schema import LandmarkSet, PoseSeries, time_msg_to_stamp
 
 OSPA_CUTOFF = 2.0

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
-from fastslam_ros.core.timing import interpolate_poses
+from fastslam_ros.node_support.timing import interpolate_poses
 from fastslam_ros.tools.datasets.converters import (Recording, group_by_stamp, integrate_unicycle,
                                            isolated_jumps, polar_to_points, read_table)
 
