@@ -29,6 +29,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import node_base, ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
+from fastslam_ros.core.fastslam import kernels_pending
 from fastslam_ros.core.map_refinement import refine_best_map
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
@@ -163,6 +164,9 @@ class FastSLAMNode(FilterNode):
             NODE_PARAMETERS, NodeSettings)
 
         started = time.perf_counter()
+        if kernels_pending(self.config.backend):
+            self.get_logger().info("compiling the filter's kernels (first start only; later "
+                                   "starts load them from numba's cache) ...")
         self.slam = FastSLAM(self.config)
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
         feeds it. Built before the subscriptions: the compiled backend is ready (compiled or

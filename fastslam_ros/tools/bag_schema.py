@@ -47,6 +47,16 @@ INITIAL_POSE_TOPIC = "/initialpose"
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 CLOUD_TYPE = "sensor_msgs/msg/PointCloud2"
 TF_TYPE = "tf2_msgs/msg/TFMessage"
+TOPIC_TYPES = {
+    ODOM_TOPIC: ODOMETRY_TYPE, LANDMARKS_TOPIC: CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC: ODOMETRY_TYPE,
+    GROUND_TRUTH_LANDMARKS_TOPIC: CLOUD_TYPE, TF_STATIC_TOPIC: TF_TYPE, "/tf": TF_TYPE,
+    REPLAY_INFO_TOPIC: "std_msgs/msg/String", "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+    INITIAL_POSE_TOPIC: "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "/map": "nav_msgs/msg/OccupancyGrid", "/scan": "sensor_msgs/msg/LaserScan",
+    "/fastslam/pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "/fastslam/path": "nav_msgs/msg/Path", "/fastslam/map_cloud": CLOUD_TYPE}
+"""The message type of each topic the tools read (schema v1, people bags, a replay's outputs):
+a bag that holds one of them with another type is refused before any message is read."""
 STORAGE_PLUGINS = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
 POSITION_ONLY_YAW_VARIANCE = -1.0
 """``pose.covariance[35]`` of a position-only reference: its orientation carries no information."""
@@ -387,6 +397,18 @@ def bag_topics(path: str | Path) -> dict[str, str]:
         return {connection.topic: connection.msgtype for connection in reader.connections}
 
 
+def check_topic_types(topics: dict[str, str], where: str | Path,
+                      wanted: Iterable[str] | None = None) -> None:
+    """SchemaError when a topic of ``topics`` ({topic: msgtype}; only those in ``wanted`` when
+    given) has another type than ``TOPIC_TYPES`` says."""
+    names = topics if wanted is None else [topic for topic in wanted if topic in topics]
+    wrong = [f"{topic} is {topics[topic]}, expected {TOPIC_TYPES[topic]}" for topic in names
+             if topic in TOPIC_TYPES and topics[topic] != TOPIC_TYPES[topic]]
+    if wrong:
+        raise SchemaError(f"{where}: topic{'s' if len(wrong) > 1 else ''} of the wrong type: "
+                          f"{'; '.join(wrong)}")
+
+
 def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
     """``(log stamps (N,) s, deserialized rosbags messages)`` of one topic, in time order.
 
@@ -402,6 +424,7 @@ def read_topics(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[np.n
     stamps: dict[str, list[float]] = {topic: [] for topic in wanted}
     messages: dict[str, list[Any]] = {topic: [] for topic in wanted}
     with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        check_topic_types({c.topic: c.msgtype for c in reader.connections}, path, wanted)
         connections = [c for c in reader.connections if c.topic in stamps]
         # An empty selection would mean "every connection" to rosbags.
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
@@ -419,6 +442,7 @@ def read_last(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[float,
     wanted = set(topics)
     last: dict[str, tuple[int, Connection, bytes]] = {}
     with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        check_topic_types({c.topic: c.msgtype for c in reader.connections}, path, wanted)
         connections = [c for c in reader.connections if c.topic in wanted]
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
                                           if connections else ()):

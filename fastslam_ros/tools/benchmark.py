@@ -240,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "../shared/datasets)")
     parser.add_argument("--out-dir", type=Path, default=Path("benchmark_results"),
                         help="folder for the converted bags, the runs and the tables")
-    parser.add_argument("--particles", type=int, nargs="+", default=[100],
+    parser.add_argument("--particles", type=cli.positive(int), nargs="+", default=[100],
                         help="particle counts")
     parser.add_argument("--algorithms", nargs="+", default=["fastslam1", "fastslam2"],
                         choices=["fastslam1", "fastslam2"], help="FastSLAM versions to run")
@@ -248,12 +248,13 @@ def build_parser() -> argparse.ArgumentParser:
                         choices=["known", "ml", "monte_carlo", "two_gate", SHIPPED_ASSOCIATION],
                         help="known ids and/or unknown association rules; config: the one the "
                              "sequence's parameter file names")
-    parser.add_argument("--seeds", type=int, default=1, help="seeds 1..N per configuration")
+    parser.add_argument("--seeds", type=cli.positive(int), default=1,
+                        help="seeds 1..N per configuration")
     parser.add_argument("--only", default=None,
                         help="run only sequences whose name contains this text")
     parser.add_argument("--quick", action="store_true",
                         help=f"first {QUICK_DURATION:g} s of each sequence, FastSLAM 2.0 only")
-    parser.add_argument("--jobs", type=int, default=1,
+    parser.add_argument("--jobs", type=cli.positive(int), default=1,
                         help="parallel runs (runtimes are then measured under load)")
     return parser
 

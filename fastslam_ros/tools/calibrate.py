@@ -447,7 +447,7 @@ def main(argv: list[str] | None = None) -> int:
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_FAILURE)
+        return cli.fail(prog, error)
     except ValueError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
     offset = SensorOffset(*(value if value is not None else float(base.get(name, 0.0))
