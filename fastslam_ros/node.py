@@ -171,6 +171,8 @@ class FastSLAMNode(FilterNode):
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
         feeds it. Built before the subscriptions: the compiled backend is ready (compiled or
         loaded from its cache) before the first message."""
+        if not self.context.ok():  # Ctrl-C while numba compiled, which may swallow it
+            raise KeyboardInterrupt
         self._initial_pose: tuple[np.ndarray, np.ndarray] | None = None
         """A pose given on ``initialpose`` before the first odometry, applied with it."""
         self.get_logger().info(f"core backend {self.slam.backend} ready in "

@@ -43,8 +43,9 @@ from std_msgs.msg import Header
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
 from fastslam_ros.core.params import ParameterValueError, Spec, parameter
-from fastslam_ros.node_start import (ArgumentParser, params_document_problem, type_problem,
-                                     unknown_sections, warn_line)
+from fastslam_ros.node_start import (ArgumentParser, interrupts_unreported,
+                                     params_document_problem, type_problem, unknown_sections,
+                                     warn_line)
 from fastslam_ros.core.timing import (MAX_ODOMETRY_COORDINATE, STAMP_CONFIRMATIONS, InputRate,
                                       OdometryGate, OdometryHistory, StampGate, Throttle)
 
@@ -734,7 +735,7 @@ class FilterNode(Node):
         if self._tf_checked:
             return
         self._tf_checked = True
-        if self.settings.get("publish_tf") and TransformBroadcaster is None:
+        if self.settings.get("publish_tf") and self.publish_to_dds and TransformBroadcaster is None:
             self.get_logger().warning(
                 "publish_tf is true but tf2_ros is not installed: map -> odom is published on "
                 "~/map_to_odom only, not on /tf (install ROS 2's tf2_ros, or set publish_tf "
@@ -819,6 +820,18 @@ def parse_command_line(prog: str, usage: str, args: list[str]) -> None:
     parser.parse_args(remove_ros_args(args)[1:])
 
 
+def _interrupted(error: BaseException | None) -> bool:
+    """Whether ``error`` is a KeyboardInterrupt or was raised while one was handled: numba,
+    interrupted while it compiles the kernels, may raise an error of its own instead."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
+
+
 def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node],
              args: list[str] | None = None) -> int:
     """Start, spin and shut down one node as a console command (both nodes' ``main``), with the
@@ -841,13 +854,18 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
         print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
         return 2
     try:
-        node = make_node()
+        with interrupts_unreported():
+            node = make_node()
     except ParameterError as error:
         print(f"{prog}: {error}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
-    except KeyboardInterrupt:  # e.g. while the compiled kernels are built
+    except BaseException as error:  # rclpy's SIGINT handler shuts the context down
+        if not (_interrupted(error) or not rclpy.ok()):
+            raise
         print(f"{prog}: interrupted while starting", file=sys.stderr)
+        # Half-built compiler objects fail in their __del__ at exit: nothing to report.
+        sys.unraisablehook = lambda unraisable: None
         rclpy.try_shutdown()
         return 130
     try:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any, NoReturn
+from contextlib import contextmanager
+from typing import Any, Iterator, NoReturn
 
 PACKAGE_NODES = ("fastslam", "people_tracker")
 """The names of the package's nodes: a section for one of them in a shared parameter file is
@@ -67,3 +68,20 @@ def type_problem(name: str, default: Any, given: Any) -> str:
              str: "a string"}
     return (f"parameter '{name}': must be {kinds.get(type(default), type(default).__name__)} "
             f"(got {given!r})")
+
+
+@contextmanager
+def interrupts_unreported() -> Iterator[None]:
+    """Within the block, a KeyboardInterrupt that Python cannot raise (Ctrl-C in a ctypes
+    callback of numba's compiler: "Exception ignored ...") prints nothing; others as before."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
