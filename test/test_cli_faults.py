@@ -75,9 +75,12 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
     # Every odometry message: a valid CDR header, then bytes of no Odometry.
     copy_bag(good, root / "garbage", lambda topic, msgtype, raw: (
         msgtype, b"\x00\x01\x00\x00" + b"\xff" * 7 if topic == ODOM_TOPIC else raw))
+    copy_bag(good, root / "garbage_clouds", lambda topic, msgtype, raw: (
+        msgtype, b"\x00\x01\x00\x00" + b"\xff" * 7 if topic == LANDMARKS_TOPIC else raw))
     (root / "notes.mcap").write_text("not a bag")
     return {"good": good, "empty": root / "empty", "tum": tum, "corrupt": corrupt,
             "wrong_types": root / "wrong_types", "garbage": root / "garbage",
+            "garbage_clouds": root / "garbage_clouds",
             "not_a_bag": root / "notes.mcap", "missing": root / "absent"}
 
 
@@ -130,10 +133,23 @@ def test_topics_of_another_type_fail_at_start_naming_them(prog, inputs, tmp_path
 def test_messages_that_do_not_decode_fail_in_one_line(prog, inputs, tmp_path, capsys):
     status, err = run(prog, BAG_COMMANDS[prog](inputs["garbage"], tmp_path), capsys)
     assert status == 1
-    assert "Could not deserialize 'nav_msgs/msg/Odometry'" in assert_one_line(prog, err)
+    line = assert_one_line(prog, err)
+    assert f"{inputs['garbage']}: a /odom message does not decode" in line
 
 
-def test_replay_drops_and_counts_messages_that_do_not_decode(inputs, capsys):
+def test_a_ground_truth_that_does_not_decode_is_named(inputs, tmp_path, capsys):
+    run_out = tmp_path / "run"
+    assert replay.main([str(inputs["good"]), "--set", "num_particles=5", "--out",
+                        str(run_out)]) == 0
+    capsys.readouterr()
+    status, err = run("fastslam-eval", [str(run_out), "--ground-truth",
+                                        str(inputs["garbage_clouds"])], capsys)
+    assert status == 1
+    line = assert_one_line("fastslam-eval", err)
+    assert f"{inputs['garbage_clouds']}: a /landmarks message does not decode" in line
+
+
+def test_replay_drops_and_counts_messages_that_do_not_decode(inputs, tmp_path, capsys):
     clean = replay.replay_bag(inputs["good"], {"num_particles": 5, "seed": 1})
     result = replay.replay_bag(inputs["garbage"], {"num_particles": 5, "seed": 1})
     odometry = clean.stats["received_odom"]
@@ -142,6 +158,11 @@ def test_replay_drops_and_counts_messages_that_do_not_decode(inputs, capsys):
     assert result.stats["received_landmarks"] == clean.stats["received_landmarks"]
     assert replay.main([str(inputs["garbage"]), "--no-record", "--set", "num_particles=5"]) == 0
     assert f"undecodable {odometry}" in capsys.readouterr().out
+    # Recorded: the sensor frame comes from the first reading that decodes (none here).
+    out = tmp_path / "out"
+    assert replay.main([str(inputs["garbage_clouds"]), "--set", "num_particles=5",
+                        "--out", str(out)]) == 0
+    assert f"undecodable {clean.stats['received_landmarks']}" in capsys.readouterr().out
 
 
 def test_poison_copies_messages_that_do_not_decode(inputs, tmp_path, capsys):

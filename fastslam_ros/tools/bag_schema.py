@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 import numpy as np
-from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
@@ -430,7 +430,7 @@ def read_topics(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[np.n
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
                                           if connections else ()):
             stamps[connection.topic].append(ns_to_stamp(stamp_ns))
-            messages[connection.topic].append(reader.deserialize(raw, connection.msgtype))
+            messages[connection.topic].append(_decoded(reader, connection, raw, path))
     return {topic: (np.asarray(stamps[topic], dtype=float), messages[topic]) for topic in wanted}
 
 
@@ -447,8 +447,17 @@ def read_last(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[float,
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
                                           if connections else ()):
             last[connection.topic] = (stamp_ns, connection, raw)
-        return {topic: (ns_to_stamp(stamp_ns), reader.deserialize(raw, connection.msgtype))
+        return {topic: (ns_to_stamp(stamp_ns), _decoded(reader, connection, raw, path))
                 for topic, (stamp_ns, connection, raw) in last.items()}
+
+
+def _decoded(reader: AnyReader, connection: Connection, raw: bytes, path: str | Path) -> Any:
+    """A message of a bag; SchemaError naming the bag and the topic when it does not decode."""
+    try:
+        return reader.deserialize(raw, connection.msgtype)
+    except AnyReaderError as error:
+        raise SchemaError(f"{path}: a {connection.topic} message does not decode "
+                          f"({error})") from None
 
 
 def pose_series_from_messages(messages: list[Any], static_transforms: list[Any] = ()

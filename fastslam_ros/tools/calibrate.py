@@ -457,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         bags = [read_schema_bag(bag) for bag in args.bags]
     except cli.BAG_ERRORS as error:
-        return cli.fail(prog, f"cannot read a bag: {error}", cli.EXIT_FAILURE)
+        return cli.fail(prog, f"cannot calibrate: {error}", cli.EXIT_FAILURE)
     try:
         params, figures = calibrate_bags(bags, offset, args.step, args.match_radius, args.max_gap)
     except CalibrationError as error:

@@ -426,7 +426,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         run = load_run(args.out, args.ground_truth)
     except cli.BAG_ERRORS as error:
-        return cli.fail(prog, f"cannot read {args.out}: {error}", cli.EXIT_FAILURE)
+        return cli.fail(prog, f"cannot evaluate {args.out}: {error}", cli.EXIT_FAILURE)
     if run.estimate is None:
         return cli.fail(prog, f"{args.out} has no {POSE_TOPIC} messages")
     if run.ground_truth is None:

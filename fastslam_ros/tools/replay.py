@@ -597,10 +597,14 @@ def _record_static_transforms(node: Any, reader: AnyReader, recorder: OutputReco
         transforms += list(reader.deserialize(raw, connection.msgtype).transforms)
     base = node.get_parameter("base_frame").value
     sensor = node.get_parameter(target.sensor_frame_parameter).value
-    if not sensor:
+    if not sensor:  # the frame of the first reading that decodes
         clouds = [c for c in reader.connections if topic_of(c) == target.sensor_topic]
-        first = next(iter(reader.messages(connections=clouds)), None) if clouds else None
-        sensor = reader.deserialize(first[2], first[0].msgtype).header.frame_id if first else ""
+        for connection, _, raw in reader.messages(connections=clouds) if clouds else ():
+            try:
+                sensor = reader.deserialize(raw, connection.msgtype).header.frame_id
+                break
+            except AnyReaderError:
+                continue
     known = {t.child_frame_id for t in transforms}
     recorder.stamp_ns = reader.start_time
     if sensor and sensor != base and sensor not in known:
