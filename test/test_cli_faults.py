@@ -198,6 +198,7 @@ def test_a_remapped_topic_is_named_as_read(inputs, capsys):
     ("fastslam-calibrate", ["{good}", "--step", "0"], "--step"),
     ("fastslam-replay", ["{good}", "--no-such-option"], "--no-such-option"),
     ("fastslam-replay", ["{good}", "-r", "odom"], "FROM:=TO"),
+    ("fastslam-replay", ["{good}", "-p", "num_particles:=[1"], "not a YAML value"),
     ("fastslam-demo", ["--particles", "x"], "--particles"),
     ("fastslam-convert", ["no-such-kind", "{good}", "--out", "{out}/c"], "no-such-kind"),
 ])
@@ -266,6 +267,28 @@ def test_a_parameter_file_of_which_nothing_applies_fails(inputs, tmp_path, capsy
                                           "--params", str(params)], capsys)
     assert status == 2
     assert "not a ROS 2 parameter file" in assert_one_line("fastslam-replay", err)
+
+
+def test_a_parameter_file_for_no_node_fails_the_calibration(inputs, tmp_path, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text("fastslam_node:\n  ros__parameters:\n    sensor_x: 0.5\n")
+    status, err = run("fastslam-calibrate", [str(inputs["good"]), "--params", str(params)],
+                      capsys)
+    assert status == 1
+    assert "no section for node /fastslam" in assert_one_line("fastslam-calibrate", err)
+
+
+def test_a_dataset_that_does_not_read_fails_the_benchmark(tmp_path, capsys):
+    dataset = tmp_path / "datasets" / "MRCLAM_garbage"
+    dataset.mkdir(parents=True)
+    for name in ("Robot1_Odometry.dat", "Robot1_Groundtruth.dat", "Robot1_Measurement.dat",
+                 "Barcodes.dat", "Landmark_Groundtruth.dat"):
+        (dataset / name).write_text("not numbers\n")
+    status, err = run("fastslam-benchmark", ["--datasets", str(tmp_path / "datasets"),
+                                             "--quick", "--out-dir", str(tmp_path / "out")],
+                      capsys)
+    assert status == 1
+    assert "cannot convert the datasets: " in assert_one_line("fastslam-benchmark", err)
 
 
 def test_a_section_for_no_node_is_named_in_a_warning(inputs, tmp_path, capsys):

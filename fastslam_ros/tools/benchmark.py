@@ -280,9 +280,17 @@ def main(argv: list[str] | None = None) -> int:
                         f"no dataset found under {', '.join(map(str, roots))}", cli.EXIT_USAGE)
     algorithms = ["fastslam2"] if args.quick else args.algorithms
     duration = QUICK_DURATION if args.quick else None
-    args.out_dir.mkdir(parents=True, exist_ok=True)
-    bags = {s: bag_for(s, args.out_dir / "bags", duration) for s in sequences}
-    baselines = {s.name: m for s in sequences if (m := dead_reckoning(bags[s])) is not None}
+    try:
+        cli.output_folder(args.out_dir, "--out-dir")
+    except cli.UsageError as error:
+        return cli.fail("fastslam-benchmark", error)
+    args.out_dir.mkdir(exist_ok=True)
+    try:
+        bags = {s: bag_for(s, args.out_dir / "bags", duration) for s in sequences}
+        baselines = {s.name: m for s in sequences if (m := dead_reckoning(bags[s])) is not None}
+    except (OSError, ValueError) as error:  # a dataset file that does not read
+        return cli.fail("fastslam-benchmark", f"cannot convert the datasets: {error}",
+                        cli.EXIT_FAILURE)
     specs = plan(sequences, algorithms, args.associations, args.particles, args.seeds)
     jobs = [(spec, bags[spec.sequence], args.out_dir) for spec in specs]
     print(f"fastslam-benchmark: {len(jobs)} runs on {len(sequences)} sequences", file=sys.stderr)

@@ -422,6 +422,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
+    from fastslam_ros.node_base import ParamsFileError
     from fastslam_ros.tools.bag_schema import read_schema_bag
     from fastslam_ros.tools.output import check_output
     from fastslam_ros.tools.output import write_params_yaml
@@ -448,8 +449,10 @@ def main(argv: list[str] | None = None) -> int:
         return cli.fail(prog, error)
     except FileExistsError as error:
         return cli.fail(prog, error)
-    except ValueError as error:  # not a parameter file
+    except ParamsFileError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
+    except ValueError as error:  # not one parameter of it applies
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     offset = SensorOffset(*(value if value is not None else float(base.get(name, 0.0))
                             for name, value in (("sensor_x", args.sensor_x),
                                                 ("sensor_y", args.sensor_y),

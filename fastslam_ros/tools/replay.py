@@ -143,11 +143,9 @@ def ros_msgtype(msg: Any) -> str:
 
 def load_params_file(path: str | Path, node_name: str = "/fastslam") -> dict[str, Any]:
     """The node's parameters from a ROS 2 parameter file, read as the node reads it (rclpy's
-    parser, the sections that match ``node_name``); ValueError names the file."""
-    try:
-        return read_params_file(path, node_name)
-    except ParameterError as error:
-        raise ValueError(str(error)) from None
+    parser, the sections that match ``node_name``); ParameterError (a ValueError) names the
+    file: ParamsFileError when it cannot be read or is no parameter file."""
+    return read_params_file(path, node_name)
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
@@ -158,7 +156,11 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     name, separator, value = text.partition(separator)
     if not separator or not name.strip():
         raise ValueError(f"expected name=value or name:=value, got {text!r}")
-    parsed = yaml.safe_load(value)
+    try:
+        parsed = yaml.safe_load(value)
+    except yaml.YAMLError as error:
+        raise ValueError(f"{name.strip()}: not a YAML value: {value!r} "
+                         f"({' '.join(str(error).split()[:6])})") from None
     if isinstance(parsed, str):
         try:
             parsed = float(parsed)
