@@ -334,3 +334,16 @@ def test_nodes_follow_the_same_exit_status_rule(name, arguments, status, named, 
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"{name}: ") and named in lines[0], \
         result.stderr
+
+
+@pytest.mark.parametrize("name", list(NODES))
+def test_a_node_warns_of_a_section_for_no_node_before_it_starts(name, tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text("/**:\n  ros__parameters:\n    no_such_parameter: 0\n"
+                      f"{name}:\n  ros__parameters:\n    seed: 1\n")
+    result = run_node(NODES[name], "--ros-args", "--params-file", str(params))
+    assert result.returncode == 1  # the /** section applied, and names an unknown parameter
+    lines = [line for line in result.stderr.strip().splitlines() if not line.startswith("[")]
+    assert len(lines) == 2 and "Traceback" not in result.stderr, result.stderr
+    assert lines[0].startswith(f"{name}: warning: ") and f"section(s) {name} name" in lines[0]
+    assert lines[1].startswith(f"{name}: ") and "no_such_parameter" in lines[1]
