@@ -30,6 +30,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import node_base, ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
+from fastslam_ros.core.fastslam import kernels_pending
 from fastslam_ros.core.map_refinement import refine_best_map
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
@@ -169,10 +170,15 @@ class FastSLAMNode(FilterNode):
             NODE_PARAMETERS, NodeSettings)
 
         started = time.perf_counter()
+        if kernels_pending(self.config.backend):
+            self.get_logger().info("compiling the filter's kernels (first start only; later "
+                                   "starts load them from numba's cache) ...")
         self.slam = FastSLAM(self.config)
         """The filter (random generator seeded from the ``seed`` parameter); read it, the node
         feeds it. Built before the subscriptions: the compiled backend is ready (compiled or
         loaded from its cache) before the first message."""
+        if not self.context.ok():  # Ctrl-C while numba compiled, which may swallow it
+            raise KeyboardInterrupt
         self._initial_pose: tuple[np.ndarray, np.ndarray] | None = None
         """A pose given on ``initialpose`` before the first odometry, applied with it."""
         self.get_logger().info(f"core backend {self.slam.backend} ready in "

@@ -31,7 +31,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
-from rclpy.exceptions import InvalidParameterValueException, ParameterException
+from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
+                              ParameterException)
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
@@ -42,6 +43,9 @@ from std_msgs.msg import Header
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
 from fastslam_ros.core.params import ParameterValueError, Spec, parameter
+from fastslam_ros.node_start import (ArgumentParser, interrupts_unreported,
+                                     params_document_problem, type_problem, unknown_sections,
+                                     warn_line)
 from fastslam_ros.node_support.timing import (MAX_ODOMETRY_COORDINATE, STAMP_CONFIRMATIONS,
                                               InputRate, OdometryGate, OdometryHistory, StampGate,
                                               Throttle)
@@ -55,6 +59,9 @@ LAG_WARNING = 1.0
 """s: a reading processed this long after its stamp (node time) makes the diagnostics WARN."""
 DIAGNOSTICS_PERIOD = 1.0
 """Seconds of node time between two /diagnostics messages."""
+NO_INPUT_WARNING = 5.0
+"""s of node time after the first /diagnostics report: an input still never received then
+makes the diagnostics WARN, naming its topic."""
 WARNING_PERIOD = 5.0
 """Seconds between two log warnings of the same kind."""
 
@@ -265,6 +272,9 @@ class FilterNode(Node):
         self._reported: dict[str, int] = {}
         self._warned: dict[str, float] = {}
         self._diagnostics_throttle = Throttle(1.0 / DIAGNOSTICS_PERIOD)
+        self._first_report: float | None = None
+        """Node time of the first /diagnostics report (``_never_received`` counts from it)."""
+        self._tf_checked = False
         self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
                                                       STREAM_QOS)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STREAM_QOS)
@@ -282,6 +292,9 @@ class FilterNode(Node):
             given = self._parameter_overrides[name].value
             raise ParameterError(f"parameter '{name}': must be {spec.rule()} "
                                  f"(got {given!r})") from None
+        except InvalidParameterTypeException:
+            raise ParameterError(type_problem(name, default,
+                                              self._parameter_overrides[name].value)) from None
         except ParameterException as error:
             raise ParameterError(f"parameter '{name}': {error}") from None
 
@@ -657,10 +670,22 @@ class FilterNode(Node):
             if silent := rate.silence(now):
                 problems.append(f"no {topic} for {silent:.3g} s (usual interval "
                                 f"{rate.interval:.3g} s)")
+        problems += self._never_received(now)
         if self._worst_lag > LAG_WARNING:
             problems.append(f"processing lag {self._worst_lag:.3g} s behind the stamps")
         problems += [f"{new[key]} {what}" for key, what in self._diagnosed if new[key]]
         return problems
+
+    def _never_received(self, now: float) -> list[str]:
+        """The inputs of which not one message came in NO_INPUT_WARNING s after the first
+        report, by their resolved (namespaced, remapped) names: a wrong topic or namespace."""
+        if self._first_report is None:
+            self._first_report = now
+        waited = now - self._first_report
+        if waited < NO_INPUT_WARNING:
+            return []
+        return [f"nothing received on {self.resolve_topic_name(topic)} for {waited:.3g} s"
+                for topic in self._rates if not self.stats.get(f"received_{topic}")]
 
     def _publish_diagnostics(self, component: str = "filter") -> None:
         """/diagnostics: every counter, the node's state, the input rates and the processing
@@ -699,10 +724,23 @@ class FilterNode(Node):
         """Once a second: run readings that waited too long even if no input arrives any more."""
         try:
             now = self._now()
+            self._check_tf_once()
             self._process_ready(now)
             self._publish_throttled(now)
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"timer callback failed: {error!r}")
+
+    def _check_tf_once(self) -> None:
+        """At the first tick of a live node: say once that ``publish_tf`` cannot be honoured
+        without tf2_ros (a replay, which never spins, records /tf itself)."""
+        if self._tf_checked:
+            return
+        self._tf_checked = True
+        if self.settings.get("publish_tf") and self.publish_to_dds and TransformBroadcaster is None:
+            self.get_logger().warning(
+                "publish_tf is true but tf2_ros is not installed: map -> odom is published on "
+                "~/map_to_odom only, not on /tf (install ROS 2's tf2_ros, or set publish_tf "
+                "false)")
 
     def destroy_node(self) -> None:
         """Destroy, then log the counters (after destruction the log skips /rosout, whose
@@ -714,30 +752,44 @@ class FilterNode(Node):
 
 # --- console nodes ------------------------------------------------------------------------------
 
-def read_params_file(path: str | PathLike, node_name: str) -> dict[str, object]:
+class ParamsFileError(ParameterError):
+    """A parameter file that cannot be read or is no ROS 2 parameter file (a usage error)."""
+
+
+def read_params_file(path: str | PathLike, node_name: str,
+                     warn: Callable[[str], None] | None = None) -> dict[str, object]:
     """{name: value} that a ROS 2 parameter file gives the node ``node_name`` (fully
     qualified), read with rclpy's own parser: the ``/**`` section first, then every section
     whose key matches the node (``fastslam``, ``/robot1/fastslam``, ``/**/fastslam``).
 
-    Raises ParameterError naming the file when it cannot be read or is no parameter file.
+    Raises ParamsFileError naming the file when it cannot be read or is no parameter file,
+    ParameterError when no section of it applies to the node (``fastslam_node:`` for
+    ``fastslam``); ``warn`` is told of each section that names no node of this package.
     """
     try:
         with open(path, encoding="utf-8") as stream:
             document = yaml.safe_load(stream)
-        if not isinstance(document, dict):
-            raise RuntimeError("no 'NODE: ros__parameters:' sections")
+        problem = params_document_problem(document)
+        if problem:
+            raise RuntimeError(problem)
         sections = [key for key in document
                     if key != "/**" and _section_matches(str(key), node_name)]
+        ignored = unknown_sections(document, sections)
         if "/**" not in document and not sections:
-            return {}
+            raise ParameterError(f"parameter file '{path}': no section for node {node_name}, "
+                                 f"not one parameter applies (sections: {', '.join(ignored)}; "
+                                 f"the node reads {node_name.rsplit('/', 1)[-1]}: and /**:)")
+        if ignored and warn is not None:
+            warn(f"parameter file '{path}': section(s) {', '.join(ignored)} name no node of "
+                 f"fastslam_ros and are ignored (node {node_name})")
         messages = parameter_dict_from_yaml_file(str(path), use_wildcard=True,
                                                  target_nodes=sections)
     except OSError as error:
-        raise ParameterError(f"parameter file '{path}': {error.strerror or error}") from None
-    except (yaml.YAMLError, RuntimeError, AttributeError, TypeError) as error:
+        raise ParamsFileError(f"parameter file '{path}': {error.strerror or error}") from None
+    except (yaml.YAMLError, UnicodeDecodeError, RuntimeError, AttributeError, TypeError) as error:
         reason = " ".join(str(error).split())
-        raise ParameterError(f"parameter file '{path}': not a ROS 2 parameter file "
-                             f"({reason})") from None
+        raise ParamsFileError(f"parameter file '{path}': not a ROS 2 parameter file "
+                              f"({reason})") from None
     values = {name: Parameter.from_parameter_msg(msg).value for name, msg in messages.items()}
     # rclpy re-reads str(value) as YAML 1.1, where the 1e-05 that 1.0e-5 prints as is a string;
     # rcl (the node) reads the file's number as a double, and so does this.
@@ -764,33 +816,59 @@ def _params_files(args: list[str]) -> list[str]:
 def parse_command_line(prog: str, usage: str, args: list[str]) -> None:
     """Handle the arguments that are not ROS arguments: ``--help`` prints the usage and exits;
     anything else is a usage error (exit status 2) instead of being ignored."""
-    parser = argparse.ArgumentParser(prog=prog, description=usage,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = ArgumentParser(prog=prog, description=usage,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.parse_args(remove_ros_args(args)[1:])
+
+
+def _interrupted(error: BaseException | None) -> bool:
+    """Whether ``error`` is a KeyboardInterrupt or was raised while one was handled: numba,
+    interrupted while it compiles the kernels, may raise an error of its own instead."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node],
              args: list[str] | None = None) -> int:
-    """Start, spin and shut down one node as a console command (both nodes' ``main``): a bad
-    parameter file, argument or parameter is one line on stderr and exit status 1."""
+    """Start, spin and shut down one node as a console command (both nodes' ``main``), with the
+    tools' exit status rule (``tools.cli``): a bad parameter value, or a parameter file of
+    which nothing applies, is one line on stderr and status 1; a parameter file that cannot be
+    read or a bad argument, status 2; Ctrl-C while the node starts, status 130."""
     argv = sys.argv if args is None else args
     try:
-        for path in _params_files(argv):
-            read_params_file(path, f"/{node_name}")  # one line instead of rcl's failure
+        for path in _params_files(argv):  # one line instead of rcl's failure
+            read_params_file(path, f"/{node_name}", warn_line(prog))
         parse_command_line(prog, usage, argv)
         rclpy.init(args=args)
+    except ParamsFileError as error:
+        print(f"{prog}: {error}", file=sys.stderr)
+        return 2
     except ParameterError as error:
         print(f"{prog}: {error}", file=sys.stderr)
         return 1
     except RuntimeError as error:  # rcl could not parse the arguments
         print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
-        return 1
+        return 2
     try:
-        node = make_node()
+        with interrupts_unreported():
+            node = make_node()
     except ParameterError as error:
         print(f"{prog}: {error}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
+    except BaseException as error:  # rclpy's SIGINT handler shuts the context down
+        if not (_interrupted(error) or not rclpy.ok()):
+            raise
+        print(f"{prog}: interrupted while starting", file=sys.stderr)
+        # Half-built compiler objects fail in their __del__ at exit: nothing to report.
+        sys.unraisablehook = lambda unraisable: None
+        rclpy.try_shutdown()
+        return 130
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -6,7 +6,7 @@ Node ``people_tracker`` (console script ``people_tracker_node``). The map comes 
 (``nav_msgs/OccupancyGrid``, transient local, as nav2's map_server publishes) or from the
 ``map_file`` parameter (a nav2 map YAML). Scans wait, like the SLAM node's clouds, for the
 odometry that covers their stamp and are used at the robot pose interpolated there
-(core.timing). ``initialpose`` (RViz's "2D Pose Estimate") places the robot; without it the
+(node_support.timing). ``initialpose`` (RViz's "2D Pose Estimate") places the robot; without it the
 tracker localizes globally over the free space. Parameters, bad-input gates (frames, stamps,
 time going backwards, implausible odometry) and ``/diagnostics`` are the SLAM node's
 (``node_base.FilterNode``): bad input is counted, warned about (throttled) and dropped.

@@ -156,7 +156,7 @@ def test_command_line_writes_a_loadable_parameter_file(tmp_path, capsys):
             if name in FastSLAMConfig.__dataclass_fields__}
     FastSLAMConfig(**core).validate()
     # An existing output is kept without --overwrite and replaced with it.
-    assert calibrate.main([str(bag), "--out", str(out)]) == 1
+    assert calibrate.main([str(bag), "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert calibrate.main([str(bag), "--out", str(out), "--overwrite",
                            "--motion-model", "alphas"]) == 0
@@ -165,7 +165,7 @@ def test_command_line_writes_a_loadable_parameter_file(tmp_path, capsys):
     # Never its own input, not even with --overwrite.
     before = base.read_bytes()
     assert calibrate.main([str(bag), "--params", str(base), "--out", str(base),
-                           "--overwrite"]) == 1
+                           "--overwrite"]) == 2
     assert base.read_bytes() == before and "input" in capsys.readouterr().err
 
 

@@ -124,7 +124,7 @@ def test_commands_fail_cleanly_on_missing_input(tmp_path, capsys):
     assert "absent" in capsys.readouterr().err
     bag = tmp_path / "bag"
     assert sim.main(["--out", str(bag), "--duration", "2"]) == 0
-    assert sim.main(["--out", str(bag), "--duration", "2"]) == 1  # exists, no --overwrite
+    assert sim.main(["--out", str(bag), "--duration", "2"]) == 2  # exists, no --overwrite
     assert "exists" in capsys.readouterr().err
     assert evaluate.main([str(bag)]) == 1  # an input bag holds no estimate
     assert "/fastslam/pose" in capsys.readouterr().err
@@ -172,7 +172,7 @@ def test_bad_files_and_paths_give_one_line_and_status_2(tmp_path, capsys):
     map_file = tmp_path / "map.yaml"
     assert replay.main([str(bag), "--no-record", "--save-map", str(map_file)]) == 0
     assert "map saved: " in capsys.readouterr().out and map_file.exists()
-    assert replay.main([str(bag), "--no-record", "--save-map", str(map_file)]) == 1
+    assert replay.main([str(bag), "--no-record", "--save-map", str(map_file)]) == 2
     assert "exists" in one_line_error(capsys, "fastslam-replay")
 
 
@@ -432,7 +432,7 @@ def test_bench_checks_its_json_output_before_measuring(tmp_path, capsys):
     assert "does not exist" in captured.err and "Time per reading" not in captured.out
     existing = tmp_path / "figures.json"
     existing.write_text("{}")
-    assert bench.main(tiny + ["--json", str(existing)]) == 1
+    assert bench.main(tiny + ["--json", str(existing)]) == 2
     assert "--overwrite" in capsys.readouterr().err and existing.read_text() == "{}"
     assert bench.main(tiny + ["--json", str(existing), "--overwrite"]) == 0
     assert "sweep" in json.loads(existing.read_text())

@@ -190,7 +190,7 @@ def test_convert_cli_on_resampled_variant(resampled_mrclam, tmp_path, capsys):
     assert convert.main(["mrclam", str(resampled_mrclam), "--out", str(out), "--no-ids"]) == 0
     assert "measurements_dropped_unknown_barcodes: 1" in capsys.readouterr().out
     assert out.exists()
-    assert convert.main(["mrclam", str(resampled_mrclam), "--out", str(out)]) == 1  # exists
+    assert convert.main(["mrclam", str(resampled_mrclam), "--out", str(out)]) == 2  # exists
     assert convert.main(["mrclam", str(tmp_path / "missing"), "--out", str(out)]) == 2
 
 

@@ -654,18 +654,19 @@ def test_a_shipped_file_applies_to_a_namespaced_node():
         rclpy.shutdown(context=ctx)
 
 
-@pytest.mark.parametrize("arguments, named", [
-    (["-p", "sigma_bearing:=-1.0"], "sigma_bearing"),
-    (["-p", "num_particle:=50"], "num_particle"),
-    (["-p", 'use_sim_time:="true"'], "use_sim_time"),
-    (["--params-file", "/nonexistent/params.yaml"], "/nonexistent/params.yaml"),
+@pytest.mark.parametrize("arguments, named, status", [
+    (["-p", "sigma_bearing:=-1.0"], "sigma_bearing", 1),
+    (["-p", "num_particle:=50"], "num_particle", 1),
+    (["-p", 'use_sim_time:="true"'], "use_sim_time", 1),
+    (["-p", "sigma_range:=1"], "write 1.0", 1),
+    (["--params-file", "/nonexistent/params.yaml"], "/nonexistent/params.yaml", 2),
 ])
-def test_main_exits_non_zero_with_one_line_naming_the_parameter(arguments, named):
+def test_main_exits_non_zero_with_one_line_naming_the_parameter(arguments, named, status):
     result = subprocess.run(
         [sys.executable, "-m", "fastslam_ros.node", "--ros-args", *arguments],
         capture_output=True, text=True, timeout=60,
         env={**os.environ, "ROS_DOMAIN_ID": str(DOMAIN_ID)})
-    assert result.returncode == 1
+    assert result.returncode == status
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and named in lines[0], result.stderr
 

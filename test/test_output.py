@@ -81,18 +81,18 @@ def test_replay_keeps_user_folders_the_working_directory_and_its_input(tmp_path,
     folder = precious_folder(tmp_path)
     for extra in ([], ["--overwrite"]):
         assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(folder)]
-                           + extra) == 1
+                           + extra) == 2
         assert "precious" in capsys.readouterr().err
         assert (folder / "thesis.tex").read_text() == "years of work"
-        assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(bag)] + extra) == 1
+        assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(bag)] + extra) == 2
         assert (bag / "metadata.yaml").exists()
     monkeypatch.chdir(tmp_path)
     (tmp_path / "keep.txt").write_text("mine")
-    assert replay.main([str(bag), "--set", "num_particles=5", "--out", ".", "--overwrite"]) == 1
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", ".", "--overwrite"]) == 2
     assert (tmp_path / "keep.txt").exists()
     out = tmp_path / "out"
     assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out)]) == 0
-    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out)]) == 1
+    assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert replay.main([str(bag), "--set", "num_particles=5", "--out", str(out),
                         "--overwrite"]) == 0
@@ -102,12 +102,12 @@ def test_replay_keeps_user_folders_the_working_directory_and_its_input(tmp_path,
 
 def test_sim_convert_demo_and_eval_refuse_existing_outputs(tmp_path, bag, capsys):
     folder = precious_folder(tmp_path)
-    assert sim.main(["--out", str(folder), "--duration", "1", "--overwrite"]) == 1
+    assert sim.main(["--out", str(folder), "--duration", "1", "--overwrite"]) == 2
     assert (folder / "thesis.tex").exists() and not (tmp_path / "precious.yaml").exists()
     params = tmp_path / "mine.yaml"
     params.write_text("mine")
     assert sim.main(["--out", str(tmp_path / "s"), "--params-out", str(params),
-                     "--duration", "1"]) == 1
+                     "--duration", "1"]) == 2
     assert params.read_text() == "mine" and not (tmp_path / "s").exists()
     assert sim.main(["--out", str(tmp_path / "s"), "--params-out", str(params),
                      "--duration", "1", "--overwrite"]) == 0
@@ -115,15 +115,15 @@ def test_sim_convert_demo_and_eval_refuse_existing_outputs(tmp_path, bag, capsys
 
     source = tmp_path / "dataset"
     source.mkdir()
-    assert convert.main(["freiburg", str(source), "--out", str(folder), "--overwrite"]) == 1
-    assert convert.main(["freiburg", str(source), "--out", str(source), "--overwrite"]) == 1
+    assert convert.main(["freiburg", str(source), "--out", str(folder), "--overwrite"]) == 2
+    assert convert.main(["freiburg", str(source), "--out", str(source), "--overwrite"]) == 2
     assert (folder / "thesis.tex").exists()
 
     out = tmp_path / "replayed"
     replay.replay_bag(bag, {"num_particles": 5, "seed": 1}, out_path=out)
     mine = tmp_path / "metrics.json"
     mine.write_text("mine")
-    assert evaluate.main([str(out), "--json", str(mine)]) == 1
+    assert evaluate.main([str(out), "--json", str(mine)]) == 2
     # A folder (here the input bag, or the user's folder) is no file to write: a usage error.
     assert evaluate.main([str(out), "--json", str(out)]) == 2
     assert evaluate.main([str(out), "--plot", str(folder), "--overwrite"]) == 2
@@ -135,6 +135,6 @@ def test_sim_convert_demo_and_eval_refuse_existing_outputs(tmp_path, bag, capsys
     demo_dir.mkdir()
     (demo_dir / "summary.md").write_text("mine")
     args = ["--out-dir", str(demo_dir), "--particles", "5", "--duration", "3"]
-    assert demo.main(args) == 1
+    assert demo.main(args) == 2
     assert (demo_dir / "summary.md").read_text() == "mine" and len(os.listdir(demo_dir)) == 1
     assert "--overwrite" in capsys.readouterr().err

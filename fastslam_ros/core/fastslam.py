@@ -22,6 +22,7 @@ once, with no Python loop over particles, landmarks or observations. Per step:
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,15 @@ NO_MOTION = (0.0, 0.0, 0.0)
 """The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
 _NO_DRAWS = np.zeros(0)
 _NO_NORMALS = np.zeros((0, 3))
+
+
+def kernels_pending(backend: str) -> bool:
+    """Whether a filter built now with ``backend`` first compiles the kernels (or loads them from
+    numba's cache): about 45 s on a first start, so a node says so before."""
+    if backend == "numpy" or (backend == "auto" and not numba_available()):
+        return False
+    kernels = sys.modules.get(f"{__package__}.kernels")
+    return kernels is None or not getattr(kernels, "_warm", False)
 
 
 @dataclass

@@ -5,29 +5,35 @@
 Every command builds its parser with ``parser()`` (defaults shown after each option's help),
 checks the paths it was given with ``input_bag`` / ``input_file`` / ``output_file`` /
 ``output_folder`` before it starts, and turns an error into one line on stderr with ``fail``.
-Exit status: 0 done; 1 the run failed on usable inputs (a bad parameter value, a bag without
-the expected topics, an existing output that only ``--overwrite`` may replace); 2 a usage
-error: a bad option, or a path on the command line that does not exist, cannot be read as
-what it should be (a bag, a parameter file) or cannot be written.
+Exit status, the one rule of every console command (the nodes too): 0 done; 1 the run failed
+on usable inputs (a bad parameter value in a file, a bag without the expected topics or with
+topics of another type, a message that cannot be decoded); 2 a usage error: a bad option or
+option value, or a path on the command line that does not exist, cannot be read as what it
+should be (a bag, a parameter file) or cannot be written (an existing output without
+``--overwrite`` included).
 """
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import Callable, TypeVar
 
 from rosbags.highlevel import AnyReader, AnyReaderError
 
+from fastslam_ros.node_start import ArgumentParser
+
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
+Number = TypeVar("Number", int, float)
 
 
 class UsageError(Exception):
     """A path or file given on the command line that cannot be used (exit status 2)."""
 
 
-BAD_INPUT_ERRORS = (UsageError, FileNotFoundError, IsADirectoryError, NotADirectoryError,
-                    PermissionError, AnyReaderError)
+BAD_INPUT_ERRORS = (UsageError, FileNotFoundError, FileExistsError, IsADirectoryError,
+                    NotADirectoryError, PermissionError, AnyReaderError)
 """Errors that mean a path given on the command line cannot be used (exit status 2)."""
 BAG_ERRORS = (OSError, ValueError, AnyReaderError)
 """What reading or writing a bag can raise (``SchemaError`` is a ValueError)."""
@@ -55,7 +61,30 @@ def parser(prog: str, description: str | None, first_paragraph: bool = False
     text = plain(description)
     if first_paragraph:
         text = text.split("\n\n")[0]
-    return argparse.ArgumentParser(prog=prog, description=text, formatter_class=HelpFormatter)
+    return ArgumentParser(prog=prog, description=text, formatter_class=HelpFormatter)
+
+
+def positive(kind: Callable[[str], Number] = float) -> Callable[[str], Number]:
+    """An argparse ``type``: a number of ``kind`` (float or int) greater than 0."""
+    def parse(text: str) -> Number:
+        value = kind(text)  # ValueError: argparse says "invalid float value"
+        if not value > 0:  # NaN too
+            raise argparse.ArgumentTypeError(f"must be > 0 (got {text})")
+        return value
+    parse.__name__ = getattr(kind, "__name__", "number")
+    return parse
+
+
+def positive_list(text: str) -> list[int]:
+    """An argparse ``type``: comma-separated integers greater than 0 (``10,100``)."""
+    try:
+        values = [int(item) for item in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers (got {text!r})"
+                                         ) from None
+    if not all(value > 0 for value in values):
+        raise argparse.ArgumentTypeError(f"every value must be > 0 (got {text!r})")
+    return values
 
 
 def input_path(path: Path | str, what: str = "input") -> Path:
@@ -117,10 +146,13 @@ def output_folder(path: Path | str, what: str = "output folder") -> Path:
 
 
 def fail(prog: str, error: BaseException | str, code: int | None = None) -> int:
-    """Print ``prog: error`` as one line on stderr; return the exit status (``code``, else 2
-    for a path that cannot be used, 1 otherwise)."""
-    if code is None:
-        code = EXIT_USAGE if isinstance(error, BAD_INPUT_ERRORS) else EXIT_FAILURE
+    """Print ``prog: error`` as one line on stderr; return the exit status: 2 for an error of
+    ``BAD_INPUT_ERRORS`` (whatever ``code`` says: a path that cannot be used is always a usage
+    error), else ``code``, else 1."""
+    if isinstance(error, BAD_INPUT_ERRORS):
+        code = EXIT_USAGE
+    elif code is None:
+        code = EXIT_FAILURE
     message = str(error).strip().replace("\n", " ") or type(error).__name__
     print(f"{prog}: {message}", file=sys.stderr)
     return code

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
-from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
@@ -48,6 +48,16 @@ INITIAL_POSE_TOPIC = "/initialpose"
 ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 CLOUD_TYPE = "sensor_msgs/msg/PointCloud2"
 TF_TYPE = "tf2_msgs/msg/TFMessage"
+TOPIC_TYPES = {
+    ODOM_TOPIC: ODOMETRY_TYPE, LANDMARKS_TOPIC: CLOUD_TYPE, GROUND_TRUTH_POSE_TOPIC: ODOMETRY_TYPE,
+    GROUND_TRUTH_LANDMARKS_TOPIC: CLOUD_TYPE, TF_STATIC_TOPIC: TF_TYPE, "/tf": TF_TYPE,
+    REPLAY_INFO_TOPIC: "std_msgs/msg/String", "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+    INITIAL_POSE_TOPIC: "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "/map": "nav_msgs/msg/OccupancyGrid", "/scan": "sensor_msgs/msg/LaserScan",
+    "/fastslam/pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "/fastslam/path": "nav_msgs/msg/Path", "/fastslam/map_cloud": CLOUD_TYPE}
+"""The message type of each topic the tools read (schema v1, people bags, a replay's outputs):
+a bag that holds one of them with another type is refused before any message is read."""
 STORAGE_PLUGINS = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
 POSITION_ONLY_YAW_VARIANCE = -1.0
 """``pose.covariance[35]`` of a position-only reference: its orientation carries no information."""
@@ -393,6 +403,18 @@ def bag_topics(path: str | Path) -> dict[str, str]:
         return {connection.topic: connection.msgtype for connection in reader.connections}
 
 
+def check_topic_types(topics: dict[str, str], where: str | Path,
+                      wanted: Iterable[str] | None = None) -> None:
+    """SchemaError when a topic of ``topics`` ({topic: msgtype}; only those in ``wanted`` when
+    given) has another type than ``TOPIC_TYPES`` says."""
+    names = topics if wanted is None else [topic for topic in wanted if topic in topics]
+    wrong = [f"{topic} is {topics[topic]}, expected {TOPIC_TYPES[topic]}" for topic in names
+             if topic in TOPIC_TYPES and topics[topic] != TOPIC_TYPES[topic]]
+    if wrong:
+        raise SchemaError(f"{where}: topic{'s' if len(wrong) > 1 else ''} of the wrong type: "
+                          f"{'; '.join(wrong)}")
+
+
 def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
     """``(log stamps (N,) s, deserialized rosbags messages)`` of one topic, in time order.
 
@@ -408,12 +430,13 @@ def read_topics(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[np.n
     stamps: dict[str, list[float]] = {topic: [] for topic in wanted}
     messages: dict[str, list[Any]] = {topic: [] for topic in wanted}
     with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        check_topic_types({c.topic: c.msgtype for c in reader.connections}, path, wanted)
         connections = [c for c in reader.connections if c.topic in stamps]
         # An empty selection would mean "every connection" to rosbags.
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
                                           if connections else ()):
             stamps[connection.topic].append(ns_to_stamp(stamp_ns))
-            messages[connection.topic].append(reader.deserialize(raw, connection.msgtype))
+            messages[connection.topic].append(_decoded(reader, connection, raw, path))
     return {topic: (np.asarray(stamps[topic], dtype=float), messages[topic]) for topic in wanted}
 
 
@@ -425,12 +448,22 @@ def read_last(path: str | Path, topics: Iterable[str]) -> dict[str, tuple[float,
     wanted = set(topics)
     last: dict[str, tuple[int, Connection, bytes]] = {}
     with AnyReader([Path(path)], default_typestore=TYPESTORE) as reader:
+        check_topic_types({c.topic: c.msgtype for c in reader.connections}, path, wanted)
         connections = [c for c in reader.connections if c.topic in wanted]
         for connection, stamp_ns, raw in (reader.messages(connections=connections)
                                           if connections else ()):
             last[connection.topic] = (stamp_ns, connection, raw)
-        return {topic: (ns_to_stamp(stamp_ns), reader.deserialize(raw, connection.msgtype))
+        return {topic: (ns_to_stamp(stamp_ns), _decoded(reader, connection, raw, path))
                 for topic, (stamp_ns, connection, raw) in last.items()}
+
+
+def _decoded(reader: AnyReader, connection: Connection, raw: bytes, path: str | Path) -> Any:
+    """A message of a bag; SchemaError naming the bag and the topic when it does not decode."""
+    try:
+        return reader.deserialize(raw, connection.msgtype)
+    except AnyReaderError as error:
+        raise SchemaError(f"{path}: a {connection.topic} message does not decode "
+                          f"({error})") from None
 
 
 def pose_series_from_messages(messages: list[Any], static_transforms: list[Any] = ()

@@ -131,7 +131,8 @@ def main(argv: list[str] | None = None) -> int:
     """``fastslam-play``: publish a bag over DDS with /clock."""
     parser = cli.parser("fastslam-play", __doc__)
     parser.add_argument("bag", type=Path, help="rosbag2 folder (mcap or sqlite3)")
-    parser.add_argument("--rate", type=float, default=1.0, help="playback speed factor")
+    parser.add_argument("--rate", type=cli.positive(float), default=1.0,
+                        help="playback speed factor")
     parser.add_argument("--loop", action="store_true", help="start over at the end, until Ctrl-C")
     parser.add_argument("--topics", nargs="+", default=None,
                         help="only these topics (default: all)")

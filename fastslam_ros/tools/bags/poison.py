@@ -27,7 +27,8 @@ from std_msgs.msg import Header
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bags.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC,
-                                                ODOMETRY_TYPE, TYPESTORE, open_writer)
+                                                ODOMETRY_TYPE, TYPESTORE, SchemaError, bag_topics,
+                                                check_topic_types, open_writer)
 
 
 def _odometry(stamp: float, pose, frame: str, child: str) -> Odometry:
@@ -131,12 +132,26 @@ def fault_builders(rng: np.random.Generator) -> list[tuple[str, Callable]]:
     ]
 
 
+def _decoded(raw: bytes | memoryview, cls: type) -> object | None:
+    """The message, or None for bytes that do not decode (copied as they are, never a
+    template)."""
+    try:
+        return deserialize_message(bytes(raw), cls)
+    except Exception:  # noqa: BLE001 - whatever the middleware raises on bad bytes
+        return None
+
+
 def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 0,
                overwrite: bool = False) -> dict[str, int]:
     """Write OUT: BAG's messages plus ``rate`` bad ones per second; returns the count by class."""
     rng = np.random.default_rng(seed)
     builders = fault_builders(rng)
     counts = dict.fromkeys((name for name, _ in builders), 0)
+    topics = bag_topics(bag)  # a bag with the inputs, of their types, before any output
+    missing = [topic for topic in (ODOM_TOPIC, LANDMARKS_TOPIC) if topic not in topics]
+    if missing:
+        raise SchemaError(f"{bag}: missing topic(s) {', '.join(missing)}")
+    check_topic_types(topics, bag, (ODOM_TOPIC, LANDMARKS_TOPIC))
     with AnyReader([Path(bag)], default_typestore=TYPESTORE) as reader, \
             open_writer(out, "mcap", overwrite, inputs=[bag]) as writer:
         connections = {}
@@ -146,13 +161,14 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
             if connection.topic not in connections:
                 connections[connection.topic] = writer.add_connection(
                     connection.topic, connection.msgtype, typestore=TYPESTORE)
-            if amend is not None and connection.topic == LANDMARKS_TOPIC:
-                raw = serialize_message(amend(deserialize_message(bytes(raw), PointCloud2)))
+            msg = _decoded(raw, Odometry if connection.topic == ODOM_TOPIC else PointCloud2) \
+                if connection.topic in (ODOM_TOPIC, LANDMARKS_TOPIC) else None
+            if amend is not None and msg is not None and connection.topic == LANDMARKS_TOPIC:
+                raw = serialize_message(amend(msg))
                 amend = None
             writer.write(connections[connection.topic], stamp_ns, raw)
-            if connection.topic in (ODOM_TOPIC, LANDMARKS_TOPIC):
-                cls = Odometry if connection.topic == ODOM_TOPIC else PointCloud2
-                last[connection.topic] = deserialize_message(bytes(raw), cls)
+            if msg is not None:
+                last[connection.topic] = msg
             stamp = stamp_ns * 1e-9
             next_fault = stamp + rng.exponential(1.0 / rate) if next_fault is None else next_fault
             if stamp < next_fault or len(last) < 2:
@@ -180,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = cli.parser(prog, __doc__, first_paragraph=True)
     parser.add_argument("bag", type=Path, help="schema-v1 bag")
     parser.add_argument("--out", type=Path, required=True, help="output bag folder")
-    parser.add_argument("--rate", type=float, default=1.0,
+    parser.add_argument("--rate", type=cli.positive(float), default=1.0,
                         help="bad messages per second of data")
     parser.add_argument("--seed", type=int, default=0, help="seed of the faults' draws")
     parser.add_argument("--overwrite", action="store_true",
@@ -188,6 +204,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         cli.input_bag(args.bag)
+        cli.output_folder(args.out, "--out")
     except cli.UsageError as error:
         return cli.fail(prog, error)
     try:

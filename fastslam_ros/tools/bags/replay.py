@@ -53,6 +53,9 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
+from fastslam_ros import node_base
+from fastslam_ros.node_base import ParamsFileError
+from fastslam_ros.node_start import warn_line
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
 from fastslam_ros.ros_io import (MarkerArrayView, PathView, PlanarPoseArray,
@@ -63,13 +66,13 @@ from fastslam_ros.tools.bags.cdr import (SequenceCdr, diagnostic_array_cdr, mark
                                     pose_array_cdr, pose_stamped_piece,
                                     pose_with_covariance_stamped_cdr, read_odometry,
                                     read_point_cloud, tf_message_cdr, transform_stamped_cdr)
+from fastslam_ros.output import check_output
 from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
                                                 GROUND_TRUTH_POSE_TOPIC, INITIAL_POSE_TOPIC,
                                                 LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
                                                 TF_STATIC_TOPIC, TF_TYPE, TYPESTORE, SchemaError,
-                                                open_writer, ros_message_class, tf_message_bytes,
-                                                transform_message)
-from fastslam_ros.output import check_output
+                                                check_topic_types, open_writer, ros_message_class,
+                                                tf_message_bytes, transform_message)
 
 TF_TOPIC = "/tf"
 STATIC_QOS = [Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL,
@@ -98,6 +101,8 @@ DIRECT_WRITERS = {TransformStamped: transform_stamped_cdr,
                   PoseArray: pose_array_cdr, PointCloud2: point_cloud2_cdr,
                   DiagnosticArray: diagnostic_array_cdr, PlanarPoseArray: planar_pose_array_cdr}
 """Output types serialized directly (rclpy's serializer costs about 6 us per pose)."""
+UNDECODABLE_COUNTER = "dropped_undecodable"
+"""Replay counter of bag messages whose bytes do not decode as their type."""
 PROGRESS_PERIOD = 0.25
 """Seconds of wall time between two progress bar updates."""
 
@@ -138,11 +143,9 @@ def ros_msgtype(msg: Any) -> str:
 
 def load_params_file(path: str | Path, node_name: str = "/fastslam") -> dict[str, Any]:
     """The node's parameters from a ROS 2 parameter file, read as the node reads it (rclpy's
-    parser, the sections that match ``node_name``); ValueError names the file."""
-    try:
-        return read_params_file(path, node_name)
-    except ParameterError as error:
-        raise ValueError(str(error)) from None
+    parser, the sections that match ``node_name``); ParameterError (a ValueError) names the
+    file: ParamsFileError when it cannot be read or is no parameter file."""
+    return read_params_file(path, node_name)
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:
@@ -153,7 +156,11 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     name, separator, value = text.partition(separator)
     if not separator or not name.strip():
         raise ValueError(f"expected name=value or name:=value, got {text!r}")
-    parsed = yaml.safe_load(value)
+    try:
+        parsed = yaml.safe_load(value)
+    except yaml.YAMLError as error:
+        raise ValueError(f"{name.strip()}: not a YAML value: {value!r} "
+                         f"({' '.join(str(error).split()[:6])})") from None
     if isinstance(parsed, str):
         try:
             parsed = float(parsed)
@@ -458,7 +465,10 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
     with ExitStack() as cleanup:
         cleanup.callback(rclpy.try_shutdown, context=context)
         topics = _topic_names(remap or {})
-        reader = cleanup.enter_context(_open_input(bag_path, topics, target.required_topics))
+        # The node class's methods name the topics it reads (before the node exists).
+        read = (*target.callbacks(target.make_node), TF_STATIC_TOPIC)
+        reader = cleanup.enter_context(_open_input(bag_path, topics, target.required_topics,
+                                                   read))
         node = _create_node(target, context, merged)
         cleanup.callback(node.destroy_node)
         used_params = {name: node.get_parameter(name).value
@@ -536,9 +546,10 @@ def _topic_names(remap: dict[str, str]) -> TopicOf:
 
 
 @contextmanager
-def _open_input(bag_path: Path, topic_of: TopicOf,
-                required: tuple[str, ...]) -> Iterator[AnyReader]:
-    """An open reader of a bag that has the required topics (SchemaError otherwise)."""
+def _open_input(bag_path: Path, topic_of: TopicOf, required: tuple[str, ...],
+                read: tuple[str, ...] = ()) -> Iterator[AnyReader]:
+    """An open reader of a bag that has the required topics, and the topics ``read`` of their
+    own types (SchemaError otherwise, naming the topics under their --remap names)."""
     if not bag_path.exists():
         raise FileNotFoundError(f"bag not found: {bag_path}")
     reader = AnyReader([bag_path], default_typestore=TYPESTORE)
@@ -550,10 +561,13 @@ def _open_input(bag_path: Path, topic_of: TopicOf,
         topics = {topic_of(c) for c in reader.connections}
         missing = [topic for topic in required if topic not in topics]
         if missing:
-            present = sorted(c.topic for c in reader.connections)
+            present = sorted(topic_of(c) + (f" (the bag's {c.topic}, remapped)"
+                                            if topic_of(c) != c.topic else "")
+                             for c in reader.connections)
             raise SchemaError(f"{bag_path}: missing topic(s) {', '.join(missing)} "
                               f"(has: {', '.join(present) or 'none'}; --remap FROM:=TO "
                               "reads a topic under another name)")
+        check_topic_types({topic_of(c): c.msgtype for c in reader.connections}, bag_path, read)
         yield reader
     finally:
         reader.close()
@@ -584,10 +598,14 @@ def _record_static_transforms(node: Any, reader: AnyReader, recorder: OutputReco
         transforms += list(reader.deserialize(raw, connection.msgtype).transforms)
     base = node.get_parameter("base_frame").value
     sensor = node.get_parameter(target.sensor_frame_parameter).value
-    if not sensor:
+    if not sensor:  # the frame of the first reading that decodes
         clouds = [c for c in reader.connections if topic_of(c) == target.sensor_topic]
-        first = next(iter(reader.messages(connections=clouds)), None) if clouds else None
-        sensor = reader.deserialize(first[2], first[0].msgtype).header.frame_id if first else ""
+        for connection, _, raw in reader.messages(connections=clouds) if clouds else ():
+            try:
+                sensor = reader.deserialize(raw, connection.msgtype).header.frame_id
+                break
+            except AnyReaderError:
+                continue
     known = {t.child_frame_id for t in transforms}
     recorder.stamp_ns = reader.start_time
     if sensor and sensor != base and sensor not in known:
@@ -622,13 +640,11 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
         first_ns = stamp_ns if first_ns is None else first_ns
         last_ns = stamp_ns
         node.set_node_time(stamp_ns)
-        direct = DIRECT_READERS.get(connection.msgtype)
-        msg = direct(raw) if direct is not None else None
-        if msg is None:
-            if connection.msgtype in PLAIN_TYPES:
-                msg = reader.deserialize(raw, connection.msgtype)
-            else:
-                msg = deserialize_message(bytes(raw), classes[topic])
+        try:
+            msg = _decode(reader, connection.msgtype, raw, classes[topic])
+        except Exception as error:  # noqa: BLE001 - whatever the decoder raises on bad bytes
+            _count_undecodable(node, topic, error)
+            continue
         used_odometry = node.stats["used_odom"]
         callbacks[topic](msg)
         if recorder is not None and node.stats["used_odom"] > used_odometry:
@@ -641,6 +657,26 @@ def _feed(node: Any, reader: AnyReader, recorder: OutputRecorder | None, progres
     if bar is not None:
         bar.update(done, duration, final=True)
     return done, duration
+
+
+def _decode(reader: AnyReader, msgtype: str, raw: bytes | memoryview, msg_class: Any) -> Any:
+    """A bag message as the node's callback takes it (the fastest reader that applies)."""
+    direct = DIRECT_READERS.get(msgtype)
+    msg = direct(raw) if direct is not None else None
+    if msg is None:
+        if msgtype in PLAIN_TYPES:
+            return reader.deserialize(raw, msgtype)
+        return deserialize_message(bytes(raw), msg_class)
+    return msg
+
+
+def _count_undecodable(node: Any, topic: str, error: Exception) -> None:
+    """Drop a bag message whose bytes do not decode (a live node never receives one: its
+    middleware drops it), counted as ``dropped_undecodable`` in the node's counters."""
+    node.stats.setdefault(UNDECODABLE_COUNTER, 0)
+    node.stats[UNDECODABLE_COUNTER] += 1
+    node._warn(UNDECODABLE_COUNTER, f"{topic}: message cannot be decoded ({error}) "
+                                    f"[{UNDECODABLE_COUNTER}]")
 
 
 def summary_lines(result: ReplayResult) -> list[str]:
@@ -714,18 +750,20 @@ def main(argv: list[str] | None = None) -> int:
             cli.output_file(args.save_map, "--save-map")
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
-            load_params_file(args.params, f"/{args.node}")  # a bad file fails before any work
+            node_base.read_params_file(args.params, f"/{args.node}", warn_line(prog))
     except cli.UsageError as error:
         return cli.fail(prog, error)
-    except ValueError as error:  # not a parameter file
+    except ParamsFileError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
+    except ParameterError as error:  # not one parameter of it applies
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     try:
         target = people_target() if args.node == "people_tracker" else SLAM_TARGET
         result = replay_through(target, args.bag, params, args.params, out,
                                 progress=args.progress or sys.stderr.isatty(),
                                 overwrite=args.overwrite, remap=remap, save_map=args.save_map)
-    except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_FAILURE)
+    except AnyReaderError as error:  # the bag opened, but a message of it cannot be read
+        return cli.fail(prog, f"cannot read {args.bag}: {error}", cli.EXIT_FAILURE)
     except (SchemaError, ValueError, OSError) as error:
         return cli.fail(prog, error)
     print("\n".join(summary_lines(result)))

@@ -229,10 +229,12 @@ def markdown(title: str, rows: list[dict]) -> str:
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-bench``: print (and optionally write) the speed and memory figures."""
     parser = cli.parser("fastslam-bench", __doc__)
-    parser.add_argument("--particles", type=int, default=100, help="number of particles M")
-    parser.add_argument("--steps", type=int, default=300, help="steps of each synthetic run")
+    parser.add_argument("--particles", type=cli.positive(int), default=100,
+                        help="number of particles M")
+    parser.add_argument("--steps", type=cli.positive(int), default=300,
+                        help="steps of each synthetic run")
     parser.add_argument("--seed", type=int, default=1, help="seed of the worlds and filters")
-    parser.add_argument("--repeat", type=int, default=3,
+    parser.add_argument("--repeat", type=cli.positive(int), default=3,
                         help="runs of each throughput configuration (best and median shown)")
     parser.add_argument("--only", choices=("throughput", "sweep", "scaling", "memory", "soak"),
                         action="append", help="run only these parts (repeatable)")
@@ -242,9 +244,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--association", choices=ASSOCIATION_MODES, action="append",
                         help="association rules of the throughput part (repeatable; default: "
                              "all)")
-    parser.add_argument("--sweep", default="10,100,1000",
+    parser.add_argument("--sweep", type=cli.positive_list, default="10,100,1000",
                         help="comma-separated particle counts of the sweep (default 10,100,1000)")
-    parser.add_argument("--threads", type=int, default=None,
+    parser.add_argument("--threads", type=cli.positive(int), default=None,
                         help="at most this many threads in the compiled kernels")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.add_argument("--overwrite", action="store_true",
@@ -257,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         except cli.UsageError as error:
             return cli.fail(prog, error)
         except FileExistsError as error:
-            return cli.fail(prog, error, cli.EXIT_FAILURE)
+            return cli.fail(prog, error)
     parts = args.only or ["throughput", "sweep", "scaling", "memory"]
     backends = tuple(args.backend or (("numpy", "numba") if numba_available() else ("numpy",)))
     if "numba" in backends:
@@ -272,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
         print(markdown("Throughput (observations per second, wall clock)", results["throughput"]),
               flush=True)
     if "sweep" in parts:
-        counts = [int(value) for value in args.sweep.split(",")]
+        counts = args.sweep
         results["sweep"], results["fit"] = sweep(counts, args.seed, args.steps, args.repeat,
                                                  backends)
         print(markdown("Time per reading over M (FastSLAM 2.0, ml)", results["sweep"]))

@@ -242,7 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "../shared/datasets)")
     parser.add_argument("--out-dir", type=Path, default=Path("benchmark_results"),
                         help="folder for the converted bags, the runs and the tables")
-    parser.add_argument("--particles", type=int, nargs="+", default=[100],
+    parser.add_argument("--particles", type=cli.positive(int), nargs="+", default=[100],
                         help="particle counts")
     parser.add_argument("--algorithms", nargs="+", default=["fastslam1", "fastslam2"],
                         choices=["fastslam1", "fastslam2"], help="FastSLAM versions to run")
@@ -250,12 +250,13 @@ def build_parser() -> argparse.ArgumentParser:
                         choices=["known", "ml", "monte_carlo", "two_gate", SHIPPED_ASSOCIATION],
                         help="known ids and/or unknown association rules; config: the one the "
                              "sequence's parameter file names")
-    parser.add_argument("--seeds", type=int, default=1, help="seeds 1..N per configuration")
+    parser.add_argument("--seeds", type=cli.positive(int), default=1,
+                        help="seeds 1..N per configuration")
     parser.add_argument("--only", default=None,
                         help="run only sequences whose name contains this text")
     parser.add_argument("--quick", action="store_true",
                         help=f"first {QUICK_DURATION:g} s of each sequence, FastSLAM 2.0 only")
-    parser.add_argument("--jobs", type=int, default=1,
+    parser.add_argument("--jobs", type=cli.positive(int), default=1,
                         help="parallel runs (runtimes are then measured under load)")
     return parser
 
@@ -281,9 +282,17 @@ def main(argv: list[str] | None = None) -> int:
                         f"no dataset found under {', '.join(map(str, roots))}", cli.EXIT_USAGE)
     algorithms = ["fastslam2"] if args.quick else args.algorithms
     duration = QUICK_DURATION if args.quick else None
-    args.out_dir.mkdir(parents=True, exist_ok=True)
-    bags = {s: bag_for(s, args.out_dir / "bags", duration) for s in sequences}
-    baselines = {s.name: m for s in sequences if (m := dead_reckoning(bags[s])) is not None}
+    try:
+        cli.output_folder(args.out_dir, "--out-dir")
+    except cli.UsageError as error:
+        return cli.fail("fastslam-benchmark", error)
+    args.out_dir.mkdir(exist_ok=True)
+    try:
+        bags = {s: bag_for(s, args.out_dir / "bags", duration) for s in sequences}
+        baselines = {s.name: m for s in sequences if (m := dead_reckoning(bags[s])) is not None}
+    except (OSError, ValueError) as error:  # a dataset file that does not read
+        return cli.fail("fastslam-benchmark", f"cannot convert the datasets: {error}",
+                        cli.EXIT_FAILURE)
     specs = plan(sequences, algorithms, args.associations, args.particles, args.seeds)
     jobs = [(spec, bags[spec.sequence], args.out_dir) for spec in specs]
     print(f"fastslam-benchmark: {len(jobs)} runs on {len(sequences)} sequences", file=sys.stderr)

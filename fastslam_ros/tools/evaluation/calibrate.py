@@ -422,9 +422,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
+    from fastslam_ros.node_base import ParamsFileError
+    from fastslam_ros.output import check_output, write_params_yaml
     from fastslam_ros.tools.bags.bag_schema import read_schema_bag
-    from fastslam_ros.output import check_output
-    from fastslam_ros.output import write_params_yaml
 
     prog = "fastslam-calibrate"
     parser = build_parser()
@@ -447,9 +447,11 @@ def main(argv: list[str] | None = None) -> int:
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_FAILURE)
-    except ValueError as error:  # not a parameter file
+        return cli.fail(prog, error)
+    except ParamsFileError as error:  # not a parameter file
         return cli.fail(prog, error, cli.EXIT_USAGE)
+    except ValueError as error:  # not one parameter of it applies
+        return cli.fail(prog, error, cli.EXIT_FAILURE)
     offset = SensorOffset(*(value if value is not None else float(base.get(name, 0.0))
                             for name, value in (("sensor_x", args.sensor_x),
                                                 ("sensor_y", args.sensor_y),
@@ -457,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         bags = [read_schema_bag(bag) for bag in args.bags]
     except cli.BAG_ERRORS as error:
-        return cli.fail(prog, f"cannot read a bag: {error}", cli.EXIT_FAILURE)
+        return cli.fail(prog, f"cannot calibrate: {error}", cli.EXIT_FAILURE)
     try:
         params, figures = calibrate_bags(bags, offset, args.step, args.match_radius, args.max_gap)
     except CalibrationError as error:

@@ -368,9 +368,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="write the scored trajectories and the ground truth as TUM files "
                              "(estimate.tum, final_path.tum, dead_reckoning.tum, "
                              "ground_truth.tum) into this folder, for evo")
-    parser.add_argument("--cutoff", type=float, default=OSPA_CUTOFF,
+    parser.add_argument("--cutoff", type=cli.positive(float), default=OSPA_CUTOFF,
                         help="landmark match distance (m)")
-    parser.add_argument("--max-gap", type=float, default=DEFAULT_MAX_GAP,
+    parser.add_argument("--max-gap", type=cli.positive(float), default=DEFAULT_MAX_GAP,
                         help="longest ground-truth gap interpolated across (s)")
     parser.add_argument("--min-existence", type=float, default=0.0,
                         help="ignore estimated landmarks with a lower existence probability")
@@ -390,8 +390,12 @@ def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval``: print the Markdown summary; optionally write JSON, a plot, TUM files."""
     args = build_parser().parse_args(argv)
     prog = "fastslam-eval"
+    try:  # a usable bag before any of its topics is read
+        cli.input_bag(args.out)
+    except cli.UsageError as error:
+        return cli.fail(prog, error)
     from fastslam_ros.tools.evaluation import people_eval
-    if args.out.is_dir() and people_eval.is_people_run(bag_topics(args.out)):
+    if people_eval.is_people_run(bag_topics(args.out)):
         return people_eval.main(argv)
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     written = [args.json, args.plot] + ([args.tum / name for name in TUM_NAMES.values()]
@@ -414,11 +418,11 @@ def main(argv: list[str] | None = None) -> int:
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_FAILURE)
+        return cli.fail(prog, error)
     try:
         run = load_run(args.out, args.ground_truth)
     except cli.BAG_ERRORS as error:
-        return cli.fail(prog, f"cannot read {args.out}: {error}", cli.EXIT_FAILURE)
+        return cli.fail(prog, f"cannot evaluate {args.out}: {error}", cli.EXIT_FAILURE)
     if run.estimate is None:
         return cli.fail(prog, f"{args.out} has no {POSE_TOPIC} messages")
     if run.ground_truth is None:

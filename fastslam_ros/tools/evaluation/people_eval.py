@@ -432,24 +432,30 @@ def main(argv: list[str] | None = None) -> int:
             cli.output_file(args.json, "--json")
         if args.plot is not None:
             cli.output_file(args.plot, "--plot", suffixes=plot_formats())
+        cli.input_bag(args.out)
+        if args.ground_truth is not None:
+            cli.input_bag(args.ground_truth, "ground-truth bag")
         for path in (args.json, args.plot):
             if path is not None:
                 check_output(path, args.overwrite, "file", inputs)
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except FileExistsError as error:
-        return cli.fail(prog, error, cli.EXIT_FAILURE)
+        return cli.fail(prog, error)
     try:
         metrics, plot_data = evaluate_people_bag(args.out, args.ground_truth, args.min_existence)
-    except (FileNotFoundError, OSError, ValueError) as error:
+    except cli.BAG_ERRORS as error:
         return cli.fail(prog, f"cannot score {args.out}: {error}", cli.EXIT_FAILURE)
     print(markdown_table(metrics))
-    if args.json:
-        write_text(args.json, json.dumps(json_ready(metrics), indent=2) + "\n", args.overwrite,
-                   inputs)
-    if args.plot:
-        with staged_output(args.plot, args.overwrite, "file", inputs) as staged:
-            plot_people(plot_data, staged)
+    try:
+        if args.json:
+            write_text(args.json, json.dumps(json_ready(metrics), indent=2) + "\n",
+                       args.overwrite, inputs)
+        if args.plot:
+            with staged_output(args.plot, args.overwrite, "file", inputs) as staged:
+                plot_people(plot_data, staged)
+    except OSError as error:
+        return cli.fail(prog, f"cannot write: {error}", cli.EXIT_USAGE)
     return 0
 
 

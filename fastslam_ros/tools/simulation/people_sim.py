@@ -588,7 +588,7 @@ def recommended_params(config: PeopleSimConfig) -> dict[str, float | int | str]:
 
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-sim --scenario people``: simulate and write the bag and its parameter file."""
-    parser = cli.parser("fastslam-sim --scenario people", __doc__, first_paragraph=True)
+    parser = cli.parser("fastslam-sim", __doc__, first_paragraph=True)
     parser.add_argument("--scenario", choices=("people",), default="people",
                         help="the simulated world (people: a known map with walking people)")
     parser.add_argument("--out", type=Path, default=Path("sim_people"), help="output bag folder")
@@ -606,20 +606,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-initial-pose", action="store_true",
                         help="write no /initialpose: the tracker must localize globally")
     args = parser.parse_args(argv)
+    params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
     try:
         config = PeopleSimConfig(seed=args.seed, duration=args.duration, people=args.people,
                                  initial_pose=not args.no_initial_pose).validate()
-        run = simulate_people(config)
-        params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
+        cli.output_folder(args.out, "--out")
+        cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any
-        check_output(params_out, args.overwrite, "file")
+        check_output(params_out, args.overwrite, "file", inputs=[args.out])
+    except (cli.UsageError, ValueError, OSError) as error:  # an option value, an output
+        return cli.fail("fastslam-sim", error, cli.EXIT_USAGE)
+    try:
+        run = simulate_people(config)
         write_people_bag(args.out, run, config, args.storage, args.overwrite)
-    except (ValueError, FileExistsError) as error:
-        print(f"fastslam-sim: {error}", file=sys.stderr)
-        return 1
-    write_params_yaml(params_out, recommended_params(config),
-                      f"people_tracker parameters for {args.out.name} (fastslam-sim --scenario "
-                      f"people --seed {config.seed}).", overwrite=args.overwrite)
+        write_params_yaml(params_out, recommended_params(config),
+                          f"people_tracker parameters for {args.out.name} (fastslam-sim "
+                          f"--scenario people --seed {config.seed}).", overwrite=args.overwrite)
+    except (ValueError, OSError) as error:
+        return cli.fail("fastslam-sim", error)
     seen = len({int(i) for ids, _ in run.people for i in ids})
     print(f"wrote {args.out}: {config.duration:.0f} s, {len(run.scans)} scans, {seen} people; "
           f"parameters in {params_out}")

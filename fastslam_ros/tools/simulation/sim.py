@@ -276,11 +276,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = SimConfig(**values).resolved()
     except ValueError as error:
-        print(f"fastslam-sim: {error}", file=sys.stderr)
-        return 2
+        return cli.fail("fastslam-sim", error, cli.EXIT_USAGE)
     out = args.out or Path(f"sim_{config.scenario}")
     params_out = args.params_out or out.with_name(out.name + ".yaml")
     try:
+        cli.output_folder(out, "--out")
+        cli.output_file(params_out, "--params-out")
         check_output(out, args.overwrite, "bag")  # both outputs checked before either is written
         check_output(params_out, args.overwrite, "file", inputs=[out])
         bag = simulate(config)
@@ -289,9 +290,8 @@ def main(argv: list[str] | None = None) -> int:
                           f"Recommended fastslam parameters for {out.name} "
                           f"(fastslam-sim --scenario {config.scenario} --seed {config.seed}).",
                           overwrite=args.overwrite)
-    except (ValueError, FileExistsError) as error:
-        print(f"fastslam-sim: {error}", file=sys.stderr)
-        return 1
+    except (cli.UsageError, ValueError, OSError) as error:
+        return cli.fail("fastslam-sim", error)
     duration = bag.odometry.stamps[-1] - bag.odometry.stamps[0]
     detections = sum(len(ids) for ids in bag.scans.ids)
     print(f"wrote {out}: {config.scenario}, {duration:.1f} s, {len(bag.odometry.stamps)} odometry, "
