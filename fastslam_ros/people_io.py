@@ -43,8 +43,10 @@ class OversizedError(ValueError):
 
 
 ANGLE_MAX_TOLERANCE = 0.5
-"""angle_max may differ from angle_min + (n - 1) angle_increment by this many increments (the
-float32 fields' rounding; a whole increment off is another beam count)."""
+"""angle_max may differ by this many increments from angle_min + (n - 1) angle_increment (the
+last beam's angle, REP 117's reading) or from angle_min + n angle_increment (where
+pointcloud_to_laserscan puts it): the float32 fields' rounding; farther is another beam
+count."""
 
 
 def read_scan(msg, max_beams: int | None = None) -> Scan:
@@ -64,7 +66,7 @@ def read_scan(msg, max_beams: int | None = None) -> Scan:
     if abs(increment) * (count - 1) > 2.0 * math.pi + 1e-3:
         raise MalformedScanError(f"{count} beams of {increment} rad span more than a turn")
     last = angle_min + (count - 1) * increment
-    if not abs(angle_max - last) <= ANGLE_MAX_TOLERANCE * abs(increment):
+    if not -ANGLE_MAX_TOLERANCE <= (angle_max - last) / increment <= 1.0 + ANGLE_MAX_TOLERANCE:
         raise MalformedScanError(f"angle_max {angle_max} is not angle_min + (n - 1) "
                                  f"angle_increment = {last} for {count} beams")
     range_min, range_max = float(msg.range_min), float(msg.range_max)

@@ -209,8 +209,8 @@ class PeopleTrackerNode(FilterNode):
         self._lost_watch.clear()
         if not change.kept_pose:
             self.stats["global_localizations"] += 1
-            self._warn("map_changes", "changed map: no robot particle is in its free space, "
-                                      "localizing globally")
+            self._warn("map_changes", "changed map: localizing globally on it (no pose "
+                                      "yet, or no robot particle in its free space)")
 
     def _use_map(self, grid) -> None:
         """The first usable map: the filter starts on it."""

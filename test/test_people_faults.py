@@ -187,9 +187,10 @@ DROPPED = {  # name -> (message builder, callback, counter)
     # 10: scan geometry
     "scan angle_max 3 beams off": (lambda: scan_with(angle_max=float(ANGLES[-1] + 3 * INCREMENT)),
                                    "on_scan", "dropped_malformed_scan"),
-    "scan angle_max = angle_min + n increment": (
-        lambda: scan_with(angle_max=float(ANGLES[0] + 360 * INCREMENT)), "on_scan",
-        "dropped_malformed_scan"),
+    "scan angle_max 2 beams off": (lambda: scan_with(angle_max=float(ANGLES[-1] + 2 * INCREMENT)),
+                                   "on_scan", "dropped_malformed_scan"),
+    "scan angle_max 1 beam short": (lambda: scan_with(angle_max=float(ANGLES[-1] - INCREMENT)),
+                                    "on_scan", "dropped_malformed_scan"),
     "scan range_max < range_min": (lambda: scan_with(range_min=5.0, range_max=1.0), "on_scan",
                                    "dropped_malformed_scan"),
     "scan range_min NaN": (lambda: scan_with(range_min=math.nan), "on_scan",
@@ -238,6 +239,17 @@ def test_dropped_input_is_counted_and_changes_nothing(context, clean_run, name):
     assert any("1 input(s) dropped" in s.message for s in run.statuses)
     for key, value in clean_run.estimate.items():
         np.testing.assert_array_equal(run.estimate[key], value, err_msg=key)
+
+
+def test_angle_max_of_the_last_beam_or_one_increment_beyond_is_accepted():
+    """REP 117's angle_max is the last beam's angle; pointcloud_to_laserscan's is one
+    increment further (n beams over [angle_min, angle_max)). Both read the same beams."""
+    for angle_max in (ANGLES[-1], ANGLES[-1] + INCREMENT, ANGLES[-1] + 1e-4):
+        scan = people_io.read_scan(scan_with(angle_max=float(angle_max)))
+        assert scan.angle_min == float(ANGLES[0]) and len(scan.ranges) == len(ANGLES)
+    reverse = scan_with(angle_min=float(ANGLES[-1]), angle_max=float(ANGLES[0]),
+                        angle_increment=-INCREMENT)
+    assert people_io.read_scan(reverse).angle_increment == -INCREMENT
 
 
 def test_scans_in_another_frame_than_the_first_are_dropped(context):
