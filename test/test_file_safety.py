@@ -232,3 +232,40 @@ def test_a_failed_demo_leaves_nothing_and_its_retry_runs(tmp_path, monkeypatch, 
     assert {"summary.md", "metrics.json", "result.png", "replay", "sim_loop"} <= set(
         os.listdir(out_dir))
     assert sorted(name for name in os.listdir(out_dir) if name.startswith(".")) == []
+
+
+def test_every_writing_tool_leaves_a_user_tree_as_it_was(tmp_path, bag, user_tree, capsys):
+    """Each tool pointed at the user's files (a file, a link, a bag look-alike, a missing
+    folder), without and with --overwrite where only a bag may be replaced: exit 1 or 2, one
+    line, and not one byte of the tree changed."""
+    from fastslam_ros.tools.bags import poison
+    from fastslam_ros.tools.benchmarks import bench, soak
+    from fastslam_ros.tools.evaluation import calibrate
+
+    run = tmp_path / "run"
+    replay.replay_bag(bag, {"num_particles": 5, "seed": 1}, out_path=run)
+    capsys.readouterr()
+    before = tree_digest(user_tree)
+    files = [user_tree / "notes.yaml", user_tree / "link.yaml", user_tree / "missing" / "x.yaml"]
+    folders = [user_tree / "cfg", user_tree / "notes.yaml", user_tree / "missing" / "bag"]
+    calls = []
+    for path in files:
+        calls += [(calibrate.main, [str(bag), "--out", str(path)]),
+                  (evaluate.main, [str(run), "--json", str(path)]),
+                  (bench.main, ["--only", "memory", "--json", str(path)]),
+                  (soak.main, ["--hours", "0.001", "--json", str(path)]),
+                  (sim.main, ["--out", str(tmp_path / "s"), "--params-out", str(path),
+                              "--duration", "1"])]
+    for path in folders:
+        for extra in ([], ["--overwrite"]):
+            calls += [(poison.main, [str(bag), "--out", str(path), *extra]),
+                      (replay.main, [str(bag), *PARTICLES, "--out", str(path), *extra]),
+                      (sim.main, ["--out", str(path), "--duration", "1", *extra]),
+                      (sim.main, ["--scenario", "people", "--out", str(path), "--duration", "1",
+                                  *extra])]
+    for main, args in calls:
+        status = main(args)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert status in (1, 2), (main.__module__, args)
+        assert err and "Traceback" not in "\n".join(err), (main.__module__, args, err)
+        assert tree_digest(user_tree) == before, (main.__module__, args)
