@@ -27,7 +27,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros import node_base, ros_io
+from fastslam_ros import map_files, node_base, ros_io, ros_markers
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
 from fastslam_ros.core.fastslam import kernels_pending
@@ -187,7 +187,7 @@ class FastSLAMNode(FilterNode):
         self._map_dirty = False
         self._published_keys: set[int] = set()
         self._path_builder = ros_io.PathBuilder()
-        self._marker_builder = ros_io.MarkerBuilder()
+        self._marker_builder = ros_markers.MarkerBuilder()
         self._reach_check = ReachCheck(self.config.max_range, self.config.field_of_view)
         """Warns once when the first observations do not fit max_range / field_of_view."""
 
@@ -208,7 +208,7 @@ class FastSLAMNode(FilterNode):
             try:
                 self._load_map(self.settings["map_file"])
                 self._publish_map()  # latched: RViz shows the loaded map at once
-            except ros_io.MapFileError as error:
+            except map_files.MapFileError as error:
                 raise ParameterError(f"parameter 'map_file': {error}") from None
         elif self.config.mode == "localization":
             raise ParameterError("parameters 'mode', 'map_file': mode localization needs a "
@@ -428,7 +428,7 @@ class FastSLAMNode(FilterNode):
         removed = sorted(self._published_keys - keys)
         lean = self._lean()
         if self._marker_builder.lean != lean:
-            self._marker_builder = ros_io.MarkerBuilder(lean)
+            self._marker_builder = ros_markers.MarkerBuilder(lean)
         self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys
@@ -480,19 +480,19 @@ class FastSLAMNode(FilterNode):
                 self.get_logger().warning(f"map refinement failed ({error}); saving the "
                                           "filter's map")
                 what = f"the filter's map: refinement failed ({error})"
-        written = ros_io.write_map_file(map_file, landmark_map, self.settings["map_frame"],
+        written = map_files.write_map_file(map_file, landmark_map, self.settings["map_frame"],
                                         self._last_update_stamp, overwrite, inputs)
         message = f"{len(landmark_map.keys)} landmarks written to {written}, {what}"
         self.get_logger().info(message)
         return message
 
     def _load_map(self, map_file: str) -> int:
-        """Seed every particle's map from a map file (ros_io.MapFileError when unreadable);
+        """Seed every particle's map from a map file (map_files.MapFileError when unreadable);
         returns the number of landmarks."""
-        loaded = ros_io.read_map_file(map_file)
+        loaded = map_files.read_map_file(map_file)
         frame = self.settings["map_frame"]
         if loaded.frame_id and loaded.frame_id != frame:
-            raise ros_io.MapFileError(f"map file '{map_file}': its frame '{loaded.frame_id}' "
+            raise map_files.MapFileError(f"map file '{map_file}': its frame '{loaded.frame_id}' "
                                       f"is not map_frame '{frame}'")
         self.slam.seed_map(loaded.means, loaded.covariances, loaded.ids)
         self._map_dirty = True

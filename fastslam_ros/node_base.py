@@ -249,7 +249,7 @@ class FilterNode(Node):
         self.lean_outputs = False
         """True, with ``publish_to_dds`` False: ``~/particles``, ``~/landmarks``, ``~/pose``,
         ``~/map_to_odom`` and ``~/path`` go to the listeners as ``ros_io.PlanarPoseArray``,
-        ``ros_io.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView``,
+        ``ros_markers.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView``,
         ``ros_io.TransformStampedView`` and ``ros_io.PathView`` (a replay serializes them
         directly; rclpy builds a message object per particle, per marker and per
         sub-message)."""

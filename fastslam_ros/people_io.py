@@ -18,7 +18,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from fastslam_ros import ros_io
+from fastslam_ros import ros_io, ros_markers
 from fastslam_ros.core import geometry
 from fastslam_ros.people.conditional_filter import PeopleEstimate
 from fastslam_ros.people.detection import Scan
@@ -191,12 +191,12 @@ def people_markers(header: Header, people: PeopleEstimate, removed_keys=()) -> M
         body.pose.orientation.w = 1.0
         body.scale.x = body.scale.y = PERSON_DIAMETER
         body.scale.z = PERSON_HEIGHT
-        ellipse = ros_io.ellipse_marker(header, key, (x, y, float(angles[index])),
+        ellipse = ros_markers.ellipse_marker(header, key, (x, y, float(angles[index])),
                                         float(major[index]), float(minor[index]),
                                         ColorRGBA(r=1.0, g=0.8, b=0.2, a=0.4))
-        label = ros_io.label_marker(header, key, (x, y, PERSON_HEIGHT + ros_io.LABEL_LIFT),
-                                    str(key))
+        label = ros_markers.label_marker(
+            header, key, (x, y, PERSON_HEIGHT + ros_markers.LABEL_LIFT), str(key))
         markers += [body, ellipse, label]
-    markers += ros_io.delete_markers(header, removed_keys, (
-        PERSON_NAMESPACE, ros_io.ELLIPSE_NAMESPACE, ros_io.LABEL_NAMESPACE))
+    markers += ros_markers.delete_markers(header, removed_keys, (
+        PERSON_NAMESPACE, ros_markers.ELLIPSE_NAMESPACE, ros_markers.LABEL_NAMESPACE))
     return MarkerArray(markers=markers)

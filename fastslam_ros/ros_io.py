@@ -9,27 +9,22 @@ Planar poses are ``(x, y, theta)`` arrays: metres and radians, theta wrapped to 
 """
 from __future__ import annotations
 
-import csv
 import functools
-import io
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Iterable, NamedTuple, Protocol, Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
-import yaml
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import (Pose, PoseArray, PoseStamped, PoseWithCovarianceStamped,
                                Quaternion, TransformStamped)
 from nav_msgs.msg import Path as PathMsg
 from sensor_msgs.msg import PointCloud2, PointField
-from std_msgs.msg import ColorRGBA, Header
-from visualization_msgs.msg import Marker, MarkerArray
+from std_msgs.msg import Header
 
 from fastslam_ros.core import geometry
+from fastslam_ros.map_files import LandmarkMapLike
 from fastslam_ros.node_support.timing import seconds_to_nanoseconds
-from fastslam_ros.output import write_text
 
 # sensor_msgs/PointField datatype codes -> numpy scalar types.
 POINT_FIELD_DTYPES = {PointField.INT8: np.int8, PointField.UINT8: np.uint8,
@@ -47,14 +42,6 @@ MAP_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i
                             ("existence", "<f4")])
 """Layout of the ``~/map_cloud`` output: one point per landmark of the best particle."""
 
-ELLIPSE_NAMESPACE = "covariance"
-LABEL_NAMESPACE = "id"
-ELLIPSE_HEIGHT = 0.02
-LABEL_HEIGHT = 0.3
-LABEL_LIFT = 0.3
-MIN_MARKER_SCALE = 1e-3
-"""RViz refuses markers with a zero scale; a collapsed ellipse is drawn this thin instead (m)."""
-MAP_FILE_COLUMNS = ("key", "id", "x", "y", "cov_xx", "cov_xy", "cov_yy", "existence")
 
 
 class MalformedCloudError(ValueError):
@@ -71,16 +58,6 @@ class NonFiniteError(ValueError):
 
 class InvalidStampError(ValueError):
     """A ``builtin_interfaces/Time`` outside its definition (sec < 0 or nanosec >= 1e9)."""
-
-
-class LandmarkMapLike(Protocol):
-    """What the converters need of ``fastslam_ros.core.LandmarkMap``."""
-
-    means: np.ndarray
-    covariances: np.ndarray
-    existence: np.ndarray
-    ids: np.ndarray
-    keys: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -171,7 +148,7 @@ def pose_msg(pose: Sequence[float]) -> Pose:
 def _planar_pose(x: float, y: float, yaw: float) -> Pose:
     """``pose_msg`` of floats (a PoseArray builds one per particle)."""
     pose = Pose()
-    _fill_pose(pose, _planar_pose_view((x, y, yaw)))
+    fill_pose(pose, planar_pose_view((x, y, yaw)))
     return pose
 
 
@@ -290,26 +267,32 @@ def estimate_cloud(header: Header, means: np.ndarray, covariances: np.ndarray,
 
 # --- poses -------------------------------------------------------------------------------------
 
-class _Vector(NamedTuple):
+class VectorView(NamedTuple):
+    """A ``geometry_msgs/Vector3`` (or Point) as a replay serializes it directly."""
+
     x: float
     y: float
     z: float
 
 
-class _Quaternion(NamedTuple):
+class QuaternionView(NamedTuple):
+    """A ``geometry_msgs/Quaternion`` as a replay serializes it directly."""
+
     x: float
     y: float
     z: float
     w: float
 
 
-class _Pose(NamedTuple):
-    position: _Vector
-    orientation: _Quaternion
+class PoseView(NamedTuple):
+    """A ``geometry_msgs/Pose`` as a replay serializes it directly."""
+
+    position: VectorView
+    orientation: QuaternionView
 
 
 class _PoseWithCovariance(NamedTuple):
-    pose: _Pose
+    pose: PoseView
     covariance: np.ndarray
 
 
@@ -323,8 +306,8 @@ class PoseWithCovarianceStampedView(NamedTuple):
 
 
 class _Transform(NamedTuple):
-    translation: _Vector
-    rotation: _Quaternion
+    translation: VectorView
+    rotation: QuaternionView
 
 
 class TransformStampedView(NamedTuple):
@@ -337,10 +320,11 @@ class TransformStampedView(NamedTuple):
     MSGTYPE = "geometry_msgs/msg/TransformStamped"
 
 
-def _planar_pose_view(pose: Sequence[float]) -> _Pose:
+def planar_pose_view(pose: Sequence[float]) -> PoseView:
     """Planar pose (x, y, theta) at z = 0 as plain attributes (``pose_msg``'s values)."""
     _, _, qz, qw = geometry.yaw_to_quaternion(float(pose[2]))
-    return _Pose(_Vector(float(pose[0]), float(pose[1]), 0.0), _Quaternion(0.0, 0.0, qz, qw))
+    return PoseView(VectorView(float(pose[0]), float(pose[1]), 0.0),
+                    QuaternionView(0.0, 0.0, qz, qw))
 
 
 def pose_with_covariance_view(header: Header, pose: Sequence[float],
@@ -349,7 +333,7 @@ def pose_with_covariance_view(header: Header, pose: Sequence[float],
     (float64 (36,))."""
     full = np.zeros(36)
     full[_PLANAR_COVARIANCE] = np.ravel(covariance)
-    return PoseWithCovarianceStampedView(header, _PoseWithCovariance(_planar_pose_view(pose),
+    return PoseWithCovarianceStampedView(header, _PoseWithCovariance(planar_pose_view(pose),
                                                                      full))
 
 
@@ -358,12 +342,12 @@ def pose_with_covariance(header: Header, pose: Sequence[float],
     """``pose_with_covariance_view`` as an rclpy message."""
     view = pose_with_covariance_view(header, pose, covariance)
     msg = PoseWithCovarianceStamped(header=header)
-    _fill_pose(msg.pose.pose, view.pose.pose)
+    fill_pose(msg.pose.pose, view.pose.pose)
     msg.pose.covariance = view.pose.covariance  # float64 (36,): taken as it is, not checked
     return msg
 
 
-def _fill_pose(pose: Pose, view: _Pose) -> None:
+def fill_pose(pose: Pose, view: PoseView) -> None:
     """Set an rclpy Pose (in place: new sub-messages would build the defaults as well)."""
     position, orientation = pose.position, pose.orientation
     position.x, position.y, position.z = view.position
@@ -410,7 +394,7 @@ class PoseStampedView(NamedTuple):
     """A ``geometry_msgs/PoseStamped`` as plain attributes."""
 
     header: _Header
-    pose: _Pose
+    pose: PoseView
 
 
 class PathView(NamedTuple):
@@ -425,7 +409,7 @@ class PathView(NamedTuple):
 def pose_stamped_view(frame_id: str, stamp: float, pose: Sequence[float]) -> PoseStampedView:
     """A planar pose (x, y, theta) at ``stamp`` (s) in ``frame_id``."""
     return PoseStampedView(_Header(_Stamp(*_stamp_parts(stamp)), frame_id),
-                           _planar_pose_view(pose))
+                           planar_pose_view(pose))
 
 
 def pose_stamped_from_view(view: PoseStampedView) -> PoseStamped:
@@ -433,7 +417,7 @@ def pose_stamped_from_view(view: PoseStampedView) -> PoseStamped:
     msg = PoseStamped(header=Header(stamp=Time(sec=view.header.stamp.sec,
                                                nanosec=view.header.stamp.nanosec),
                                     frame_id=view.header.frame_id))
-    _fill_pose(msg.pose, view.pose)
+    fill_pose(msg.pose, view.pose)
     return msg
 
 
@@ -469,7 +453,7 @@ class PathBuilder:
 def transform_view(header: Header, child_frame_id: str,
                    pose: Sequence[float]) -> TransformStampedView:
     """Planar pose of ``child_frame_id`` in ``header.frame_id`` as a transform at z = 0."""
-    planar = _planar_pose_view(pose)
+    planar = planar_pose_view(pose)
     return TransformStampedView(header, child_frame_id,
                                 _Transform(planar.position, planar.orientation))
 
@@ -482,261 +466,3 @@ def transform(header: Header, child_frame_id: str, pose: Sequence[float]) -> Tra
     translation.x, translation.y, translation.z = view.translation
     rotation.x, rotation.y, rotation.z, rotation.w = view.rotation
     return msg
-
-
-# --- markers -----------------------------------------------------------------------------------
-
-def landmark_markers(header: Header, landmark_map: LandmarkMapLike,
-                     removed_keys: Sequence[int] = ()) -> MarkerArray:
-    """2-sigma ellipse (CYLINDER) and id label per landmark, DELETE for each removed key.
-
-    Markers are keyed by the landmark's stable key, so an update replaces the previous marker
-    of the same landmark and a removed landmark disappears from RViz.
-    """
-    return MarkerBuilder().build(header, landmark_map, removed_keys)
-
-
-class MarkerBuilder:
-    """Builds successive ``~/landmarks`` MarkerArrays, each holding the whole map.
-
-    Only the markers of landmarks that changed since the previous message (mean, covariance,
-    existence or id) are built again, with the new header; the others are reused, so a large
-    map that barely changed is cheap to publish again. The reused markers are never modified.
-    ``lean``: the landmarks' markers are ``MarkerView`` and the array a ``MarkerArrayView``
-    (what a replay serializes directly; an rclpy Marker builds a dozen sub-messages).
-    """
-
-    def __init__(self, lean: bool = False) -> None:
-        self.lean = lean
-        self._cache: dict[int, tuple[list[float], list[Marker]]] = {}
-
-    def build(self, header: Header, landmark_map: LandmarkMapLike,
-              removed_keys: Sequence[int] = ()) -> MarkerArray:
-        count = len(landmark_map.means)
-        covariances = np.asarray(landmark_map.covariances).reshape(count, 4)
-        rows = np.column_stack([landmark_map.means, covariances[:, [0, 1, 3]],
-                                landmark_map.existence, landmark_map.ids]).tolist()
-        keys = np.asarray(landmark_map.keys).tolist()
-        changed = [index for index, (key, row) in enumerate(zip(keys, rows))
-                   if (cached := self._cache.get(key)) is None or cached[0] != row]
-        cache = {}
-        if changed:
-            changed_covariances = np.asarray(landmark_map.covariances)[changed]
-            major, minor, angles = geometry.ellipse_axes(changed_covariances)
-            for position, index in enumerate(changed):
-                views = _landmark_views(header, keys[index], rows[index], float(major[position]),
-                                        float(minor[position]), float(angles[position]))
-                cache[keys[index]] = (rows[index], views if self.lean
-                                      else [marker_from_view(view) for view in views])
-        markers = []
-        for key, row in zip(keys, rows):
-            entry = cache.get(key) or self._cache[key]
-            cache[key] = entry
-            markers += entry[1]
-        self._cache = cache
-        markers += delete_markers(header, removed_keys, (ELLIPSE_NAMESPACE, LABEL_NAMESPACE))
-        return MarkerArrayView(markers) if self.lean else MarkerArray(markers=markers)
-
-
-class _Color(NamedTuple):
-    r: float
-    g: float
-    b: float
-    a: float
-
-
-class _Duration(NamedTuple):
-    sec: int
-    nanosec: int
-
-
-class _Texture(NamedTuple):
-    header: Header
-    format: str
-    data: bytes
-
-
-class _MeshFile(NamedTuple):
-    filename: str
-    data: bytes
-
-
-class MarkerView(NamedTuple):
-    """A ``visualization_msgs/Marker`` as plain attributes, its unused fields empty."""
-
-    header: Header
-    ns: str
-    id: int
-    type: int
-    action: int
-    pose: _Pose
-    scale: _Vector
-    color: _Color
-    text: str = ""
-    lifetime: _Duration = _Duration(0, 0)
-    frame_locked: bool = False
-    points: tuple = ()
-    colors: tuple = ()
-    texture_resource: str = ""
-    texture: _Texture = _Texture(Header(), "", b"")
-    uv_coordinates: tuple = ()
-    mesh_resource: str = ""
-    mesh_file: _MeshFile = _MeshFile("", b"")
-    mesh_use_embedded_materials: bool = False
-
-
-class MarkerArrayView(NamedTuple):
-    """A ``visualization_msgs/MarkerArray`` of ``MarkerView`` (and rclpy DELETE markers)."""
-
-    markers: list
-
-    MSGTYPE = "visualization_msgs/msg/MarkerArray"
-
-
-def _landmark_views(header: Header, key: int, row: list[float], major: float, minor: float,
-                    angle: float) -> list[MarkerView]:
-    """The ellipse and the label of one landmark (``row``: x, y, cov xx xy yy, existence, id)."""
-    x, y, existence, landmark_id = row[0], row[1], row[5], int(row[6])
-    return [ellipse_view(header, key, (x, y, angle), major, minor,
-                         (0.1, 0.4, 1.0, 0.25 + 0.6 * existence)),
-            label_view(header, key, (x, y, LABEL_LIFT),
-                       str(landmark_id) if landmark_id >= 0 else f"k{key}")]
-
-
-def ellipse_view(header: Header, key: int, pose: Sequence[float], major: float, minor: float,
-                 color: Sequence[float]) -> MarkerView:
-    """A flat CYLINDER of the given full axis lengths (m), its major axis along ``pose``'s
-    heading (namespace ``ELLIPSE_NAMESPACE``), colour (r, g, b, a)."""
-    return MarkerView(header, ELLIPSE_NAMESPACE, key, Marker.CYLINDER, Marker.ADD,
-                      _planar_pose_view(pose), _Vector(major, minor, ELLIPSE_HEIGHT),
-                      _Color(*color))
-
-
-def label_view(header: Header, key: int, position: Sequence[float], text: str) -> MarkerView:
-    """A white TEXT_VIEW_FACING label at (x, y, z) (namespace ``LABEL_NAMESPACE``)."""
-    return MarkerView(header, LABEL_NAMESPACE, key, Marker.TEXT_VIEW_FACING, Marker.ADD,
-                      _Pose(_Vector(float(position[0]), float(position[1]), float(position[2])),
-                            _Quaternion(0.0, 0.0, 0.0, 1.0)),
-                      _Vector(0.0, 0.0, LABEL_HEIGHT), _Color(1.0, 1.0, 1.0, 1.0), text)
-
-
-def marker_from_view(view: MarkerView) -> Marker:
-    """The rclpy ``Marker`` of a ``MarkerView`` (its pose, scale, colour and text; the other
-    fields keep their defaults, as in the view). Filled in place: passing new sub-messages to
-    the constructor would build the defaults as well."""
-    marker = Marker()
-    marker.header, marker.ns, marker.id = view.header, view.ns, view.id
-    marker.type, marker.action, marker.text = view.type, view.action, view.text
-    _fill_pose(marker.pose, view.pose)
-    scale, color = marker.scale, marker.color
-    scale.x, scale.y, scale.z = view.scale
-    color.r, color.g, color.b, color.a = view.color
-    return marker
-
-
-def ellipse_marker(header: Header, key: int, pose: Sequence[float], major: float,
-                   minor: float, color: ColorRGBA) -> Marker:
-    """``ellipse_view`` as an rclpy ``Marker``."""
-    return marker_from_view(ellipse_view(header, key, pose, major, minor,
-                                         (color.r, color.g, color.b, color.a)))
-
-
-def label_marker(header: Header, key: int, position: Sequence[float], text: str) -> Marker:
-    """``label_view`` as an rclpy ``Marker``."""
-    return marker_from_view(label_view(header, key, position, text))
-
-
-def delete_markers(header: Header, keys: Sequence[int], namespaces: Sequence[str]
-                   ) -> list[Marker]:
-    """DELETE markers for every key in every namespace (objects gone since the last array)."""
-    return [Marker(header=header, ns=namespace, id=int(key), action=Marker.DELETE)
-            for key in keys for namespace in namespaces]
-
-
-# --- map file ----------------------------------------------------------------------------------
-
-def write_map_file(file_path: str | Path, landmark_map: LandmarkMapLike, frame_id: str,
-                   stamp: float, overwrite: bool = False, inputs: Iterable[str | Path] = ()
-                   ) -> Path:
-    """Write the map as CSV (``.csv``) or YAML (any other suffix); return the path written.
-    Through ``output.write_text``: an existing file is replaced only with ``overwrite`` (a
-    link, never its target), never one of ``inputs``, and no folder is made.
-
-    One row per landmark with the columns of ``MAP_FILE_COLUMNS``: stable key, external id
-    (-1 unknown), mean (m), covariance entries (m^2) and existence probability.
-    """
-    file_path = Path(file_path).expanduser()
-    rows = [(int(key), int(landmark_id), *map(float, mean), float(cov[0, 0]), float(cov[0, 1]),
-             float(cov[1, 1]), float(existence))
-            for key, landmark_id, mean, cov, existence in zip(
-                landmark_map.keys, landmark_map.ids, landmark_map.means,
-                landmark_map.covariances, landmark_map.existence)]
-    if file_path.suffix.lower() == ".csv":
-        stream = io.StringIO(newline="")
-        writer = csv.writer(stream)
-        writer.writerow(MAP_FILE_COLUMNS)
-        writer.writerows(rows)
-        text = stream.getvalue()
-    else:
-        document = {"frame_id": frame_id, "stamp": float(stamp), "count": len(rows),
-                    "landmarks": [dict(zip(MAP_FILE_COLUMNS, row)) for row in rows]}
-        text = "# fastslam_ros landmark map of the best particle\n" + yaml.safe_dump(
-            document, sort_keys=False, default_flow_style=None, width=1000)
-    return write_text(file_path, text, overwrite, inputs)
-
-
-@dataclass
-class MapFile:
-    """A landmark map read back from a ``write_map_file`` file (YAML or CSV)."""
-
-    means: np.ndarray
-    """(N, 2) positions (m)."""
-    covariances: np.ndarray
-    """(N, 2, 2) position covariances (m^2)."""
-    ids: np.ndarray
-    """(N,) external ids (-1 unknown)."""
-    frame_id: str = ""
-    """The map's frame ('' when the file does not say, as CSV)."""
-
-
-class MapFileError(ValueError):
-    """A map file that cannot be read; the message names the file."""
-
-
-def read_map_file(file_path: str | Path) -> MapFile:
-    """Read a map written by ``write_map_file`` (``.csv``: CSV, else YAML); MapFileError names
-    the file and what is wrong with it."""
-    file_path = Path(file_path).expanduser()
-    try:
-        if file_path.suffix.lower() == ".csv":
-            with file_path.open(newline="") as stream:
-                rows = list(csv.DictReader(stream))
-            frame_id = ""
-        else:
-            document = yaml.safe_load(file_path.read_text())
-            if not isinstance(document, dict) or not isinstance(document.get("landmarks"), list):
-                raise MapFileError(f"map file '{file_path}': no 'landmarks:' list")
-            rows, frame_id = document["landmarks"], str(document.get("frame_id", ""))
-        table = np.array([[float(row[name]) for name in MAP_FILE_COLUMNS] for row in rows],
-                         dtype=float).reshape(-1, len(MAP_FILE_COLUMNS))
-    except OSError as error:
-        raise MapFileError(f"map file '{file_path}': {error.strerror or error}") from None
-    except (yaml.YAMLError, KeyError, TypeError, ValueError) as error:
-        if isinstance(error, MapFileError):
-            raise
-        raise MapFileError(f"map file '{file_path}': not a landmark map "
-                           f"({type(error).__name__}: {error})") from None
-    if len(table) == 0:
-        raise MapFileError(f"map file '{file_path}': holds no landmark (an empty map is not "
-                           "loaded)")
-    column = {name: table[:, index] for index, name in enumerate(MAP_FILE_COLUMNS)}
-    covariances = np.stack([np.stack([column["cov_xx"], column["cov_xy"]], -1),
-                            np.stack([column["cov_xy"], column["cov_yy"]], -1)], -2)
-    means = np.column_stack([column["x"], column["y"]])
-    if not (np.isfinite(means).all() and np.isfinite(covariances).all()):
-        raise MapFileError(f"map file '{file_path}': non-finite landmark values")
-    determinants = column["cov_xx"] * column["cov_yy"] - column["cov_xy"] ** 2
-    if ((column["cov_xx"] <= 0.0) | (determinants <= 0.0)).any():
-        raise MapFileError(f"map file '{file_path}': a landmark covariance is not positive "
-                           "definite")
-    return MapFile(means, covariances, column["id"].astype(np.int64), frame_id)

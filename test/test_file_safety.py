@@ -17,7 +17,7 @@ from rclpy.context import Context
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
-from fastslam_ros import ros_io
+from fastslam_ros import map_files
 from fastslam_ros.core import LandmarkMap
 from fastslam_ros.node import FastSLAMNode, ParameterError
 from fastslam_ros.output import OutputExistsError, is_bag, staged_output
@@ -104,22 +104,22 @@ def test_map_file_never_replaces_a_user_file_follows_a_link_or_makes_a_folder(us
     before = tree_digest(user_tree)
     for name in ("notes.yaml", "data.csv", "link.yaml"):
         with pytest.raises(OutputExistsError, match="exists"):
-            ros_io.write_map_file(user_tree / name, tiny_map(), "map", 0.0)
+            map_files.write_map_file(user_tree / name, tiny_map(), "map", 0.0)
     with pytest.raises(OutputExistsError, match="does not exist"):
-        ros_io.write_map_file(user_tree / "new" / "map.yaml", tiny_map(), "map", 0.0)
+        map_files.write_map_file(user_tree / "new" / "map.yaml", tiny_map(), "map", 0.0)
     assert tree_digest(user_tree) == before
-    ros_io.write_map_file(user_tree / "link.yaml", tiny_map(), "map", 0.0, overwrite=True)
+    map_files.write_map_file(user_tree / "link.yaml", tiny_map(), "map", 0.0, overwrite=True)
     assert not (user_tree / "link.yaml").is_symlink()  # the link was replaced ...
     assert (user_tree / "notes.yaml").read_text() == "meeting: tuesday\n"  # ... not its target
-    assert len(ros_io.read_map_file(user_tree / "link.yaml").means) == 1
+    assert len(map_files.read_map_file(user_tree / "link.yaml").means) == 1
 
 
 @pytest.mark.parametrize("text", ["", "x,y,cov_xx\n", "landmarks: []\n"])
 def test_an_empty_map_is_an_error(tmp_path, text):
     path = tmp_path / ("map.csv" if "," in text or not text else "map.yaml")
     path.write_text(text)
-    with pytest.raises(ros_io.MapFileError, match="no landmark"):
-        ros_io.read_map_file(path)
+    with pytest.raises(map_files.MapFileError, match="no landmark"):
+        map_files.read_map_file(path)
 
 
 # --- the node's services ------------------------------------------------------------------
@@ -164,7 +164,7 @@ def test_an_empty_map_is_refused_at_start_and_load_map_keeps_the_old_one(context
     empty.write_text("")
     with pytest.raises(ParameterError, match="map_file"):
         node_with(context, map_file=str(empty))
-    good = ros_io.write_map_file(tmp_path / "good.yaml", tiny_map(), "map", 0.0)
+    good = map_files.write_map_file(tmp_path / "good.yaml", tiny_map(), "map", 0.0)
     node = node_with(context, map_file=str(good))
     try:
         assert len(node.slam.best_map()) == 1

@@ -17,7 +17,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from fastslam_ros import ros_io
+from fastslam_ros import map_files, ros_io
 from fastslam_ros.core import FastSLAM, FastSLAMConfig, LandmarkMap
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.core.relocalization import MIN_PAIR_DISTANCE, find_pose
@@ -289,8 +289,8 @@ def test_a_saved_map_reads_back(tmp_path, suffix):
     saved = LandmarkMap(np.array([[1.0, 2.0], [-3.0, 1e-5]]),
                         np.array([[[0.2, 0.01], [0.01, 0.1]], [[1e-5, 0.0], [0.0, 2e-5]]]),
                         np.array([0.9, 0.6]), np.array([7, -1]), np.array([0, 1]))
-    path = ros_io.write_map_file(tmp_path / f"map{suffix}", saved, "map", 3.0)
-    loaded = ros_io.read_map_file(path)
+    path = map_files.write_map_file(tmp_path / f"map{suffix}", saved, "map", 3.0)
+    loaded = map_files.read_map_file(path)
     np.testing.assert_allclose(loaded.means, saved.means)
     np.testing.assert_allclose(loaded.covariances, saved.covariances)
     np.testing.assert_array_equal(loaded.ids, saved.ids)
@@ -301,10 +301,10 @@ def test_a_saved_map_reads_back(tmp_path, suffix):
 def test_a_bad_map_file_is_named(tmp_path, text):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
-    with pytest.raises(ros_io.MapFileError, match="bad.yaml"):
-        ros_io.read_map_file(path)
-    with pytest.raises(ros_io.MapFileError, match="No such file"):
-        ros_io.read_map_file(tmp_path / "absent.yaml")
+    with pytest.raises(map_files.MapFileError, match="bad.yaml"):
+        map_files.read_map_file(path)
+    with pytest.raises(map_files.MapFileError, match="No such file"):
+        map_files.read_map_file(tmp_path / "absent.yaml")
 
 
 # --- node ----------------------------------------------------------------------------------
@@ -321,7 +321,7 @@ def saved_map(tmp_path, count: int = 5):
     means = np.column_stack([np.arange(count, dtype=float), np.ones(count)])
     landmark_map = LandmarkMap(means, np.tile(np.eye(2) * 0.01, (count, 1, 1)), np.ones(count),
                                np.arange(count) + 10, np.arange(count))
-    return ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 0.0, overwrite=True)
+    return map_files.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 0.0, overwrite=True)
 
 
 def node_with(context, **values) -> FastSLAMNode:

@@ -34,7 +34,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from fastslam_ros import ros_io
+from fastslam_ros import ros_io, ros_markers
 from fastslam_ros.node_support.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
 from fastslam_ros.tools.bags import cdr
@@ -225,7 +225,7 @@ def test_lean_outputs_go_to_listeners_only_without_dds(context):
     markers = runs[True]["/fastslam/landmarks"]
     assert markers and len(markers) == len(runs[False]["/fastslam/landmarks"])
     for live, lean in zip(markers, runs[False]["/fastslam/landmarks"]):
-        assert isinstance(live, MarkerArray) and isinstance(lean, ros_io.MarkerArrayView)
+        assert isinstance(live, MarkerArray) and isinstance(lean, ros_markers.MarkerArrayView)
         assert len(live.markers) == len(lean.markers)
     for topic, live_type, view_type, write in (
             ("/fastslam/pose", PoseWithCovarianceStamped, ros_io.PoseWithCovarianceStampedView,

@@ -49,11 +49,11 @@ def test_replay_records_outputs_at_bag_time(tmp_path, short_bag):
 
 
 def test_replay_saves_the_refined_map_and_never_replaces_a_file(tmp_path, short_bag):
-    from fastslam_ros import ros_io
+    from fastslam_ros import map_files
     map_file = tmp_path / "map.yaml"
     result = replay_bag(short_bag, dict(PARAMS, seed=4), save_map=map_file)
     assert "refined by least squares" in result.saved_map
-    saved = ros_io.read_map_file(map_file)
+    saved = map_files.read_map_file(map_file)
     assert len(saved.means) > 0 and np.isfinite(saved.covariances).all()
     with pytest.raises(FileExistsError):
         replay_bag(short_bag, dict(PARAMS, seed=4), save_map=map_file)
@@ -205,14 +205,14 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     from std_msgs.msg import Header
     from visualization_msgs.msg import MarkerArray
 
-    from fastslam_ros import ros_io
+    from fastslam_ros import ros_markers
     from fastslam_ros.tools.bags.replay import MarkerArrayCdr
 
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE
 
     rng = np.random.default_rng(3)
-    builder, cdr = ros_io.MarkerBuilder(), MarkerArrayCdr()
-    lean_builder, lean_cdr = ros_io.MarkerBuilder(lean=True), MarkerArrayCdr()
+    builder, cdr = ros_markers.MarkerBuilder(), MarkerArrayCdr()
+    lean_builder, lean_cdr = ros_markers.MarkerBuilder(lean=True), MarkerArrayCdr()
     keys = np.arange(40)
     means = rng.normal(0.0, 20.0, (40, 2))
     for step in range(6):
@@ -227,7 +227,7 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
         expected = deserialize_message(serialize_message(msg), MarkerArray)
         assert deserialize_message(cdr.serialize(msg), MarkerArray) == expected
         lean = lean_builder.build(Header(frame_id="map"), landmark_map, [1000 + step])
-        assert isinstance(lean, ros_io.MarkerArrayView)
+        assert isinstance(lean, ros_markers.MarkerArrayView)
         assert lean_cdr.serialize(lean) == bytes(TYPESTORE.serialize_cdr(TYPESTORE.deserialize_cdr(
             serialize_message(msg), "visualization_msgs/msg/MarkerArray"),
             "visualization_msgs/msg/MarkerArray"))

@@ -14,7 +14,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import Header
 from visualization_msgs.msg import Marker
 
-from fastslam_ros import ros_io
+from fastslam_ros import map_files, ros_io, ros_markers
 from fastslam_ros.core import geometry
 
 HEADER = Header(frame_id="map", stamp=ros_io.seconds_to_stamp(12.5))
@@ -166,15 +166,16 @@ def test_ellipse_axes_are_two_sigma_diameters_along_eigenvectors():
 
 def test_landmark_markers_ellipse_label_and_delete_per_key():
     landmark_map = example_map()
-    markers = ros_io.landmark_markers(HEADER, landmark_map, removed_keys=[5]).markers
-    ellipses = [m for m in markers if m.ns == ros_io.ELLIPSE_NAMESPACE and m.action == Marker.ADD]
+    markers = ros_markers.landmark_markers(HEADER, landmark_map, removed_keys=[5]).markers
+    ellipses = [m for m in markers
+                if m.ns == ros_markers.ELLIPSE_NAMESPACE and m.action == Marker.ADD]
     labels = [m for m in markers if m.type == Marker.TEXT_VIEW_FACING]
     deletes = [m for m in markers if m.action == Marker.DELETE]
     assert [m.id for m in ellipses] == [0, 4, 9]
     assert all(m.type == Marker.CYLINDER for m in ellipses)
     assert [m.text for m in labels] == ["7", "k4", "3"]
-    assert {(m.ns, m.id) for m in deletes} == {(ros_io.LABEL_NAMESPACE, 5),
-                                               (ros_io.ELLIPSE_NAMESPACE, 5)}
+    assert {(m.ns, m.id) for m in deletes} == {(ros_markers.LABEL_NAMESPACE, 5),
+                                               (ros_markers.ELLIPSE_NAMESPACE, 5)}
     assert ellipses[0].scale.x == pytest.approx(8.0) and ellipses[0].scale.y == pytest.approx(4.0)
     assert ellipses[1].pose.position.x == -3.0 and ellipses[0].header.frame_id == "map"
 
@@ -195,7 +196,7 @@ def test_write_map_file_yaml_reads_back(tmp_path):
     yaml = pytest.importorskip("yaml")
     landmark_map = example_map()
     landmark_map.covariances[2] = np.diag([1e-5, 2e-5])  # exponent floats stay floats in YAML 1.1
-    written = ros_io.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 12.5)
+    written = map_files.write_map_file(tmp_path / "map.yaml", landmark_map, "map", 12.5)
     content = yaml.safe_load(written.read_text())
     assert content["frame_id"] == "map" and content["count"] == 3
     rows = content["landmarks"]
@@ -205,10 +206,10 @@ def test_write_map_file_yaml_reads_back(tmp_path):
 
 
 def test_write_map_file_csv(tmp_path):
-    written = ros_io.write_map_file(tmp_path / "map.csv", example_map(), "map", 0.0)
+    written = map_files.write_map_file(tmp_path / "map.csv", example_map(), "map", 0.0)
     with written.open() as stream:
         rows = list(csv.DictReader(stream))
-    assert list(rows[0]) == list(ros_io.MAP_FILE_COLUMNS)
+    assert list(rows[0]) == list(map_files.MAP_FILE_COLUMNS)
     assert [int(r["id"]) for r in rows] == [7, -1, 3]
     assert float(rows[0]["cov_xx"]) == 4.0 and float(rows[2]["y"]) == -4.0
 
@@ -218,7 +219,7 @@ def test_write_map_file_empty_map_is_valid_yaml(tmp_path):
     empty = SimpleNamespace(means=np.zeros((0, 2)), covariances=np.zeros((0, 2, 2)),
                             existence=np.zeros(0), ids=np.zeros(0, np.int64),
                             keys=np.zeros(0, np.int64))
-    written = ros_io.write_map_file(tmp_path / "empty.yaml", empty, "map", 1.0)
+    written = map_files.write_map_file(tmp_path / "empty.yaml", empty, "map", 1.0)
     assert yaml.safe_load(written.read_text())["landmarks"] == []
 
 
@@ -234,11 +235,11 @@ def test_path_builder_reuses_unchanged_poses_and_follows_changes():
 
 
 def test_marker_builder_rebuilds_only_changed_landmarks():
-    builder = ros_io.MarkerBuilder()
+    builder = ros_markers.MarkerBuilder()
     landmark_map = example_map()
     first = builder.build(HEADER, landmark_map).markers
     assert [m.id for m in first] == [0, 0, 4, 4, 9, 9]
-    reference = ros_io.landmark_markers(HEADER, landmark_map).markers
+    reference = ros_markers.landmark_markers(HEADER, landmark_map).markers
     assert [(m.pose.position.x, m.scale.x, m.text) for m in first] == \
         [(m.pose.position.x, m.scale.x, m.text) for m in reference]
     landmark_map.means[1] += 0.5

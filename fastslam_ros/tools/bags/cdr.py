@@ -382,7 +382,7 @@ def pose_stamped_piece(msg: Any, alignment: int) -> bytes:
 
 class SequenceCdr:
     """Serializes messages made of an optional header and one sequence of sub-messages, most of
-    them those of the previous message (``ros_io.MarkerBuilder`` and ``ros_io.PathBuilder``
+    them those of the previous message (``ros_markers.MarkerBuilder`` and ``ros_io.PathBuilder``
     reuse the sub-messages of what did not change).
 
     Each element starts 4-aligned and its bytes depend only on whether it starts 8-aligned

@@ -58,8 +58,9 @@ from fastslam_ros.node_base import ParamsFileError
 from fastslam_ros.node_start import warn_line
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
-from fastslam_ros.ros_io import (MarkerArrayView, PathView, PlanarPoseArray,
-                                 PoseWithCovarianceStampedView, TransformStampedView)
+from fastslam_ros.ros_io import (PathView, PlanarPoseArray, PoseWithCovarianceStampedView,
+                                 TransformStampedView)
+from fastslam_ros.ros_markers import MarkerArrayView
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bags.cdr import (SequenceCdr, diagnostic_array_cdr, marker_piece,
                                     odometry_tf_cdr, planar_pose_array_cdr, point_cloud2_cdr,
