@@ -123,3 +123,13 @@ def test_evaluation_tallies_one_short_seed():
     evaluate_seed(1, ExtractorSettings().validate(), tally, LASER, False, duration=10.0)
     assert tally.scans == 50 and tally.visible > 0
     assert tally.detected >= 0.9 * tally.visible
+
+
+def test_evaluation_plot_is_written_once_without_overwrite(tmp_path, capsys):
+    from fastslam_ros.tools.extractor_eval import main
+    figure = tmp_path / "scan.png"
+    arguments = ["--seeds", "1", "--plot", str(figure), "--scan", "5"]
+    assert main(arguments) == 0 and figure.stat().st_size > 1000
+    assert main(arguments) == 1
+    assert "scan.png" in capsys.readouterr().err
+    assert main(["--set", "segment_jump=-1"]) == 2

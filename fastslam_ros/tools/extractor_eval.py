@@ -19,12 +19,14 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from fastslam_ros.extractor import ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.laser_sim import Laser, pole_world, scan_truth_poses
+from fastslam_ros.tools.output import check_output
 from fastslam_ros.tools.sim import SimConfig, build_world, simulate
 
 GATE = 0.5
@@ -145,6 +147,62 @@ def report(tally: Tally, settings: ExtractorSettings) -> str:
     return "\n".join(lines)
 
 
+def plot_scan(path: Path, seed: int, index: int, settings: ExtractorSettings,
+              laser: Laser) -> None:
+    """Draw scan ``index`` of seed ``seed`` in the sensor frame: the returns, the true poles
+    (reflector posts orange), walls and cars, and the landmarks extracted (+)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
+
+    config = SimConfig(seed=seed).resolved()
+    world = build_world(config)
+    poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
+    pose = scan_truth_poses(simulate(config))[index]
+    ranges, intensities = laser.scan(poles, pose, np.random.default_rng([seed, 2, index]))
+    scan = RawScan(ranges, float(laser.angles[0]), float(laser.angles[1] - laser.angles[0]),
+                   0.05, laser.max_range, intensities)
+    found = extract_landmarks(scan, settings).landmarks
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+
+    def local(points: np.ndarray) -> np.ndarray:
+        offset = points - pose[:2]
+        return np.column_stack([c * offset[:, 0] + s * offset[:, 1],
+                                -s * offset[:, 0] + c * offset[:, 1]])
+    figure, axes = plt.subplots(figsize=(8, 7))
+    hit = np.isfinite(ranges)
+    axes.scatter(ranges[hit] * np.cos(laser.angles[hit]), ranges[hit] * np.sin(laser.angles[hit]),
+                 s=2, color="tab:blue", alpha=0.6, label="laser returns")
+    for start, end in zip(local(poles.walls[:, :2]), local(poles.walls[:, 2:])):
+        axes.plot([start[0], end[0]], [start[1], end[1]], color="tab:brown", linewidth=0.8)
+    centres = local(poles.centres)
+    for centre, radius, reflective in zip(centres, poles.radii, poles.reflective):
+        axes.add_patch(Circle(centre, radius, fill=False, linewidth=0.8,
+                              color="tab:orange" if reflective else "black"))
+    for reflective, colour, label in ((False, "black", "poles"),
+                                      (True, "tab:orange", "reflector posts")):
+        chosen = poles.reflective == reflective
+        axes.scatter(*centres[chosen].T, s=40, facecolors="none", edgecolors=colour,
+                     linewidths=0.8, label=f"true {label}")
+    for kind, colour, label in ((False, "tab:green", "circle fits"),
+                                (True, "tab:red", "reflectors")):
+        chosen = found.reflector == kind
+        axes.scatter(found.x[chosen], found.y[chosen], marker="+", s=60, color=colour,
+                     label=f"extracted: {label}")
+    axes.plot([0.0], [0.0], marker=">", color="tab:purple", markersize=10, label="laser")
+    axes.set_xlim(-laser.max_range, laser.max_range)
+    axes.set_ylim(-laser.max_range, laser.max_range)
+    axes.set_aspect("equal")
+    axes.set_xlabel("x (m, sensor frame)")
+    axes.set_ylabel("y (m)")
+    axes.set_title(f"seed {seed}, scan {index} (walls and cars brown)")
+    axes.legend(loc="lower left", fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Measure the extractor over the given seeds and print the figures."""
     parser = cli.parser("python3 -m fastslam_ros.tools.extractor_eval", __doc__,
@@ -155,6 +213,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="reflectors: only the reflective poles count as visible")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE",
                         help="extractor settings other than the defaults")
+    parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                        help="instead, draw one scan of the first seed (--scan) into this file")
+    parser.add_argument("--scan", type=int, default=300, help="the scan --plot draws")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --plot")
     args = parser.parse_args(argv)
     try:
         values = {}
@@ -165,10 +227,19 @@ def main(argv: list[str] | None = None) -> int:
             if name not in types:
                 raise ValueError(f"unknown setting {name!r}")
             values[name] = types[name](value)
-        settings = ExtractorSettings(detector=args.detector, **values).validate()
+        settings = ExtractorSettings(**{"detector": args.detector, **values}).validate()
     except ValueError as error:
         print(f"extractor_eval: {error}", file=sys.stderr)
         return 2
+    if args.plot is not None:
+        try:
+            check_output(args.plot, args.overwrite, "file")
+        except FileExistsError as error:
+            print(f"extractor_eval: {error}", file=sys.stderr)
+            return 1
+        plot_scan(args.plot, args.seeds[0], args.scan, settings, Laser())
+        print(f"wrote {args.plot}")
+        return 0
     tally, laser = Tally(), Laser()
     for seed in args.seeds:
         evaluate_seed(seed, settings, tally, laser, args.detector == "reflectors")
