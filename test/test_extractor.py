@@ -255,3 +255,14 @@ def test_settings_are_validated_naming_the_field():
         ExtractorSettings(min_diameter=0.5, max_diameter=0.4).validate()
     with pytest.raises(ParameterValueError, match="min_beams"):
         ExtractorSettings(min_beams=2).validate()
+
+
+def test_a_scan_with_a_negative_increment_gives_the_same_landmarks():
+    """A laser mounted upside down sends its beams clockwise: the same scene read backwards."""
+    ranges = cast([(5.0, 1.0, 0.15), (9.0, -3.0, 0.2)], walls=[(12.0, -9.0, 12.0, 9.0)])
+    forward = extract_landmarks(scan(ranges), SETTINGS)
+    backward = extract_landmarks(RawScan(ranges[::-1].copy(), float(ANGLES[-1]), -INCREMENT,
+                                         0.05, 30.0), SETTINGS)
+    assert len(forward.landmarks) == 2
+    assert sorted(map(tuple, centres(backward).round(9))) == pytest.approx(
+        sorted(map(tuple, centres(forward).round(9))), abs=1e-9)

@@ -224,3 +224,15 @@ def test_laser_launch_file_starts_the_extractor_and_the_slam_node(launch_stand_i
     assert remaps == {"odom": "odom_topic"}
     extractor_config = arguments["extractor_params_file"]["default_value"].args[0]
     assert extractor_config[1:] == ["config", "landmark_extractor.yaml"]
+
+
+def test_console_node_help_and_bad_parameter_file(capsys, tmp_path):
+    from fastslam_ros.landmark_extractor_node import main
+    with pytest.raises(SystemExit) as exit_info:
+        main(["landmark_extractor_node", "--help"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: landmark_extractor_node")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("landmark_extractor:\n  ros__parameters: [1, 2\n")
+    assert main(["landmark_extractor_node", "--ros-args", "--params-file", str(bad)]) == 1
+    assert "bad.yaml" in capsys.readouterr().err
