@@ -266,3 +266,14 @@ def test_a_scan_with_a_negative_increment_gives_the_same_landmarks():
     assert len(forward.landmarks) == 2
     assert sorted(map(tuple, centres(backward).round(9))) == pytest.approx(
         sorted(map(tuple, centres(forward).round(9))), abs=1e-9)
+
+
+def test_every_setting_has_a_description_and_a_finite_range_or_choices():
+    from fastslam_ros.landmark_extractor_node import NodeSettings
+    for settings in (ExtractorSettings, NodeSettings):
+        for name, (default, spec) in specs(settings).items():
+            assert len(spec.description) > 10 and spec.description.endswith("."), name
+            if isinstance(default, (int, float)) and not isinstance(default, bool):
+                assert spec.low is not None and spec.high is not None, name
+                assert math.isfinite(spec.low) and math.isfinite(spec.high), name
+            assert spec.problem(default) is None, name
