@@ -29,6 +29,7 @@ def test_scans_without_landmarks_go_through_the_extractor(tmp_path, laser_bag):
                                remap={"/landmarks": "/hidden"})
     _, scans = read_topic(laser_bag, "/scan")
     assert result.stats["used_landmarks"] == len(scans) == 60
+    assert result.stats["extractor_used_scan"] == 60 and result.stats["extractor_landmarks"] > 0
     assert not any(v for k, v in result.stats.items() if k.startswith("dropped_"))
     stamps, clouds = read_topic(out, "/landmarks")
     assert len(clouds) == len(scans)

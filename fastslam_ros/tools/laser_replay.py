@@ -6,7 +6,8 @@ A bag with ``/scan`` and no ``/landmarks`` is replayed through ``LaserSLAMNode``
 node with a ``LandmarkExtractorNode`` in the same context. Every scan goes to the extractor at
 the SLAM node's time; each cloud it publishes goes to the SLAM node's ``on_landmarks`` as a
 live ``landmarks`` subscription would hand it over, and, with every other output of the
-extractor, to the replay's recorder. Parameters of both nodes come from one file: its ``/**``
+extractor, to the replay's recorder; at the end its counters join the SLAM node's
+(``extractor_<name>``). Parameters of both nodes come from one file: its ``/**``
 section, the ``landmark_extractor`` section (the extractor's parameters) and the ``fastslam``
 section; a name both nodes declare (``max_range``, ``min_range``, ``markers_rate``) goes to
 both.
@@ -69,7 +70,11 @@ class LaserSLAMNode(FastSLAMNode):
             return self.extractor.get_parameter(name)
 
     def flush(self) -> None:
+        """Flush both; the extractor's counters join this node's as ``extractor_<name>`` (the
+        replay's summary and info message report them)."""
         self.extractor.flush()
+        self.stats.update({f"extractor_{name}": count
+                           for name, count in self.extractor.stats.items()})
         super().flush()
 
     def destroy_node(self) -> None:
