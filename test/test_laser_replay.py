@@ -65,3 +65,19 @@ def test_a_bad_extractor_parameter_names_it(tmp_path, laser_bag):
         replay.replay_bag(laser_bag, {"segment_jump": -1.0}, remap={"/landmarks": "/hidden"})
     with pytest.raises(ValueError, match="segment_jmp"):
         replay.replay_bag(laser_bag, {"segment_jmp": 0.2}, remap={"/landmarks": "/hidden"})
+
+
+def test_laser_demo_writes_every_artefact(tmp_path, capsys):
+    from fastslam_ros.tools import demo
+    out_dir = tmp_path / "demo"
+    assert demo.main(["--scenario", "laser", "--out-dir", str(out_dir), "--particles", "10",
+                      "--duration", "15"]) == 0
+    assert "| estimate (at the time) |" in capsys.readouterr().out
+    for name in ("summary.md", "metrics.json", "result.png", "sim_laser", "sim_laser.yaml",
+                 "replay"):
+        assert (out_dir / name).exists(), name
+    info = json.loads(read_topic(out_dir / "replay", REPLAY_INFO_TOPIC)[1][0].data)
+    assert info["params"]["detector"] == "both" and info["stats"]["extractor_used_scan"] == 75
+    assert info["stats"]["used_landmarks"] == 75
+    # Every output exists now: a second demo without --overwrite refuses (exit status 1).
+    assert demo.main(["--scenario", "laser", "--out-dir", str(out_dir), "--duration", "15"]) == 1

@@ -67,9 +67,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = cli.parser("fastslam-demo", __doc__)
     parser.add_argument("--out-dir", type=Path, default=Path("demo"),
                         help="folder for every output")
-    parser.add_argument("--scenario", choices=SCENARIOS + ("people",), default="loop",
+    parser.add_argument("--scenario", choices=SCENARIOS + ("people", "laser"), default="loop",
                         help="simulated world and route; people: the people tracker on a known "
-                             "map")
+                             "map; laser: the loop as a pole world seen by a 2-D laser, "
+                             "through the landmark extractor")
     parser.add_argument("--particles", type=int, default=100, help="number of particles")
     parser.add_argument("--seed", type=int, default=0, help="simulation and filter seed")
     parser.add_argument("--algorithm", choices=("fastslam1", "fastslam2"), default="fastslam2",
@@ -92,6 +93,11 @@ def main(argv: list[str] | None = None) -> int:
             from fastslam_ros.tools.people_eval import run_people_demo
             run_people_demo(args.out_dir, args.seed or 1, args.duration or 60.0,
                             args.progress or sys.stderr.isatty(), args.overwrite)
+            return 0
+        if args.scenario == "laser":
+            from fastslam_ros.tools.laser_demo import run_laser_demo
+            run_laser_demo(args.out_dir, args.seed or 1, args.particles, args.duration,
+                           args.progress or sys.stderr.isatty(), args.overwrite)
             return 0
         run_demo(args.out_dir, args.scenario, args.particles, args.seed, args.algorithm,
                  args.association, args.duration, args.progress or sys.stderr.isatty(),
