@@ -14,6 +14,7 @@ both.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -91,9 +92,9 @@ def laser_params(path: str | Path) -> dict[str, Any]:
     return values
 
 
-def laser_target(slam_target):
-    """The SLAM replay target for a bag with /scan instead of /landmarks."""
-    import dataclasses
+def laser_target(slam_target: Any) -> Any:
+    """The SLAM replay target (a ``replay.ReplayTarget``) for a bag with /scan instead of
+    /landmarks."""
     return dataclasses.replace(
         slam_target, make_node=LaserSLAMNode,
         specs={**EXTRACTOR_PARAMETERS, **SLAM_PARAMETERS},

@@ -34,6 +34,7 @@ INTENSITY_NOISE = 0.1
 CAR_SIZE = (4.5, 1.8)
 POLE_CLEARANCE = 1.0
 """Smallest gap (m) between a pole and a wall or a car."""
+SCAN_TYPE = "sensor_msgs/msg/LaserScan"
 
 
 @dataclass
@@ -204,7 +205,8 @@ def scan_records(config, world, bag, laser: Laser = Laser()) -> list[tuple[str, 
     """``/scan`` records (topic, type, stamp ns, CDR) for ``write_schema_bag``: the laser at
     every landmark reading of a simulated ``bag`` of ``config`` and its ``world`` (route and
     landmarks), in the landmarks' frame, with range noise from ``config.seed``."""
-    from fastslam_ros.tools.people_sim import SCAN_TOPIC, _record, laser_scan_message
+    from fastslam_ros.tools.bag_schema import TYPESTORE, stamp_to_ns
+    from fastslam_ros.tools.people_sim import SCAN_TOPIC, laser_scan_message
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
     rng = np.random.default_rng([config.seed, 2])
     records = []
@@ -212,5 +214,6 @@ def scan_records(config, world, bag, laser: Laser = Laser()) -> list[tuple[str, 
         ranges, intensities = laser.scan(poles, pose, rng)
         msg = laser_scan_message(float(stamp), ranges, laser.angles, laser.max_range,
                                  config.sensor_frame, config.observation_rate, intensities)
-        records.append(_record(SCAN_TOPIC, "sensor_msgs/msg/LaserScan", float(stamp), msg))
+        records.append((SCAN_TOPIC, SCAN_TYPE, stamp_to_ns(float(stamp)),
+                        bytes(TYPESTORE.serialize_cdr(msg, SCAN_TYPE))))
     return records
