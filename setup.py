@@ -36,6 +36,7 @@ setup(
         "console_scripts": [
             "fastslam_node = fastslam_ros.node:main",
             "people_tracker_node = fastslam_ros.people_node:main",
+            "landmark_extractor_node = fastslam_ros.landmark_extractor_node:main",
             "fastslam-sim = fastslam_ros.tools.simulation.sim:main",
             "fastslam-replay = fastslam_ros.tools.bags.replay:main",
             "fastslam-play = fastslam_ros.tools.bags.play:main",

@@ -90,6 +90,10 @@ GATE_COUNTERS = (
     "dropped_internal_error",
 )
 """Counters every FilterNode has (its own COUNTERS list them, in its order)."""
+READING_GATE_COUNTERS = ("resets", "time_jumps", "dropped_wrong_frame", "dropped_invalid_stamp",
+                         "dropped_outlier_stamp", "dropped_duplicate_stamp",
+                         "dropped_internal_error")
+"""Counters of a FilterNode without odometry (``_start_inputs(odometry=False)``)."""
 FIXED_NOTE = " Fixed at start (restart to change)."
 INT64_LIMITS = (-2**63, 2**63 - 1)
 GRAPH_PARAMETER_PREFIXES = ("qos_overrides.",)
@@ -229,13 +233,16 @@ class FilterNode(Node):
 
     def _start_inputs(self, counters: tuple[str, ...], reading_topic: str, reading_name: str,
                       stale_counter: str, throttled_outputs: tuple[str, ...],
-                      diagnosed: tuple[tuple[str, str], ...]) -> None:
+                      diagnosed: tuple[tuple[str, str], ...], odometry: bool = True) -> None:
         """The shared state: counters, gates, input rates of ``odom`` and ``reading_topic``
         (``{topic}_missing`` counters), the pending readings, the shared publishers.
 
         ``throttled_outputs`` are the rate parameters that get a Throttle; ``diagnosed`` the
-        (counter, words) that /diagnostics reports when they grow."""
-        missing = [name for name in (*GATE_COUNTERS, f"{reading_topic}_missing", stale_counter)
+        (counter, words) that /diagnostics reports when they grow. A node without
+        ``odometry`` (the landmark extractor) has no ``odom`` rate and no map -> odom output,
+        and needs only READING_GATE_COUNTERS."""
+        gates = (*GATE_COUNTERS, stale_counter) if odometry else READING_GATE_COUNTERS
+        missing = [name for name in (*gates, f"{reading_topic}_missing")
                    if name not in counters]
         assert not missing, f"counters missing: {missing}"
         self.output_listeners: list[Callable[[str, object], None]] = []
@@ -263,7 +270,8 @@ class FilterNode(Node):
         self._odometry = OdometryHistory()
         self._odometry_gate = OdometryGate()
         self._stamp_gate = StampGate()
-        self._rates = {"odom": InputRate(), reading_topic: InputRate()}
+        self._rates = {**({"odom": InputRate()} if odometry else {}),
+                       reading_topic: InputRate()}
         self._pending: list[Reading] = []
         self._last_reading_stamp: float | None = None
         """Stamp of the newest reading used (a reading with the same stamp is a duplicate)."""
@@ -275,10 +283,12 @@ class FilterNode(Node):
         self._first_report: float | None = None
         """Node time of the first /diagnostics report (``_never_received`` counts from it)."""
         self._tf_checked = False
-        self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
-                                                      STREAM_QOS)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STREAM_QOS)
-        self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
+        self._tf_broadcaster = None
+        if odometry:
+            self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
+                                                          STREAM_QOS)
+            self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
 
     # --- parameters ----------------------------------------------------------------------------
 

@@ -19,6 +19,8 @@ LABEL_NAMESPACE = "id"
 ELLIPSE_HEIGHT = 0.02
 LABEL_HEIGHT = 0.3
 LABEL_LIFT = 0.3
+MIN_MARKER_SCALE = 1e-3
+"""RViz refuses markers with a zero scale; a thinner object is drawn this thin instead (m)."""
 
 
 def landmark_markers(header: Header, landmark_map: LandmarkMapLike,

@@ -30,7 +30,8 @@ TOOLS = {"fastslam-sim": sim, "fastslam-replay": replay, "fastslam-play": play,
          "fastslam-benchmark": benchmark, "fastslam-bench": bench, "fastslam-poison": poison,
          "fastslam-calibrate": calibrate}
 """Console scripts run in this process (``main(argv)``)."""
-NODES = {"fastslam_node": "fastslam_ros.node", "people_tracker_node": "fastslam_ros.people_node"}
+NODES = {"fastslam_node": "fastslam_ros.node", "people_tracker_node": "fastslam_ros.people_node",
+         "landmark_extractor_node": "fastslam_ros.landmark_extractor_node"}
 """Console scripts run as processes (they own rclpy's global context)."""
 DURATION = 2.0
 """s of the small simulated bag (80 odometry messages, 10 clouds)."""

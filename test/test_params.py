@@ -17,8 +17,9 @@ from fastslam_ros.tools import params_doc
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED_CONFIGS = sorted(path for path in (REPO / "config").glob("*.yaml")
-                         if path.name != "people_tracker.yaml")
-"""The SLAM node's files (the people tracker's is checked in test_people_node.py)."""
+                         if path.name not in ("people_tracker.yaml", "landmark_extractor.yaml"))
+"""The SLAM node's files (the people tracker's is checked in test_people_node.py, the
+extractor's in test_landmark_extractor_node.py)."""
 
 
 @pytest.mark.parametrize("relative, text", params_doc.rendered().items())

@@ -2,6 +2,9 @@
 # Copyright 2026 fastslam_ros maintainers
 """Replay a bag through the real ``FastSLAMNode`` in-process, fast and deterministic.
 
+A bag with ``/scan`` and no ``/landmarks`` runs the landmark extractor in-process ahead of the
+node (``tools/bags/laser_replay.py``).
+
 Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its CDR bytes into
 a look-alike object (``tools/bags/cdr.py``: the attributes the node's readers use), any other input
 (``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
@@ -393,6 +396,8 @@ class ReplayTarget:
     """Parameter naming the sensor frame ('' takes it from the first ``sensor_topic`` message)."""
     recorded_params: tuple[str, ...] = ()
     """Parameters always written into the info message (as well as those given)."""
+    params_from_file: Callable[[str | Path], dict[str, Any]] | None = None
+    """Reads the parameters from a file (None: its ``node_name`` sections)."""
 
 
 SLAM_TARGET = ReplayTarget(
@@ -460,7 +465,13 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
         if target.node_name != SLAM_TARGET.node_name:
             raise ValueError("save_map: only the fastslam node saves a map")
         check_output(save_map, overwrite, "file", inputs)
-    merged = load_params_file(params_file, f"/{target.node_name}") if params_file else {}
+    if target is SLAM_TARGET and _laser_only(bag_path, _topic_names(remap or {})):
+        from fastslam_ros.tools.bags.laser_replay import laser_target  # the extractor ahead
+        target = laser_target(SLAM_TARGET)
+    merged = {}
+    if params_file:
+        merged = target.params_from_file(params_file) if target.params_from_file \
+            else load_params_file(params_file, f"/{target.node_name}")
     merged.update(params or {})
     context = isolated_context()  # invisible to the robot's ROS graph
     with ExitStack() as cleanup:
@@ -544,6 +555,16 @@ TopicOf = Callable[[Any], str]
 def _topic_names(remap: dict[str, str]) -> TopicOf:
     """Read each bag topic under its ``--remap`` name, or its own."""
     return lambda connection: remap.get(connection.topic, connection.topic)
+
+
+def _laser_only(bag_path: Path, topic_of: TopicOf) -> bool:
+    """Whether the bag has ``/scan`` but no ``/landmarks`` (False when it cannot be read)."""
+    try:
+        with AnyReader([bag_path], default_typestore=TYPESTORE) as reader:
+            topics = {topic_of(c) for c in reader.connections}
+    except (AnyReaderError, OSError):
+        return False
+    return "/scan" in topics and LANDMARKS_TOPIC not in topics
 
 
 @contextmanager

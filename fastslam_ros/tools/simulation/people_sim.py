@@ -513,14 +513,16 @@ def occupancy_grid_message(grid: OccupancyMap, stamp: float, frame_id: str = "ma
 
 
 def laser_scan_message(stamp: float, ranges: np.ndarray, angles: np.ndarray, max_range: float,
-                       frame_id: str = "laser", rate: float = 10.0):
+                       frame_id: str = "laser", rate: float = 10.0,
+                       intensities: np.ndarray | None = None):
     """A rosbags ``sensor_msgs/LaserScan`` (no return: inf, as REP 117 asks)."""
     increment = float(angles[1] - angles[0])
     return TYPESTORE.types["sensor_msgs/msg/LaserScan"](
         header=_header(stamp, frame_id), angle_min=float(angles[0]),
         angle_max=float(angles[-1]), angle_increment=increment, time_increment=0.0,
         scan_time=1.0 / rate, range_min=0.05, range_max=float(max_range),
-        ranges=np.asarray(ranges, dtype=np.float32), intensities=np.zeros(0, np.float32))
+        ranges=np.asarray(ranges, dtype=np.float32),
+        intensities=np.asarray(() if intensities is None else intensities, dtype=np.float32))
 
 
 def people_cloud_message(stamp: float, ids: np.ndarray, positions: np.ndarray,

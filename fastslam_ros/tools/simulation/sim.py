@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from fastslam_ros.tools import cli
+from fastslam_ros.tools.simulation import laser_sim
 from fastslam_ros.tools.bags.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
 from fastslam_ros.tools.datasets.converters import polar_to_points
@@ -251,6 +252,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
                         help="bag storage format")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    parser.add_argument("--laser", action="store_true",
+                        help="also write /scan: a 270-degree laser ray cast against the "
+                             "landmarks as poles (some reflective), walls and parked cars "
+                             "(tools/simulation/laser_sim.py)")
     for item in dataclasses.fields(SimConfig):
         if item.name == "scenario":
             continue
@@ -285,7 +290,8 @@ def main(argv: list[str] | None = None) -> int:
         check_output(out, args.overwrite, "bag")  # both outputs checked before either is written
         check_output(params_out, args.overwrite, "file", inputs=[out])
         bag = simulate(config)
-        write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite)
+        extra = laser_sim.scan_records(config, build_world(config), bag) if args.laser else ()
+        write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite, extra=extra)
         write_params_yaml(params_out, recommended_params(config),
                           f"Recommended fastslam parameters for {out.name} "
                           f"(fastslam-sim --scenario {config.scenario} --seed {config.seed}).",
