@@ -7,8 +7,10 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -347,3 +349,24 @@ def test_a_node_warns_of_a_section_for_no_node_before_it_starts(name, tmp_path):
     assert len(lines) == 2 and "Traceback" not in result.stderr, result.stderr
     assert lines[0].startswith(f"{name}: warning: ") and f"section(s) {name} name" in lines[0]
     assert lines[1].startswith(f"{name}: ") and "no_such_parameter" in lines[1]
+
+
+def test_ctrl_c_ends_a_tool_in_one_line(inputs, monkeypatch, capsys):
+    """Ctrl-C, also when the code it interrupts (numba compiling) raises an error of its own."""
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # the tool silences it
+
+    def interrupted_compile(*args, **kwargs):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(10.0)  # the signal arrives long before
+        except KeyboardInterrupt:
+            raise RuntimeError("no compiled object yet") from None
+
+    monkeypatch.setattr(replay, "replay_through", interrupted_compile)
+    status, err = run("fastslam-replay", [str(inputs["good"]), "--no-record"], capsys)
+    assert status == 130
+    assert assert_one_line("fastslam-replay", err) == "fastslam-replay: interrupted"
+    monkeypatch.setattr(replay, "replay_through", lambda *a, **k: (_ for _ in ()).throw(
+        ValueError("a real failure")))
+    status, err = run("fastslam-replay", [str(inputs["good"]), "--no-record"], capsys)
+    assert status == 1 and "a real failure" in assert_one_line("fastslam-replay", err)

@@ -226,6 +226,7 @@ def markdown(title: str, rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+@cli.interruptible("fastslam-bench")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-bench``: print (and optionally write) the speed and memory figures."""
     parser = cli.parser("fastslam-bench", __doc__)
