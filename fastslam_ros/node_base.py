@@ -845,10 +845,10 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
         parse_command_line(prog, usage, argv)
         rclpy.init(args=args)
     except ParamsFileError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         return 2
     except ParameterError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         return 1
     except RuntimeError as error:  # rcl could not parse the arguments
         print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
@@ -857,7 +857,7 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
         with interrupts_unreported():
             node = make_node()
     except ParameterError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
     except BaseException as error:  # rclpy's SIGINT handler shuts the context down

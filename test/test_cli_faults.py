@@ -324,16 +324,21 @@ def run_node(module: str, *arguments: str) -> subprocess.CompletedProcess:
     (["--ros-args", "--params-file", "{not_params}"], 2, "not a ROS 2 parameter file"),
     (["--ros-args", "--params-file", "{other_node}"], 1, "no section for node"),
     (["--ros-args", "-p", "no_such_parameter:=1"], 1, "no_such_parameter"),
+    (["--ros-args", "-p", "map_file:={not_yaml}"], 1, "map_file"),  # a multi-line YAML error
 ])
 def test_nodes_follow_the_same_exit_status_rule(name, arguments, status, named, tmp_path):
     not_params = tmp_path / "not_params.yaml"
     not_params.write_text("speed: 1\n")
     other_node = tmp_path / "other_node.yaml"
     other_node.write_text(f"{name}:\n  ros__parameters:\n    seed: 1\n")
-    arguments = [a.format(not_params=not_params, other_node=other_node) for a in arguments]
+    not_yaml = tmp_path / "map.yaml"
+    not_yaml.write_text("landmarks: [\n")
+    arguments = [a.format(not_params=not_params, other_node=other_node, not_yaml=not_yaml)
+                 for a in arguments]
     result = run_node(NODES[name], *arguments)
     assert result.returncode == status, result.stderr
-    lines = result.stderr.strip().splitlines()
+    # The node's own log lines ([INFO] ...) may come first.
+    lines = [line for line in result.stderr.strip().splitlines() if not line.startswith("[")]
     assert len(lines) == 1 and lines[0].startswith(f"{name}: ") and named in lines[0], \
         result.stderr
 
