@@ -756,14 +756,16 @@ class ParamsFileError(ParameterError):
 
 
 def read_params_file(path: str | PathLike, node_name: str,
-                     warn: Callable[[str], None] | None = None) -> dict[str, object]:
+                     warn: Callable[[str], None] | None = None,
+                     require_section: bool = True) -> dict[str, object]:
     """{name: value} that a ROS 2 parameter file gives the node ``node_name`` (fully
     qualified), read with rclpy's own parser: the ``/**`` section first, then every section
     whose key matches the node (``fastslam``, ``/robot1/fastslam``, ``/**/fastslam``).
 
     Raises ParamsFileError naming the file when it cannot be read or is no parameter file,
     ParameterError when no section of it applies to the node (``fastslam_node:`` for
-    ``fastslam``); ``warn`` is told of each section that names no node of this package.
+    ``fastslam``; {} instead unless ``require_section``); ``warn`` is told of each section
+    that names no node of this package.
     """
     try:
         with open(path, encoding="utf-8") as stream:
@@ -775,9 +777,12 @@ def read_params_file(path: str | PathLike, node_name: str,
                     if key != "/**" and _section_matches(str(key), node_name)]
         ignored = unknown_sections(document, sections)
         if "/**" not in document and not sections:
-            raise ParameterError(f"parameter file '{path}': no section for node {node_name}, "
-                                 f"not one parameter applies (sections: {', '.join(ignored)}; "
-                                 f"the node reads {node_name.rsplit('/', 1)[-1]}: and /**:)")
+            if not require_section:
+                return {}
+            raise ParameterError(
+                f"parameter file '{path}': no section for node {node_name}, not one parameter "
+                f"applies (sections: {', '.join(map(str, document))}; keys that apply: "
+                f"{node_name.lstrip('/')}, /**/{node_name.rsplit('/', 1)[-1]}, /**)")
         if ignored and warn is not None:
             warn(f"parameter file '{path}': section(s) {', '.join(ignored)} name no node of "
                  f"fastslam_ros and are ignored (node {node_name})")
@@ -840,8 +845,10 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
     read or a bad argument, status 2; Ctrl-C while the node starts, status 130."""
     argv = sys.argv if args is None else args
     try:
+        renamed = any(rule in arg for arg in argv for rule in ("__ns:=", "__node:=", "__name:="))
         for path in _params_files(argv):  # one line instead of rcl's failure
-            read_params_file(path, f"/{node_name}", warn_line(prog))
+            read_params_file(path, f"/{node_name}", warn_line(prog),
+                             require_section=not renamed)  # else once the node exists
         parse_command_line(prog, usage, argv)
         rclpy.init(args=args)
     except ParamsFileError as error:
@@ -856,6 +863,12 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
     try:
         with interrupts_unreported():
             node = make_node()
+        for path in _params_files(argv) if renamed else ():  # its full name is known now
+            try:
+                read_params_file(path, node.get_fully_qualified_name())
+            except ParameterError:
+                node.destroy_node()
+                raise
     except ParameterError as error:
         print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         rclpy.try_shutdown()

@@ -375,3 +375,20 @@ def test_ctrl_c_ends_a_tool_in_one_line(inputs, monkeypatch, capsys):
         ValueError("a real failure")))
     status, err = run("fastslam-replay", [str(inputs["good"]), "--no-record"], capsys)
     assert status == 1 and "a real failure" in assert_one_line("fastslam-replay", err)
+
+
+def test_a_namespaced_node_takes_the_sections_of_its_full_name(tmp_path):
+    """A namespace given as a remap (as ros2 launch passes it): the file is checked against
+    the node's full name, once the node exists."""
+    keyed = tmp_path / "keyed.yaml"
+    keyed.write_text("/robot1/fastslam:\n  ros__parameters:\n    no_such_parameter: 1\n")
+    result = run_node(NODES["fastslam_node"], "--ros-args", "--params-file", str(keyed),
+                      "-r", "__ns:=/robot1", "-p", "backend:=numpy")
+    assert result.returncode == 1 and "'no_such_parameter'" in result.stderr  # it applied
+    plain = tmp_path / "plain.yaml"
+    plain.write_text("fastslam:\n  ros__parameters:\n    num_particles: 5\n")
+    result = run_node(NODES["fastslam_node"], "--ros-args", "--params-file", str(plain),
+                      "-r", "__ns:=/robot1", "-p", "backend:=numpy")
+    assert result.returncode == 1
+    lines = [line for line in result.stderr.strip().splitlines() if not line.startswith("[")]
+    assert len(lines) == 1 and "no section for node /robot1/fastslam" in lines[0], result.stderr
