@@ -33,6 +33,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
                                 SetParametersResult)
 from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
                               ParameterException)
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
@@ -61,6 +62,8 @@ DIAGNOSTICS_PERIOD = 1.0
 NO_INPUT_WARNING = 5.0
 """s of node time after the first /diagnostics report: an input still never received then
 makes the diagnostics WARN, naming its topic."""
+NO_CLOCK_WARNING = 5.0
+"""s of wall time after start: a node on simulated time whose clock has not moved warns."""
 WARNING_PERIOD = 5.0
 """Seconds between two log warnings of the same kind."""
 
@@ -278,6 +281,8 @@ class FilterNode(Node):
                                                       STREAM_QOS)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STREAM_QOS)
         self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
+        self._clock_check = self.create_timer(NO_CLOCK_WARNING, self._check_clock,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- parameters ----------------------------------------------------------------------------
 
@@ -728,6 +733,18 @@ class FilterNode(Node):
             self._publish_throttled(now)
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"timer callback failed: {error!r}")
+
+    def _check_clock(self) -> None:
+        """Once, NO_CLOCK_WARNING s of wall time after start: on simulated time with no /clock
+        (a bag played without --clock) the node's time stands still, its timer never runs and
+        it would say nothing at all."""
+        self._clock_check.cancel()
+        if (self._node_time_ns is None and self.get_parameter("use_sim_time").value
+                and self.get_clock().now().nanoseconds == 0):
+            self.get_logger().warning(
+                f"use_sim_time is true but no /clock came in {NO_CLOCK_WARNING:g} s: the node's "
+                "time stands still and it outputs nothing (play a bag with --clock, or set "
+                "use_sim_time false)")
 
     def _check_tf_once(self) -> None:
         """At the first tick of a live node: say once that ``publish_tf`` cannot be honoured
