@@ -31,7 +31,7 @@ TOOLS = {"fastslam-sim": sim, "fastslam-replay": replay, "fastslam-play": play,
 NODES = {"fastslam_node": "fastslam_ros.node", "people_tracker_node": "fastslam_ros.people_node"}
 """Console scripts run as processes (they own rclpy's global context)."""
 DURATION = 2.0
-"""s of the small simulated bag (80 odometry messages, 10 clouds)."""
+"""s of the small simulated bag (81 odometry messages at 40 Hz, 10 clouds)."""
 
 
 def console_scripts() -> set[str]:

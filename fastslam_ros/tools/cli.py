@@ -18,6 +18,7 @@ import argparse
 import functools
 import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Callable, TypeVar
 
@@ -178,7 +179,8 @@ def interruptible(prog: str) -> Callable[[Main], Main]:
                 interrupted.append(signum)
                 raise KeyboardInterrupt
 
-            previous = signal.signal(signal.SIGINT, on_interrupt)
+            main_thread = threading.current_thread() is threading.main_thread()
+            previous = signal.signal(signal.SIGINT, on_interrupt) if main_thread else None
             try:
                 with interrupts_unreported():
                     return main(argv)
@@ -190,6 +192,7 @@ def interruptible(prog: str) -> Callable[[Main], Main]:
                 sys.unraisablehook = lambda unraisable: None
                 return EXIT_INTERRUPTED
             finally:
-                signal.signal(signal.SIGINT, previous)
+                if main_thread:
+                    signal.signal(signal.SIGINT, previous)
         return run
     return decorate
