@@ -33,6 +33,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
                                 SetParametersResult)
 from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
                               ParameterException)
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
@@ -62,6 +63,8 @@ DIAGNOSTICS_PERIOD = 1.0
 NO_INPUT_WARNING = 5.0
 """s of node time after the first /diagnostics report: an input still never received then
 makes the diagnostics WARN, naming its topic."""
+NO_CLOCK_WARNING = 5.0
+"""s of wall time after start: a node on simulated time whose clock has not moved warns."""
 WARNING_PERIOD = 5.0
 """Seconds between two log warnings of the same kind."""
 
@@ -289,6 +292,8 @@ class FilterNode(Node):
             self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
                                                           STREAM_QOS)
             self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
+        self._clock_check = self.create_timer(NO_CLOCK_WARNING, self._check_clock,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- parameters ----------------------------------------------------------------------------
 
@@ -740,6 +745,18 @@ class FilterNode(Node):
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"timer callback failed: {error!r}")
 
+    def _check_clock(self) -> None:
+        """Once, NO_CLOCK_WARNING s of wall time after start: on simulated time with no /clock
+        (a bag played without --clock) the node's time stands still, its timer never runs and
+        it would say nothing at all."""
+        self._clock_check.cancel()
+        if (self._node_time_ns is None and self.get_parameter("use_sim_time").value
+                and self.get_clock().now().nanoseconds == 0):
+            self.get_logger().warning(
+                f"use_sim_time is true but no /clock came in {NO_CLOCK_WARNING:g} s: the node's "
+                "time stands still and it outputs nothing (play a bag with --clock, or set "
+                "use_sim_time false)")
+
     def _check_tf_once(self) -> None:
         """At the first tick of a live node: say once that ``publish_tf`` cannot be honoured
         without tf2_ros (a replay, which never spins, records /tf itself)."""
@@ -767,14 +784,16 @@ class ParamsFileError(ParameterError):
 
 
 def read_params_file(path: str | PathLike, node_name: str,
-                     warn: Callable[[str], None] | None = None) -> dict[str, object]:
+                     warn: Callable[[str], None] | None = None,
+                     require_section: bool = True) -> dict[str, object]:
     """{name: value} that a ROS 2 parameter file gives the node ``node_name`` (fully
     qualified), read with rclpy's own parser: the ``/**`` section first, then every section
     whose key matches the node (``fastslam``, ``/robot1/fastslam``, ``/**/fastslam``).
 
     Raises ParamsFileError naming the file when it cannot be read or is no parameter file,
     ParameterError when no section of it applies to the node (``fastslam_node:`` for
-    ``fastslam``); ``warn`` is told of each section that names no node of this package.
+    ``fastslam``; {} instead unless ``require_section``); ``warn`` is told of each section
+    that names no node of this package.
     """
     try:
         with open(path, encoding="utf-8") as stream:
@@ -786,9 +805,12 @@ def read_params_file(path: str | PathLike, node_name: str,
                     if key != "/**" and _section_matches(str(key), node_name)]
         ignored = unknown_sections(document, sections)
         if "/**" not in document and not sections:
-            raise ParameterError(f"parameter file '{path}': no section for node {node_name}, "
-                                 f"not one parameter applies (sections: {', '.join(ignored)}; "
-                                 f"the node reads {node_name.rsplit('/', 1)[-1]}: and /**:)")
+            if not require_section:
+                return {}
+            raise ParameterError(
+                f"parameter file '{path}': no section for node {node_name}, not one parameter "
+                f"applies (sections: {', '.join(map(str, document))}; keys that apply: "
+                f"{node_name.lstrip('/')}, /**/{node_name.rsplit('/', 1)[-1]}, /**)")
         if ignored and warn is not None:
             warn(f"parameter file '{path}': section(s) {', '.join(ignored)} name no node of "
                  f"fastslam_ros and are ignored (node {node_name})")
@@ -851,15 +873,17 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
     read or a bad argument, status 2; Ctrl-C while the node starts, status 130."""
     argv = sys.argv if args is None else args
     try:
+        renamed = any(rule in arg for arg in argv for rule in ("__ns:=", "__node:=", "__name:="))
         for path in _params_files(argv):  # one line instead of rcl's failure
-            read_params_file(path, f"/{node_name}", warn_line(prog))
+            read_params_file(path, f"/{node_name}", warn_line(prog),
+                             require_section=not renamed)  # else once the node exists
         parse_command_line(prog, usage, argv)
         rclpy.init(args=args)
     except ParamsFileError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         return 2
     except ParameterError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         return 1
     except RuntimeError as error:  # rcl could not parse the arguments
         print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
@@ -867,8 +891,14 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
     try:
         with interrupts_unreported():
             node = make_node()
+        for path in _params_files(argv) if renamed else ():  # its full name is known now
+            try:
+                read_params_file(path, node.get_fully_qualified_name())
+            except ParameterError:
+                node.destroy_node()
+                raise
     except ParameterError as error:
-        print(f"{prog}: {error}", file=sys.stderr)
+        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
         rclpy.try_shutdown()
         return 1
     except BaseException as error:  # rclpy's SIGINT handler shuts the context down

@@ -7,8 +7,10 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -34,7 +36,7 @@ NODES = {"fastslam_node": "fastslam_ros.node", "people_tracker_node": "fastslam_
          "landmark_extractor_node": "fastslam_ros.landmark_extractor_node"}
 """Console scripts run as processes (they own rclpy's global context)."""
 DURATION = 2.0
-"""s of the small simulated bag (80 odometry messages, 10 clouds)."""
+"""s of the small simulated bag (81 odometry messages at 40 Hz, 10 clouds)."""
 
 
 def console_scripts() -> set[str]:
@@ -327,16 +329,21 @@ def run_node(module: str, *arguments: str) -> subprocess.CompletedProcess:
     (["--ros-args", "--params-file", "{not_params}"], 2, "not a ROS 2 parameter file"),
     (["--ros-args", "--params-file", "{other_node}"], 1, "no section for node"),
     (["--ros-args", "-p", "no_such_parameter:=1"], 1, "no_such_parameter"),
+    (["--ros-args", "-p", "map_file:={not_yaml}"], 1, "map_file"),  # a multi-line YAML error
 ])
 def test_nodes_follow_the_same_exit_status_rule(name, arguments, status, named, tmp_path):
     not_params = tmp_path / "not_params.yaml"
     not_params.write_text("speed: 1\n")
     other_node = tmp_path / "other_node.yaml"
     other_node.write_text(f"{name}:\n  ros__parameters:\n    seed: 1\n")
-    arguments = [a.format(not_params=not_params, other_node=other_node) for a in arguments]
+    not_yaml = tmp_path / "map.yaml"
+    not_yaml.write_text("landmarks: [\n")
+    arguments = [a.format(not_params=not_params, other_node=other_node, not_yaml=not_yaml)
+                 for a in arguments]
     result = run_node(NODES[name], *arguments)
     assert result.returncode == status, result.stderr
-    lines = result.stderr.strip().splitlines()
+    # The node's own log lines ([INFO] ...) may come first.
+    lines = [line for line in result.stderr.strip().splitlines() if not line.startswith("[")]
     assert len(lines) == 1 and lines[0].startswith(f"{name}: ") and named in lines[0], \
         result.stderr
 
@@ -352,3 +359,41 @@ def test_a_node_warns_of_a_section_for_no_node_before_it_starts(name, tmp_path):
     assert len(lines) == 2 and "Traceback" not in result.stderr, result.stderr
     assert lines[0].startswith(f"{name}: warning: ") and f"section(s) {name} name" in lines[0]
     assert lines[1].startswith(f"{name}: ") and "no_such_parameter" in lines[1]
+
+
+def test_ctrl_c_ends_a_tool_in_one_line(inputs, monkeypatch, capsys):
+    """Ctrl-C, also when the code it interrupts (numba compiling) raises an error of its own."""
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # the tool silences it
+
+    def interrupted_compile(*args, **kwargs):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(10.0)  # the signal arrives long before
+        except KeyboardInterrupt:
+            raise RuntimeError("no compiled object yet") from None
+
+    monkeypatch.setattr(replay, "replay_through", interrupted_compile)
+    status, err = run("fastslam-replay", [str(inputs["good"]), "--no-record"], capsys)
+    assert status == 130
+    assert assert_one_line("fastslam-replay", err) == "fastslam-replay: interrupted"
+    monkeypatch.setattr(replay, "replay_through", lambda *a, **k: (_ for _ in ()).throw(
+        ValueError("a real failure")))
+    status, err = run("fastslam-replay", [str(inputs["good"]), "--no-record"], capsys)
+    assert status == 1 and "a real failure" in assert_one_line("fastslam-replay", err)
+
+
+def test_a_namespaced_node_takes_the_sections_of_its_full_name(tmp_path):
+    """A namespace given as a remap (as ros2 launch passes it): the file is checked against
+    the node's full name, once the node exists."""
+    keyed = tmp_path / "keyed.yaml"
+    keyed.write_text("/robot1/fastslam:\n  ros__parameters:\n    no_such_parameter: 1\n")
+    result = run_node(NODES["fastslam_node"], "--ros-args", "--params-file", str(keyed),
+                      "-r", "__ns:=/robot1", "-p", "backend:=numpy")
+    assert result.returncode == 1 and "'no_such_parameter'" in result.stderr  # it applied
+    plain = tmp_path / "plain.yaml"
+    plain.write_text("fastslam:\n  ros__parameters:\n    num_particles: 5\n")
+    result = run_node(NODES["fastslam_node"], "--ros-args", "--params-file", str(plain),
+                      "-r", "__ns:=/robot1", "-p", "backend:=numpy")
+    assert result.returncode == 1
+    lines = [line for line in result.stderr.strip().splitlines() if not line.startswith("[")]
+    assert len(lines) == 1 and "no section for node /robot1/fastslam" in lines[0], result.stderr

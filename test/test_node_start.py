@@ -16,6 +16,7 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 
@@ -135,3 +136,21 @@ def test_the_kernels_compilation_is_announced_and_ctrl_c_ends_it_in_one_line(tmp
 def test_no_notice_when_nothing_compiles(context, capfd):
     start(context, backend="numpy")
     assert "compiling" not in capfd.readouterr().err
+
+
+@pytest.mark.parametrize("clock", [False, True])
+def test_simulated_time_without_clock_warns_once(context, capfd, monkeypatch, clock):
+    """A bag played without --clock: the node's time stands still; it says so (wall time)."""
+    monkeypatch.setattr(node_base, "NO_CLOCK_WARNING", 0.2)
+    node, _ = start(context)
+    if clock:
+        node.get_clock().set_ros_time_override(Time(nanoseconds=round(START * 1e9)))
+    executor = SingleThreadedExecutor(context=context[0])
+    executor.add_node(node)
+    for _ in range(100):  # bounded; ends at once when the check has run
+        executor.spin_once(timeout_sec=0.05)
+        if node._clock_check.is_canceled():
+            break
+    executor.remove_node(node)
+    assert node._clock_check.is_canceled()
+    assert capfd.readouterr().err.count("no /clock came in 0.2 s") == (0 if clock else 1)

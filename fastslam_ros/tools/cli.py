@@ -15,16 +15,21 @@ should be (a bag, a parameter file) or cannot be written (an existing output wit
 from __future__ import annotations
 
 import argparse
+import functools
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Callable, TypeVar
 
 from rosbags.highlevel import AnyReader, AnyReaderError
 
-from fastslam_ros.node_start import ArgumentParser
+from fastslam_ros.node_start import ArgumentParser, interrupts_unreported
 
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+"""Ctrl-C (128 + SIGINT, as a shell reports it)."""
 Number = TypeVar("Number", int, float)
 
 
@@ -156,3 +161,38 @@ def fail(prog: str, error: BaseException | str, code: int | None = None) -> int:
     message = str(error).strip().replace("\n", " ") or type(error).__name__
     print(f"{prog}: {message}", file=sys.stderr)
     return code
+
+
+Main = Callable[[list[str] | None], int]
+
+
+def interruptible(prog: str) -> Callable[[Main], Main]:
+    """Decorate a command's ``main``: Ctrl-C ends it with one line and status 130, never a
+    traceback, also when numba, compiling the kernels, turns the interrupt into an error of
+    its own or swallows it in a callback."""
+    def decorate(main: Main) -> Main:
+        @functools.wraps(main)
+        def run(argv: list[str] | None = None) -> int:
+            interrupted: list[int] = []
+
+            def on_interrupt(signum: int, frame: object) -> None:
+                interrupted.append(signum)
+                raise KeyboardInterrupt
+
+            main_thread = threading.current_thread() is threading.main_thread()
+            previous = signal.signal(signal.SIGINT, on_interrupt) if main_thread else None
+            try:
+                with interrupts_unreported():
+                    return main(argv)
+            except BaseException as error:
+                if not (interrupted or isinstance(error, KeyboardInterrupt)):
+                    raise
+                print(f"{prog}: interrupted", file=sys.stderr)
+                # Half-built compiler objects fail in their __del__ at exit: nothing to report.
+                sys.unraisablehook = lambda unraisable: None
+                return EXIT_INTERRUPTED
+            finally:
+                if main_thread:
+                    signal.signal(signal.SIGINT, previous)
+        return run
+    return decorate

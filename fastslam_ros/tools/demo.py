@@ -105,6 +105,7 @@ def _demo_outputs(out_dir: Path, bag_path: Path, params_path: Path, overwrite: b
     return evaluation.metrics
 
 
+@cli.interruptible("fastslam-demo")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-demo``: the README's main job."""
     parser = cli.parser("fastslam-demo", __doc__)

@@ -190,6 +190,7 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
     return counts
 
 
+@cli.interruptible("fastslam-poison")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-poison``: write a copy of a bag with every fault class mixed in."""
     prog = "fastslam-poison"

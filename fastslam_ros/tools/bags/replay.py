@@ -749,6 +749,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli.interruptible("fastslam-replay")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-replay``: replay a bag through the node (exit status as ``cli`` says)."""
     prog = "fastslam-replay"

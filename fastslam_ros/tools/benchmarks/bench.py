@@ -226,6 +226,7 @@ def markdown(title: str, rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+@cli.interruptible("fastslam-bench")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-bench``: print (and optionally write) the speed and memory figures."""
     parser = cli.parser("fastslam-bench", __doc__)
@@ -263,6 +264,8 @@ def main(argv: list[str] | None = None) -> int:
     parts = args.only or ["throughput", "sweep", "scaling", "memory"]
     backends = tuple(args.backend or (("numpy", "numba") if numba_available() else ("numpy",)))
     if "numba" in backends:
+        print("compiling the filter's kernels (first start only; later starts load them from "
+              "numba's cache) ...", flush=True)
         from fastslam_ros.core import compiled as kernels  # noqa: PLC0415 (optional)
         print(f"numba kernels ready in {kernels.warm_up():.1f} s", flush=True)
         if args.threads is not None:

@@ -271,6 +271,7 @@ def _run_with_bag(job: tuple[RunSpec, Path, Path]) -> dict[str, Any]:
                 "seed": spec.seed, "error": f"{type(error).__name__}: {error}"}
 
 
+@cli.interruptible("fastslam-benchmark")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-benchmark``: run every dataset found and print the table."""
     args = build_parser().parse_args(argv)

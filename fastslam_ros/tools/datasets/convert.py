@@ -87,6 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli.interruptible("fastslam-convert")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-convert``: convert a dataset folder, or print its calibration."""
     prog = "fastslam-convert"

@@ -420,6 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli.interruptible("fastslam-calibrate")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
     from fastslam_ros.node_base import ParamsFileError

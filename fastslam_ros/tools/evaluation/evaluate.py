@@ -386,6 +386,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli.interruptible("fastslam-eval")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-eval``: print the Markdown summary; optionally write JSON, a plot, TUM files."""
     args = build_parser().parse_args(argv)

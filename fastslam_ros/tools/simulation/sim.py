@@ -269,6 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@cli.interruptible("fastslam-sim")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-sim``: simulate a scenario and write a schema-v1 bag plus its parameter file."""
     arguments = sys.argv[1:] if argv is None else list(argv)
