@@ -25,8 +25,9 @@ from fastslam_ros import extractor_io
 from fastslam_ros.core.params import check_fields, parameter, specs
 from fastslam_ros.extractor import Extraction, ExtractorSettings, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
-from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, STREAM_QOS, FilterNode,
-                                    run_node)
+from fastslam_ros.node_base import INPUT_QOS, STREAM_QOS, FilterNode
+from fastslam_ros.node_console import run_node
+from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 
 NODE_NAME = "landmark_extractor"
 COUNTERS = (

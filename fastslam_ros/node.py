@@ -27,7 +27,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros import map_files, node_base, ros_io, ros_markers
+from fastslam_ros import map_files, node_console, ros_io, ros_markers
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
 from fastslam_ros.core.fastslam import kernels_pending
@@ -37,9 +37,11 @@ from fastslam_ros.core.params import ParameterValueError, check_fields, paramete
 from fastslam_ros.core.path_history import decimation
 from fastslam_ros.node_support.sensor_reach import ReachCheck
 from fastslam_ros.output import check_output
-from fastslam_ros.node_base import (DIAGNOSTICS_PERIOD, INPUT_QOS, LATEST_QOS, MAP_QOS,
-                                    STREAM_QOS, FilterNode, ParameterError, max_speed_parameter,
-                                    max_yaw_rate_parameter, run_node)
+from fastslam_ros.node_base import INPUT_QOS, LATEST_QOS, MAP_QOS, STREAM_QOS, FilterNode
+from fastslam_ros.node_console import run_node
+from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
+from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
+                                          max_yaw_rate_parameter)
 
 NODE_NAME = "fastslam"
 
@@ -518,8 +520,8 @@ class FastSLAMNode(FilterNode):
 
 
 def read_params_file(path: str | PathLike, node_name: str = f"/{NODE_NAME}") -> dict[str, object]:
-    """``node_base.read_params_file``, for this node unless ``node_name`` says otherwise."""
-    return node_base.read_params_file(path, node_name)
+    """``node_console.read_params_file``, for this node unless ``node_name`` says otherwise."""
+    return node_console.read_params_file(path, node_name)
 
 
 USAGE = """FastSLAM landmark SLAM node: nav_msgs/Odometry on odom and sensor_msgs/PointCloud2 on

@@ -14,39 +14,26 @@ records them). A subclass adds its filter: ``_set_up``, ``_update``, ``_predict`
 """
 from __future__ import annotations
 
-import argparse
 import bisect
 import math
-import re
-import sys
 import time
-from os import PathLike
 from typing import Any, Callable, Protocol
 
 import numpy as np
-import rclpy
-import yaml
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, KeyValue
 from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
-from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
-                              ParameterException)
+from rclpy.exceptions import (ParameterException)
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
-from fastslam_ros.core.params import ParameterValueError, Spec, parameter
-from fastslam_ros.node_start import (ArgumentParser, interrupts_unreported,
-                                     params_document_problem, type_problem, unknown_sections,
-                                     warn_line)
+from fastslam_ros.node_diagnostics import (DIAGNOSTICS_PERIOD, NO_CLOCK_WARNING,
+                                           DiagnosticsReporting)
+from fastslam_ros.node_parameters import ParameterError, ParameterHandling
 from fastslam_ros.node_support.timing import (MAX_ODOMETRY_COORDINATE, STAMP_CONFIRMATIONS,
                                               InputRate, OdometryGate, OdometryHistory, StampGate,
                                               Throttle)
@@ -56,15 +43,6 @@ try:  # Only a full ROS install has tf2_ros; ~/map_to_odom carries the same tran
 except ImportError:
     TransformBroadcaster = None
 
-LAG_WARNING = 1.0
-"""s: a reading processed this long after its stamp (node time) makes the diagnostics WARN."""
-DIAGNOSTICS_PERIOD = 1.0
-"""Seconds of node time between two /diagnostics messages."""
-NO_INPUT_WARNING = 5.0
-"""s of node time after the first /diagnostics report: an input still never received then
-makes the diagnostics WARN, naming its topic."""
-NO_CLOCK_WARNING = 5.0
-"""s of wall time after start: a node on simulated time whose clock has not moved warns."""
 WARNING_PERIOD = 5.0
 """Seconds between two log warnings of the same kind."""
 
@@ -97,31 +75,6 @@ READING_GATE_COUNTERS = ("resets", "time_jumps", "dropped_wrong_frame", "dropped
                          "dropped_outlier_stamp", "dropped_duplicate_stamp",
                          "dropped_internal_error")
 """Counters of a FilterNode without odometry (``_start_inputs(odometry=False)``)."""
-FIXED_NOTE = " Fixed at start (restart to change)."
-INT64_LIMITS = (-2**63, 2**63 - 1)
-GRAPH_PARAMETER_PREFIXES = ("qos_overrides.",)
-"""Parameters rclpy declares itself when asked (QoS overrides): never reported as unknown."""
-
-Specs = dict[str, tuple[Any, Spec]]
-
-
-def max_speed_parameter() -> Any:
-    """The ``max_speed`` field of a node's settings (the odometry plausibility gate)."""
-    return parameter(
-        20.0, "Odometry plausibility gate (m/s): a step between consecutive odometry poses "
-        "faster than this is a glitch and dropped, unless the next messages confirm it.",
-        low=1e-3, high=1e5)
-
-
-def max_yaw_rate_parameter() -> Any:
-    """The ``max_yaw_rate`` field of a node's settings (the gate on the heading)."""
-    return parameter(
-        10.0, "Odometry plausibility gate on the heading (rad/s), as max_speed.", low=1e-3,
-        high=1e4)
-
-
-class ParameterError(ValueError):
-    """A parameter value that stops the node from starting; the message names the parameter."""
 
 
 class Reading(Protocol):
@@ -131,40 +84,6 @@ class Reading(Protocol):
     arrival: float
 
 
-def parameter_descriptor(default: object, spec: Spec, note: str = "") -> ParameterDescriptor:
-    """The ROS descriptor of a parameter from its spec: the description (with the choices of a
-    string, the exact rule of a number) and, for numbers, the inclusive range."""
-    description = spec.description
-    if spec.choices is not None:
-        description += f" One of: {' | '.join(spec.choices)}."
-    descriptor = ParameterDescriptor(description=description + note)
-    if isinstance(default, bool) or not isinstance(default, (int, float)):
-        return descriptor
-    descriptor.description = f"{description} Valid: {spec.rule()}.{note}"
-    if isinstance(default, int):
-        low = INT64_LIMITS[0] if spec.low is None else int(spec.low)
-        high = INT64_LIMITS[1] if spec.high is None else int(spec.high)
-        descriptor.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
-    else:
-        low = -math.inf if spec.low is None else float(spec.low)
-        high = math.inf if spec.high is None else float(spec.high)
-        descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high,
-                                                              step=0.0)]
-    return descriptor
-
-
-def parameter_error(error: ValueError) -> ParameterError:
-    """A ParameterError that names the parameter(s) as the user typed them (a settings
-    ``ValueError`` reads ``name: reason``)."""
-    if isinstance(error, ParameterValueError):
-        names, reason = error.names, error.reason
-    else:
-        name, _, reason = str(error).partition(":")
-        names, reason = (name.strip(),), reason.strip()
-    quoted = ", ".join(f"'{name}'" for name in names)
-    return ParameterError(f"parameter{'s' if len(names) > 1 else ''} {quoted}: {reason}")
-
-
 class _NothingToDestroy:
     """Stands in for a part that a failed ``Node.__init__`` never made."""
 
@@ -172,7 +91,7 @@ class _NothingToDestroy:
         pass
 
 
-class FilterNode(Node):
+class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
     """Readings and odometry in, in stamp order, through the shared input gates."""
 
     NODE_NAME = ""
@@ -294,95 +213,6 @@ class FilterNode(Node):
             self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
         self._clock_check = self.create_timer(NO_CLOCK_WARNING, self._check_clock,
                                               clock=Clock(clock_type=ClockType.STEADY_TIME))
-
-    # --- parameters ----------------------------------------------------------------------------
-
-    def _declare(self, name: str, default: object, spec: Spec, note: str = "") -> object:
-        """Declare one parameter from its spec; a value of the wrong type or outside the
-        descriptor's range raises ParameterError."""
-        try:
-            return self.declare_parameter(name, default,
-                                          parameter_descriptor(default, spec, note)).value
-        except InvalidParameterValueException:  # outside the descriptor's range
-            given = self._parameter_overrides[name].value
-            raise ParameterError(f"parameter '{name}': must be {spec.rule()} "
-                                 f"(got {given!r})") from None
-        except InvalidParameterTypeException:
-            raise ParameterError(type_problem(name, default,
-                                              self._parameter_overrides[name].value)) from None
-        except ParameterException as error:
-            raise ParameterError(f"parameter '{name}': {error}") from None
-
-    def _declare_parameters(self, core_specs: Specs, build_core: Callable[..., Any],
-                            node_specs: Specs, node_settings: Callable[..., Any],
-                            start_only: tuple[str, ...] = ()) -> Any:
-        """Declare every parameter; return the core settings ``build_core(**values)``.
-
-        Core parameters are fixed at start; the ROS-side ones (``node_settings``, a dataclass
-        with ``validate()``) land in ``self.settings`` and may change at runtime, but for
-        ``start_only`` ones, read once at start. A bad value, a broken rule between values or
-        an unknown parameter name raises ParameterError."""
-        self._core_specs, self._node_specs, self._node_settings = (core_specs, node_specs,
-                                                                   node_settings)
-        self._start_only = frozenset(start_only)
-        values = {name: self._declare(name, default, spec, FIXED_NOTE)
-                  for name, (default, spec) in core_specs.items()}
-        try:
-            core = build_core(**values)
-        except ValueError as error:
-            raise parameter_error(error) from None
-        values = {name: self._declare(name, default, spec,
-                                      FIXED_NOTE if name in self._start_only else "")
-                  for name, (default, spec) in node_specs.items()}
-        try:
-            node_settings(**values).validate()
-        except ValueError as error:
-            raise parameter_error(error) from None
-        self._apply_parameter_change([self.get_parameter(name) for name in node_specs])
-        self._check_unknown_parameters()
-        self.add_on_set_parameters_callback(self._check_parameter_change)
-        self.add_post_set_parameters_callback(self._apply_parameter_change)
-        return core
-
-    def _check_unknown_parameters(self) -> None:
-        """Fail on a parameter given (command line, file) that the node does not declare, e.g.
-        a misspelled name, which would otherwise be ignored silently."""
-        unknown = sorted(name for name in self._parameter_overrides
-                         if not self.has_parameter(name)
-                         and not name.startswith(GRAPH_PARAMETER_PREFIXES))
-        if unknown:
-            raise ParameterError(f"unknown parameter{'s' if len(unknown) > 1 else ''} "
-                                 f"{', '.join(repr(name) for name in unknown)} (not declared "
-                                 f"by {self.get_name()}; misspelled?)")
-
-    def _check_parameter_change(self, parameters: list[Parameter]) -> SetParametersResult:
-        """Accept runtime changes of ROS-side parameters; core ones need a restart."""
-        changes = {}
-        for changed in parameters:
-            if changed.name in self._core_specs:
-                return SetParametersResult(successful=False, reason=(
-                    f"{changed.name}: core parameters are fixed while the filter runs; restart "
-                    "the node with the new value"))
-            if changed.name in self._start_only:
-                return SetParametersResult(successful=False, reason=(
-                    f"{changed.name}: read at start only; restart the node with the new value"))
-            if changed.name in self._node_specs:
-                changes[changed.name] = changed.value
-        current = {name: self.settings.get(name, default)
-                   for name, (default, _) in self._node_specs.items()}
-        try:
-            self._node_settings(**{**current, **changes}).validate()
-        except ValueError as error:
-            return SetParametersResult(successful=False, reason=str(parameter_error(error)))
-        return SetParametersResult(successful=True)
-
-    def _apply_parameter_change(self, parameters: list[Parameter]) -> None:
-        """Cache the ROS-side values the callbacks read; a new rate restarts its throttle."""
-        for changed in parameters:
-            if changed.name in self._node_specs:
-                self.settings[changed.name] = changed.value
-            if changed.name in self._throttled_outputs:
-                self._throttles[changed.name] = Throttle(changed.value)
 
     # --- input gates ---------------------------------------------------------------------------
 
@@ -664,77 +494,6 @@ class FilterNode(Node):
         if self.publish_to_dds and self.settings["publish_tf"] and self._tf_broadcaster:
             self._tf_broadcaster.sendTransform(transform)
 
-    def _new_problems(self, now: float) -> list[str]:
-        """What went wrong since the last report, worst first: drops, input gaps, silence,
-        processing lag, then the node's ``diagnosed`` counters."""
-        stats, seen = self.stats, self._reported
-        drops = sum(v for k, v in stats.items() if k.startswith("dropped_"))
-        counts = {"drops": drops, **{f"{topic}_missing": stats[f"{topic}_missing"]
-                                     for topic in self._rates},
-                  **{key: stats[key] for key, _ in self._diagnosed}}
-        new = {k: v - seen.get(k, 0) for k, v in counts.items()}
-        self._reported = counts
-        problems = []
-        if new["drops"]:
-            problems.append(f"{new['drops']} input(s) dropped")
-        for topic, rate in self._rates.items():
-            if new[f"{topic}_missing"] > 0:
-                problems.append(f"~{new[f'{topic}_missing']} {topic} message(s) lost (gaps in "
-                                f"the stamps up to {rate.largest_gap:.3g} s, usual interval "
-                                f"{rate.interval:.3g} s)")
-            if silent := rate.silence(now):
-                problems.append(f"no {topic} for {silent:.3g} s (usual interval "
-                                f"{rate.interval:.3g} s)")
-        problems += self._never_received(now)
-        if self._worst_lag > LAG_WARNING:
-            problems.append(f"processing lag {self._worst_lag:.3g} s behind the stamps")
-        problems += [f"{new[key]} {what}" for key, what in self._diagnosed if new[key]]
-        return problems
-
-    def _never_received(self, now: float) -> list[str]:
-        """The inputs of which not one message came in NO_INPUT_WARNING s after the first
-        report, by their resolved (namespaced, remapped) names: a wrong topic or namespace."""
-        if self._first_report is None:
-            self._first_report = now
-        waited = now - self._first_report
-        if waited < NO_INPUT_WARNING:
-            return []
-        return [f"nothing received on {self.resolve_topic_name(topic)} for {waited:.3g} s"
-                for topic in self._rates if not self.stats.get(f"received_{topic}")]
-
-    def _publish_diagnostics(self, component: str = "filter") -> None:
-        """/diagnostics: every counter, the node's state, the input rates and the processing
-        lag; WARN naming what went wrong since the last report and what still is wrong."""
-        now_ns = self._now_ns()
-        now = now_ns * 1e-9
-        new = self._new_problems(now)
-        problems = self._standing_problems() + (["; ".join(new) + " since last report"]
-                                                if new else [])
-        rates = [KeyValue(key=f"{topic}_{name}", value=f"{value:.6g}")
-                 for topic, rate in self._rates.items()
-                 for name, value in (("interval", rate.interval or 0.0),
-                                     ("largest_gap", rate.largest_gap),
-                                     ("silent_for", rate.silence(now)))]
-        timing = [KeyValue(key="processing_lag_max", value=f"{self._worst_lag:.6g}"),
-                  KeyValue(key="callback_time_max", value=f"{self._worst_callback:.6g}")]
-        self._worst_lag = self._worst_callback = 0.0
-        status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
-            name=f"{self.get_name()}: {component}", hardware_id=self.get_fully_qualified_name(),
-            message="; ".join(problems) or "running",
-            values=[self._counter_value(k, v) for k, v in self.stats.items()]
-            + self._diagnostic_state() + rates + timing)
-        self._publish(self._diagnostics_pub, DiagnosticArray(
-            header=Header(stamp=ros_io.nanoseconds_to_stamp(now_ns)), status=[status]))
-
-    def _counter_value(self, key: str, count: int) -> KeyValue:
-        """The KeyValue of a counter: the one of the last report while the count is the same
-        (most counters stay put; no report changes a KeyValue)."""
-        cached = self._counter_values.get(key)
-        if cached is None or cached[0] != count:
-            cached = self._counter_values[key] = (count, KeyValue(key=key, value=str(count)))
-        return cached[1]
-
     def _on_timer(self) -> None:
         """Once a second: run readings that waited too long even if no input arrives any more."""
         try:
@@ -744,18 +503,6 @@ class FilterNode(Node):
             self._publish_throttled(now)
         except Exception as error:  # noqa: BLE001 - a callback must never raise
             self._drop("internal_error", f"timer callback failed: {error!r}")
-
-    def _check_clock(self) -> None:
-        """Once, NO_CLOCK_WARNING s of wall time after start: on simulated time with no /clock
-        (a bag played without --clock) the node's time stands still, its timer never runs and
-        it would say nothing at all."""
-        self._clock_check.cancel()
-        if (self._node_time_ns is None and self.get_parameter("use_sim_time").value
-                and self.get_clock().now().nanoseconds == 0):
-            self.get_logger().warning(
-                f"use_sim_time is true but no /clock came in {NO_CLOCK_WARNING:g} s: the node's "
-                "time stands still and it outputs nothing (play a bag with --clock, or set "
-                "use_sim_time false)")
 
     def _check_tf_once(self) -> None:
         """At the first tick of a live node: say once that ``publish_tf`` cannot be honoured
@@ -775,145 +522,3 @@ class FilterNode(Node):
         super().destroy_node()
         counts = ", ".join(f"{key}={value}" for key, value in self.stats.items() if value)
         self.get_logger().info(f"input summary: {counts or 'no input received'}")
-
-
-# --- console nodes ------------------------------------------------------------------------------
-
-class ParamsFileError(ParameterError):
-    """A parameter file that cannot be read or is no ROS 2 parameter file (a usage error)."""
-
-
-def read_params_file(path: str | PathLike, node_name: str,
-                     warn: Callable[[str], None] | None = None,
-                     require_section: bool = True) -> dict[str, object]:
-    """{name: value} that a ROS 2 parameter file gives the node ``node_name`` (fully
-    qualified), read with rclpy's own parser: the ``/**`` section first, then every section
-    whose key matches the node (``fastslam``, ``/robot1/fastslam``, ``/**/fastslam``).
-
-    Raises ParamsFileError naming the file when it cannot be read or is no parameter file,
-    ParameterError when no section of it applies to the node (``fastslam_node:`` for
-    ``fastslam``; {} instead unless ``require_section``); ``warn`` is told of each section
-    that names no node of this package.
-    """
-    try:
-        with open(path, encoding="utf-8") as stream:
-            document = yaml.safe_load(stream)
-        problem = params_document_problem(document)
-        if problem:
-            raise RuntimeError(problem)
-        sections = [key for key in document
-                    if key != "/**" and _section_matches(str(key), node_name)]
-        ignored = unknown_sections(document, sections)
-        if "/**" not in document and not sections:
-            if not require_section:
-                return {}
-            raise ParameterError(
-                f"parameter file '{path}': no section for node {node_name}, not one parameter "
-                f"applies (sections: {', '.join(map(str, document))}; keys that apply: "
-                f"{node_name.lstrip('/')}, /**/{node_name.rsplit('/', 1)[-1]}, /**)")
-        if ignored and warn is not None:
-            warn(f"parameter file '{path}': section(s) {', '.join(ignored)} name no node of "
-                 f"fastslam_ros and are ignored (node {node_name})")
-        messages = parameter_dict_from_yaml_file(str(path), use_wildcard=True,
-                                                 target_nodes=sections)
-    except OSError as error:
-        raise ParamsFileError(f"parameter file '{path}': {error.strerror or error}") from None
-    except (yaml.YAMLError, UnicodeDecodeError, RuntimeError, AttributeError, TypeError) as error:
-        reason = " ".join(str(error).split())
-        raise ParamsFileError(f"parameter file '{path}': not a ROS 2 parameter file "
-                              f"({reason})") from None
-    values = {name: Parameter.from_parameter_msg(msg).value for name, msg in messages.items()}
-    # rclpy re-reads str(value) as YAML 1.1, where the 1e-05 that 1.0e-5 prints as is a string;
-    # rcl (the node) reads the file's number as a double, and so does this.
-    for key in ["/**", *sections]:
-        for name, raw in (document.get(key) or {}).get("ros__parameters", {}).items():
-            if isinstance(raw, float) and isinstance(values.get(name), str):
-                values[name] = raw
-    return values
-
-
-def _section_matches(key: str, node_name: str) -> bool:
-    """Whether a parameter file section key (rcl wildcards ``*`` and ``**``) names the node."""
-    pattern = re.escape(key.strip("/")).replace(r"\*\*/", "(.*/)?")
-    pattern = pattern.replace(r"\*\*", ".*").replace(r"\*", "[^/]*")
-    return re.fullmatch(pattern, node_name.strip("/")) is not None
-
-
-def _params_files(args: list[str]) -> list[str]:
-    """The files given with ``--params-file`` after ``--ros-args``."""
-    ros_args = args[args.index("--ros-args") + 1:] if "--ros-args" in args else []
-    return [value for flag, value in zip(ros_args, ros_args[1:]) if flag == "--params-file"]
-
-
-def parse_command_line(prog: str, usage: str, args: list[str]) -> None:
-    """Handle the arguments that are not ROS arguments: ``--help`` prints the usage and exits;
-    anything else is a usage error (exit status 2) instead of being ignored."""
-    parser = ArgumentParser(prog=prog, description=usage,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.parse_args(remove_ros_args(args)[1:])
-
-
-def _interrupted(error: BaseException | None) -> bool:
-    """Whether ``error`` is a KeyboardInterrupt or was raised while one was handled: numba,
-    interrupted while it compiles the kernels, may raise an error of its own instead."""
-    seen = set()
-    while error is not None and id(error) not in seen:
-        if isinstance(error, KeyboardInterrupt):
-            return True
-        seen.add(id(error))
-        error = error.__cause__ or error.__context__
-    return False
-
-
-def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node],
-             args: list[str] | None = None) -> int:
-    """Start, spin and shut down one node as a console command (both nodes' ``main``), with the
-    tools' exit status rule (``tools.cli``): a bad parameter value, or a parameter file of
-    which nothing applies, is one line on stderr and status 1; a parameter file that cannot be
-    read or a bad argument, status 2; Ctrl-C while the node starts, status 130."""
-    argv = sys.argv if args is None else args
-    try:
-        renamed = any(rule in arg for arg in argv for rule in ("__ns:=", "__node:=", "__name:="))
-        for path in _params_files(argv):  # one line instead of rcl's failure
-            read_params_file(path, f"/{node_name}", warn_line(prog),
-                             require_section=not renamed)  # else once the node exists
-        parse_command_line(prog, usage, argv)
-        rclpy.init(args=args)
-    except ParamsFileError as error:
-        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
-        return 2
-    except ParameterError as error:
-        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
-        return 1
-    except RuntimeError as error:  # rcl could not parse the arguments
-        print(f"{prog}: cannot start: {str(error).splitlines()[0]}", file=sys.stderr)
-        return 2
-    try:
-        with interrupts_unreported():
-            node = make_node()
-        for path in _params_files(argv) if renamed else ():  # its full name is known now
-            try:
-                read_params_file(path, node.get_fully_qualified_name())
-            except ParameterError:
-                node.destroy_node()
-                raise
-    except ParameterError as error:
-        print(f"{prog}: {' '.join(str(error).split())}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 1
-    except BaseException as error:  # rclpy's SIGINT handler shuts the context down
-        if not (_interrupted(error) or not rclpy.ok()):
-            raise
-        print(f"{prog}: interrupted while starting", file=sys.stderr)
-        # Half-built compiler objects fail in their __del__ at exit: nothing to report.
-        sys.unraisablehook = lambda unraisable: None
-        rclpy.try_shutdown()
-        return 130
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0

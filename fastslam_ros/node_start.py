@@ -3,7 +3,7 @@
 """What a console command checks before it starts: the shape of a parameter file, its
 sections that name no node of the package, and the one-line argument errors.
 
-Kept free of rclpy: the nodes (``node_base.run_node``) and the tools (``tools.cli``) share it.
+Kept free of rclpy: the nodes (``node_console.run_node``) and the tools (``tools.cli``) share it.
 """
 from __future__ import annotations
 

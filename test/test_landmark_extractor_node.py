@@ -28,7 +28,7 @@ from fastslam_ros.extractor import ExtractorSettings, extract_landmarks
 from fastslam_ros.extractor_io import EXTRACTED_CLOUD_DTYPE, read_scan
 from fastslam_ros.landmark_extractor_node import LandmarkExtractorNode, parameter_specs
 from fastslam_ros.node import FastSLAMNode
-from fastslam_ros.node_base import ParameterError
+from fastslam_ros.node_parameters import ParameterError
 from fastslam_ros.tools.bags.bag_schema import cloud_to_arrays
 from test_extractor import ANGLE_MIN, INCREMENT, cast
 from test_launch import launch_stand_ins  # noqa: F401 - a fixture

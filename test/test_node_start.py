@@ -20,7 +20,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 
-from fastslam_ros import node_base
+from fastslam_ros import node_base, node_diagnostics
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.people_node import PeopleTrackerNode
@@ -141,7 +141,8 @@ def test_no_notice_when_nothing_compiles(context, capfd):
 @pytest.mark.parametrize("clock", [False, True])
 def test_simulated_time_without_clock_warns_once(context, capfd, monkeypatch, clock):
     """A bag played without --clock: the node's time stands still; it says so (wall time)."""
-    monkeypatch.setattr(node_base, "NO_CLOCK_WARNING", 0.2)
+    monkeypatch.setattr(node_base, "NO_CLOCK_WARNING", 0.2)  # the timer
+    monkeypatch.setattr(node_diagnostics, "NO_CLOCK_WARNING", 0.2)  # its message
     node, _ = start(context)
     if clock:
         node.get_clock().set_ros_time_override(Time(nanoseconds=round(START * 1e9)))

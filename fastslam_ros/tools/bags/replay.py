@@ -56,8 +56,8 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros import node_base
-from fastslam_ros.node_base import ParamsFileError
+from fastslam_ros import node_console
+from fastslam_ros.node_console import ParamsFileError
 from fastslam_ros.node_start import warn_line
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
@@ -773,7 +773,7 @@ def main(argv: list[str] | None = None) -> int:
             cli.output_file(args.save_map, "--save-map")
         if args.params is not None:
             cli.input_file(args.params, "parameter file")
-            node_base.read_params_file(args.params, f"/{args.node}", warn_line(prog))
+            node_console.read_params_file(args.params, f"/{args.node}", warn_line(prog))
     except cli.UsageError as error:
         return cli.fail(prog, error)
     except ParamsFileError as error:  # not a parameter file

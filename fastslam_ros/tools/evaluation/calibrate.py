@@ -423,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
 @cli.interruptible("fastslam-calibrate")
 def main(argv: list[str] | None = None) -> int:
     """``fastslam-calibrate``: print the fitted noise; write it with ``--out``."""
-    from fastslam_ros.node_base import ParamsFileError
+    from fastslam_ros.node_console import ParamsFileError
     from fastslam_ros.output import check_output, write_params_yaml
     from fastslam_ros.tools.bags.bag_schema import read_schema_bag
 
