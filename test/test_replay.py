@@ -178,7 +178,7 @@ def test_replay_is_invisible_to_other_processes(tmp_path):
 ])
 def test_direct_tf_bytes_are_the_serializers(stamp_ns, parent, child, translation, rotation):
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE, TF_TYPE, tf_message_bytes
-    from fastslam_ros.tools.bags.replay import tf_message_cdr
+    from fastslam_ros.tools.bags.cdr import tf_message_cdr
     types = TYPESTORE.types
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     transform = types["geometry_msgs/msg/TransformStamped"](
@@ -206,7 +206,7 @@ def test_marker_arrays_serialized_from_pieces_read_back_as_rclpy_writes_them():
     from visualization_msgs.msg import MarkerArray
 
     from fastslam_ros import ros_markers
-    from fastslam_ros.tools.bags.replay import MarkerArrayCdr
+    from fastslam_ros.tools.bags.recorder import MarkerArrayCdr
 
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE
 
@@ -242,8 +242,8 @@ def test_lean_mcap_writer_writes_rosbags_bytes(tmp_path):
     from importlib.metadata import version
 
     from fastslam_ros.tools.bags.bag_schema import open_writer
-    from fastslam_ros.tools.bags.replay import (LEAN_WRITER_ROSBAGS, LeanMcapWriter, OutputRecorder,
-                                           lean_writer)
+    from fastslam_ros.tools.bags.recorder import (LEAN_WRITER_ROSBAGS, LeanMcapWriter,
+                                                  OutputRecorder, lean_writer)
 
     if not version("rosbags").startswith(LEAN_WRITER_ROSBAGS):
         pytest.skip(f"rosbags {version('rosbags')}: the replay records through rosbags' writer")
