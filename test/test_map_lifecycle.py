@@ -209,13 +209,13 @@ def test_a_loss_that_keeps_its_distance_to_the_found_pose_is_waited_out(monkeypa
     """The filter's own loss, 3 m off along the heading, with a spread that does not reach
     the truth: lost and searching, but the found pose stays within a gate of the closest one,
     so nothing is redrawn before the delay; without the delay the same loss is ended."""
-    from fastslam_ros.core import fastslam
+    from fastslam_ros.core import relocalization
     searches = []
 
     def counted(*args):
         searches.append(args)
         return find_pose(*args)
-    monkeypatch.setattr(fastslam, "find_pose", counted)
+    monkeypatch.setattr(relocalization, "find_pose", counted)
     offset, sigmas = LOSS
     _, waited = kidnapped_errors(CONFIG.replace(relocalization_delay=100.0), offset, sigmas)
     assert waited == 0 and len(searches) >= 5
@@ -235,13 +235,13 @@ def test_a_given_pose_off_the_map_is_corrected_at_the_first_search():
 
 
 def test_a_pose_search_that_finds_nothing_waits_before_the_next(monkeypatch):
-    from fastslam_ros.core import fastslam
+    from fastslam_ros.core import relocalization
     searches = []
 
     def counted(*args):
         searches.append(args)
         return find_pose(*args)
-    monkeypatch.setattr(fastslam, "find_pose", counted)
+    monkeypatch.setattr(relocalization, "find_pose", counted)
     scene = world()
     slam = FastSLAM(CONFIG.replace(mode="localization", relocalization_delay=0.0),
                     initial_pose=scene.steps[0].truth)

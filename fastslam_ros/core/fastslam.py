@@ -31,16 +31,17 @@ from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
-from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
-from .landmark_store import COV, LOGODDS, MEAN, LandmarkStore, WorkingSet
+from .landmark_ekf import pack, unpack
+from .landmark_store import LandmarkStore, WorkingSet
 from .loop_closure import LoopClosure
 from .map_refinement import ReadingLog
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
-from .observation import MIN_OBSERVATION_RANGE, SensorOffset, observation_terms
+from .observation import MIN_OBSERVATION_RANGE, SensorOffset
 from .path_history import PathHistory
-from .proposal import observation_proposal, sample_pose
-from .relocalization import explained, find_pose, world_points
+from .proposal import sample_pose
+from .reading import NumpyReading
+from .relocalization import Relocalizing
 from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
 
 REACH_MARGIN = 2.0
@@ -51,17 +52,6 @@ MAX_PRIOR_HEADING_SIGMA = 0.3
 """FastSLAM 2.0: odometry between observations is carried as one Gaussian per particle, so the
 proposal sees all of its uncertainty; once its heading standard deviation exceeds this (rad)
 the particles are sampled from it, before the proposal's linearisation fails."""
-RELOCALIZATION_RADIUS = 10.0
-"""Metres beyond the sensor's reach around the best particle within which the map's landmarks
-are matched to a reading when the filter is lost (``FastSLAM._relocalize``)."""
-RELOCALIZATION_RETRY = 1.0
-"""Seconds after a pose search that found nothing before the next one (a search over a
-reading costs tens of milliseconds)."""
-MAX_RELOCALIZATION_LANDMARKS = 150
-"""Landmarks (the nearest to the best particle) a pose search matches a reading against: the
-search's pair matching grows with their square."""
-MIN_RELOCALIZATION_INLIERS = 3
-"""Observations a pose found from one reading must put near landmarks (two pin any pair)."""
 NO_MOTION = (0.0, 0.0, 0.0)
 """The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
 _NO_DRAWS = np.zeros(0)
@@ -116,7 +106,7 @@ class UpdateReport:
     weights_underflow: bool
 
 
-class FastSLAM:
+class FastSLAM(NumpyReading, Relocalizing):
     """The particle filter; public arrays ``poses`` (M, 3) and ``log_weights`` (M,)."""
 
     def __init__(self, config: FastSLAMConfig, rng: np.random.Generator | None = None,
@@ -178,7 +168,7 @@ class FastSLAM:
         """The readings processed since the start, for ``map_refinement.refine``."""
         self._pending = NO_MOTION
         self._has_pending = False
-        self._prior = None
+        self._set_prior(None)
         self._best = 0
         self._lost_since: float | None = None
         self._placed = False
@@ -249,7 +239,7 @@ class FastSLAM:
         poses[:, 2] = wrap_angle(poses[:, 2])
         self.poses = poses
         self.log_weights = np.full(count, -np.log(count))
-        self._prior = None
+        self._set_prior(None)
         self._pending = NO_MOTION
         self._has_pending = False
         self._lost_since = None
@@ -282,8 +272,8 @@ class FastSLAM:
             return
         if self.kernels is not None and self.config.algorithm == "fastslam2":
             # The same steps as below, the covariance left to the next reading's blocks of
-            # particles (or to the first other use of the prior, ``_prior``).
-            prior = self._prior
+            # particles (or to the first other use of the prior, ``_settled_prior``).
+            prior = self._settled_prior()
             moved, widest, turn, motion = self.kernels.advance_mean(
                 prior, self.poses, self._pending, self._settings)
             self._prior = (moved, None)
@@ -303,34 +293,33 @@ class FastSLAM:
             sample = sample_motion if self.kernels is None else self.kernels.sample_motion
             self.poses = sample(self.poses, control, variances, normals)
             return
-        mean, cov = self._prior if self._prior is not None else (
+        prior = self._settled_prior()
+        mean, cov = prior if prior is not None else (
             self.poses, np.zeros((self.num_particles, 3, 3)))
-        self._prior = propagate_gaussian(mean, cov, control, variances)
+        self._set_prior(propagate_gaussian(mean, cov, control, variances))
         if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
 
-    @property
-    def _prior(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """FastSLAM 2.0's Gaussian prior (mean (M, 3), cov (M, 3, 3)) or None; a covariance
-        left to the next reading (``_deferred``: the turn, the covariance it moves from and
-        the motion of ``compiled.advance_mean``) is propagated here first."""
+    def _settled_prior(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """FastSLAM 2.0's Gaussian prior (mean (M, 3), cov (M, 3, 3)) or None, with a covariance
+        left to the next reading (``_deferred``: the turn, the covariance it moves from and the
+        motion of ``compiled.advance_mean``) propagated now."""
         if self._deferred is not None:
             turn, cov, motion = self._deferred
             self._deferred = None
-            self._prior_value = (self._prior_value[0],
-                                 self.kernels.propagate_cov(turn, cov, motion))
-        return self._prior_value
+            self._prior = (self._prior[0], self.kernels.propagate_cov(turn, cov, motion))
+        return self._prior
 
-    @_prior.setter
-    def _prior(self, value: tuple[np.ndarray, np.ndarray] | None) -> None:
-        self._prior_value = value
+    def _set_prior(self, value: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """Replace the prior (and drop any covariance left to the next reading)."""
+        self._prior = value
         self._deferred = None
 
     def _sample_prior(self) -> np.ndarray:
         """Draw every particle's pose from its Gaussian prior, which is then consumed."""
-        mean, cov = self._prior
-        self._prior = None
+        mean, cov = self._settled_prior()
+        self._set_prior(None)
         sample = sample_pose if self.kernels is None else self.kernels.sample_pose
         sampled = sample(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
         sampled[:, 2] = wrap_angle(sampled[:, 2])
@@ -363,50 +352,6 @@ class FastSLAM:
             self._relocalize(ranges, bearings, stamp)
         return report
 
-    def _update_numpy(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                      stamp: float) -> UpdateReport:
-        """``update`` on the numpy path (the reference)."""
-        known = self.config.association == "known"
-        usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
-        if known:
-            usable &= labels >= 0
-        if not usable.all():
-            ranges, bearings, labels = ranges[usable], bearings[usable], labels[usable]
-        bearings = wrap_angle(bearings)
-
-        fastslam2 = self.config.algorithm == "fastslam2"
-        self._advance_motion()
-        proposal_mean, proposal_cov = self._prior if self._prior is not None else (self.poses,
-                                                                                    None)
-
-        ws = self.working.for_reading(proposal_mean, self._reach(ranges), len(ranges),
-                                      labels if known else None)
-        if self.loop is not None:
-            self.loop.before_reading(ws, None)
-        choices, log_factors, robust, inverse_q = self._associate(
-            ws, proposal_mean, proposal_cov, ranges, bearings, labels)
-        observed = np.zeros(ws.valid.shape, dtype=bool)
-        if self._localization:
-            # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
-            choices[choices == assoc.NEW] = assoc.IGNORE
-        if fastslam2 and proposal_cov is not None:
-            proposal = self._proposal(ws, proposal_mean, proposal_cov, choices, ranges, bearings)
-            log_factors = self._sample_proposal(proposal, choices, log_factors, inverse_q)
-        log_factors = log_factors + robust
-        self.log_weights = self.log_weights + log_factors.sum(axis=0)
-        if self._localization:
-            creating = np.zeros(choices.shape, dtype=bool)
-        else:
-            creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
-            self._missed_evidence(ws, observed)
-        self.history.record(stamp, self.poses)
-        self.num_updates += 1
-        # This reading's new-landmark columns now hold landmarks (in some particles).
-        self.working.created(int(creating.any(axis=1).sum()))
-        report = self._finish_update(ws, choices, creating)
-        self.check_state()
-        return report
-
     def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
                          farthest: float, stamp: float) -> UpdateReport:
         """``update`` on the compiled backend: the reading's math in one call
@@ -416,7 +361,7 @@ class FastSLAM:
         known = config.association == "known"
         self._advance_motion()
         # A deferred prior (``motion``) has no covariance yet: the reading's blocks propagate it.
-        mean, cov = self._prior_value if self._prior_value is not None else (self.poses, None)
+        mean, cov = self._prior if self._prior is not None else (self.poses, None)
         motion = self._deferred
         reach = self._reach_of(farthest)
         # Split over threads, the reading's chunks make a pending resampling's working-set copy
@@ -436,7 +381,7 @@ class FastSLAM:
             self.history.next_generation(), self.working.pending, motion)
         self.working.took(ws)
         if propose:
-            self._prior = None
+            self._set_prior(None)
         self.poses = poses
         self.landmarks.next_key += keys
         self.history.record(stamp, written=True)
@@ -452,73 +397,6 @@ class FastSLAM:
         if not finite:
             self.check_state()
         return report
-
-    def _relocalize(self, ranges: np.ndarray, bearings: np.ndarray, stamp: float) -> None:
-        """Localization on a fixed map (sensor resetting). The best particle is lost while at
-        most half of each reading's observations lie within ``relocalization_gate`` of a
-        landmark seen from it. While lost, once per ``RELOCALIZATION_RETRY`` s, the pose that
-        explains more of them is searched (``relocalization.find_pose``, over the landmarks
-        within the sensor's reach plus ``RELOCALIZATION_RADIUS``, the nearest
-        ``MAX_RELOCALIZATION_LANDMARKS``); a pose that explains more than half and at least
-        ``MIN_RELOCALIZATION_INLIERS`` is taken once the loss has lasted
-        ``relocalization_delay`` s, or earlier once it lies ``relocalization_gate`` farther
-        from the best particle than the closest such pose of this loss (the filter is drifting
-        away from the map, not finding it by itself), or at once while the map has not been
-        found since an ``initialize_pose`` (a pose a user guessed, not a filter that may find
-        the map by itself). Taking it redraws the
-        ``relocalization_fraction`` lightest particles (among equal weights, as after
-        resampling, the first ones) around it (weights uniform, as after resampling)."""
-        usable = (np.isfinite(ranges) & np.isfinite(bearings)
-                  & (ranges >= MIN_OBSERVATION_RANGE))
-        count = int(usable.sum())
-        if count < MIN_RELOCALIZATION_INLIERS or self._seed is None:
-            return
-        ranges, bearings = ranges[usable], bearings[usable]
-        angle = bearings + self.offset.yaw
-        points = np.column_stack([self.offset.x + ranges * np.cos(angle),
-                                  self.offset.y + ranges * np.sin(angle)])
-        pose = self.poses[self._best]
-        means = self._seed[0]
-        reach = self._reach(ranges) + RELOCALIZATION_RADIUS
-        squared = ((means - pose[:2]) ** 2).sum(axis=1)
-        near = means[squared <= reach * reach]
-        if len(near) > MAX_RELOCALIZATION_LANDMARKS:
-            near = means[np.argsort(squared, kind="stable")[:MAX_RELOCALIZATION_LANDMARKS]]
-        gate = self.config.relocalization_gate
-        hits = int(explained(world_points(pose, points), near, gate).sum())
-        if 2 * hits > count:
-            self._lost_since = None
-            self._placed = False
-            return
-        if self._lost_since is None:
-            self._lost_since, self._searched, self._closest = stamp, -math.inf, math.inf
-        if stamp - self._searched < RELOCALIZATION_RETRY:
-            # A search costs tens of milliseconds: one per RELOCALIZATION_RETRY s.
-            return
-        self._searched = stamp
-        found, inliers = find_pose(points, near, gate)
-        if 2 * inliers <= count or inliers < max(MIN_RELOCALIZATION_INLIERS, hits + 1):
-            # Nothing found (e.g. where the map has no landmarks).
-            self._closest = math.inf
-            return
-        apart = float(np.hypot(*(found[:2] - pose[:2])))
-        self._closest = min(self._closest, apart)
-        if (not self._placed and stamp - self._lost_since < self.config.relocalization_delay
-                and apart < self._closest + gate):
-            # Within the delay the filter may find the map by itself; once the pose the
-            # readings give has drifted a gate farther from it than it was, it will not.
-            return
-        redrawn = np.argsort(self.log_weights, kind="stable")[
-            :max(1, round(self.config.relocalization_fraction * self.num_particles))]
-        spread = np.array([0.5 * gate, 0.5 * gate, gate / max(float(ranges.max()), gate)])
-        poses = found + spread * self.rng.standard_normal((len(redrawn), 3))
-        poses[:, 2] = wrap_angle(poses[:, 2])
-        self.poses[redrawn] = poses
-        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
-        self._best = int(redrawn[0])
-        self._lost_since = None
-        self._placed = False
-        self.num_relocalizations += 1
 
     def _noise(self, ranges):
         """(range variance, bearing variance) of observations with these ranges: the range
@@ -536,101 +414,6 @@ class FastSLAM:
         """
         self.working.flush()
 
-    def _known_candidates(self, ws: WorkingSet, labels: np.ndarray) -> np.ndarray:
-        """(K, M, 1) working-set column of the landmark carrying each observation's id (-1:
-        the particle has none)."""
-        existing = ws.first_new_slot
-        match = ws.valid[None, :, :existing] & (ws.label[None, :, :existing]
-                                                 == labels[:, None, None])
-        if existing == 0:
-            return np.full(match.shape[:2] + (1,), -1, np.int64)
-        return np.where(match.any(axis=2), match.argmax(axis=2), -1)[:, :, None]
-
-    def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
-                   bearings: np.ndarray, labels: np.ndarray):
-        """Choose every particle's landmark for every observation of the reading at once.
-
-        Scored at the pose before this reading's observations are used: the sampled pose
-        (1.0), or the predicted mean with its covariance P (2.0, likelihood with L). Every
-        observation is scored against the particle's landmarks in the working-set columns
-        within the sensor's reach (``_columns_in_reach``; so the cost does not grow with the
-        map): the terms of a (particle, landmark) pair are computed once and broadcast over the
-        observations. With known ids the only candidate is the landmark carrying the id.
-        Returns choices (K, M), working-set columns or ``association.NEW`` / ``IGNORE`` (also
-        for outliers, with ``outlier_probability`` > 0), the log weight factors (K, M), the
-        robust-likelihood correction of the inliers (``association.reject_outliers``) and
-        log(1 / q) (K, M) of each associated observation, q the probability with which its
-        landmark was drawn (0 but with ``monte_carlo``, where it is the log marginal minus the
-        landmark's own log likelihood).
-        """
-        config = self.config
-        count = len(ranges)
-        mode = config.association
-        if mode == "known":
-            candidates = self._known_candidates(ws, labels)                 # (K, M, 1)
-            if cov is not None and config.outlier_probability == 0.0:
-                # FastSLAM 2.0 weighs the associated observations by the proposal's joint
-                # likelihood, and no outlier test needs theirs: nothing to score.
-                choice = candidates[..., 0]                                  # -1 is NEW
-                zeros = np.zeros(choice.shape)
-                return choice, np.where(choice >= 0, 0.0, self._log_p0), zeros, zeros
-            landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
-            valid = candidates >= 0
-        else:
-            kept, near = self._columns_in_reach(ws, mean, ranges)
-            landmark = ws.state[:, kept][None]                               # (1, M, E, 6)
-            valid = near[:, kept][None]
-        # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
-        landmark_x = np.where(valid, landmark[..., 0], mean[:, 0, None] + 1.0)
-        landmark_y = np.where(valid, landmark[..., 1], mean[:, 1, None])
-        t = observation_terms(mean[:, 0, None], mean[:, 1, None], mean[:, 2, None],
-                              landmark_x, landmark_y, self.offset)
-        log_lik, mahalanobis = assoc.score(
-            t, landmark[..., COV], ranges[:, None, None], bearings[:, None, None],
-            self._noise(ranges[:, None, None]), None if cov is None else cov[:, None])
-        # Rows of the association rules: observation-major, (K * M, C).
-        shape = (count * self.num_particles, log_lik.shape[2])
-        log_lik = np.where(valid, log_lik, -np.inf).reshape(shape)
-        inverse_q = np.zeros(shape[0])
-        if mode == "known":
-            pick, log_factor = assoc.associate_maximum_likelihood(log_lik, -np.inf)
-            rows = (pick >= 0).nonzero()[0]
-            choice = pick.copy()
-            choice[rows] = candidates.reshape(shape)[rows, pick[rows]]
-            log_factor = np.where(choice >= 0, log_factor, self._log_p0)
-        elif mode == "ml":
-            choice, log_factor = assoc.associate_exclusive_maximum_likelihood(
-                log_lik, self.num_particles, self._log_p0)
-        elif mode == "monte_carlo":
-            choice, log_factor = assoc.associate_monte_carlo(log_lik, self._log_p0, self.rng)
-            rows = (choice >= 0).nonzero()[0]
-            inverse_q[rows] = log_factor[rows] - log_lik[rows, choice[rows]]
-        else:
-            mahalanobis = np.where(valid, mahalanobis, np.inf).reshape(shape)
-            choice, log_factor = assoc.associate_two_gates(
-                log_lik, mahalanobis, self._log_p0, config.association_gate,
-                config.new_landmark_gate)
-        if mode != "known" and len(kept):
-            choice = np.where(choice >= 0, kept[np.maximum(choice, 0)], choice)
-        grid = (count, self.num_particles)
-        return assoc.reject_outliers(choice.reshape(grid), log_factor.reshape(grid),
-                                     config.outlier_probability,
-                                     self._log_outlier) + (inverse_q.reshape(grid),)
-
-    def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
-        """Working-set columns (of the landmarks that existed before this reading) holding a
-        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose (the
-        working set holds whole cells of a box around all particles, about twice the area),
-        and which particle's entries are in reach (M, existing): only those are candidates."""
-        existing = ws.first_new_slot
-        reach = self._reach(ranges)
-        dx = ws.mean[:, :existing, 0] - poses[:, 0, None]
-        dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
-        near = dx * dx
-        near += dy * dy
-        near = ws.valid[:, :existing] & (near <= reach * reach)
-        return near.any(axis=0).nonzero()[0], near
-
     def _reach(self, ranges: np.ndarray) -> float:
         """Distance from the robot within which a landmark may match an observation."""
         return self._reach_of(float(ranges.max(initial=0.0)))
@@ -638,128 +421,6 @@ class FastSLAM:
     def _reach_of(self, farthest: float) -> float:
         """``_reach`` of a reading whose largest range is ``farthest`` (0 when empty)."""
         return max(self.config.max_range, farthest) + REACH_MARGIN + self._lever_length
-
-    def _proposal(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray, choices: np.ndarray,
-                  ranges: np.ndarray, bearings: np.ndarray):
-        """FastSLAM 2.0: (mu_s, Sigma_s, joint log likelihood (M,)) of the proposal given the
-        observations associated to existing landmarks (``choices`` (K, M))."""
-        used = choices >= 0
-        if not used.any():
-            return mean, cov, np.zeros(self.num_particles)
-        return observation_proposal(mean, cov, ws.records_at(choices), ranges[:, None],
-                                    bearings[:, None], used, self.offset,
-                                    self._noise(ranges[:, None]))
-
-    def _sample_proposal(self, proposal, choices: np.ndarray, log_factors: np.ndarray,
-                         inverse_q: np.ndarray) -> np.ndarray:
-        """Draw every pose from the proposal; return the log weight factors (K, M).
-
-        The associated observations' factors are replaced by their joint likelihood
-        N(z; z_hat, L) (put on the first row) times 1 / q, q the probability of their sampled
-        association (``monte_carlo``; 1 otherwise): the importance weight of the association
-        draw, which makes a single observation weigh the marginal over associations, as in
-        FastSLAM 1.0. New / ignored observations keep p0 (the marginal, when sampled) / 1.
-        """
-        mean, cov, joint = proposal
-        self._prior = (mean, cov)
-        self.poses = self._sample_prior()
-        if len(log_factors) == 0:
-            return log_factors
-        log_factors = np.where(choices >= 0, inverse_q, log_factors)
-        log_factors[0] += joint
-        return log_factors
-
-    def _apply_to_map(self, ws: WorkingSet, observed: np.ndarray, choices: np.ndarray,
-                      ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray) -> np.ndarray:
-        """New landmarks, then EKF updates of the associated ones, for all observations.
-
-        ``choices`` (K, M) is updated in place: a new landmark's particles get the column it was
-        put in, one free column per observation that creates a landmark in some particle. With
-        known ids, a repeated id in one reading updates the landmark that its first observation
-        created. All (observation, particle) pairs are updated in one batch; a landmark that
-        several observations hit is updated by them in turn. Returns which (observation,
-        particle) pairs created a landmark (K, M).
-        """
-        config = self.config
-        first_new = ws.first_new_slot
-        count = len(ranges)
-        creating = choices == assoc.NEW
-        repeated = None
-        if config.association == "known" and count > 1:
-            first_with_label: dict[int, int] = {}
-            creator = np.array([first_with_label.setdefault(label, k)
-                                for k, label in enumerate(labels.tolist())])
-            if len(first_with_label) < count:
-                repeated = (creator != np.arange(count))[:, None] & creating
-                creating &= ~repeated
-        column = np.full(count, -1, np.int64)
-        creators = creating.any(axis=1).nonzero()[0]
-        column[creators] = first_new + np.arange(len(creators))
-        if repeated is not None:
-            choices[repeated] = np.broadcast_to(column[creator][:, None], choices.shape)[repeated]
-        obs, particle = creating.nonzero()
-        if len(obs):
-            slot = column[obs]
-            ws.mean[particle, slot], ws.cov[particle, slot] = initialize_landmarks(
-                self.poses[particle], ranges[obs], bearings[obs], self.offset,
-                self._noise(ranges[obs]))
-            ws.logodds[particle, slot] = self._evidence[0]
-            ws.label[particle, slot] = labels[obs]
-            ws.key[particle, slot] = self.landmarks.new_keys(len(obs))
-            ws.valid[particle, slot] = True
-            ws.is_new[particle, slot] = True
-            observed[particle, slot] = True
-            choices[obs, particle] = slot
-        obs, particle = ((choices >= 0) & ~creating).nonzero()
-        if len(obs) == 0:
-            return creating
-        slot = choices[obs, particle]
-        pair = particle * ws.valid.shape[1] + slot
-        batches = [slice(None)]
-        if np.bincount(pair).max() > 1:
-            # A landmark hit by several observations: they update it in turn, in batches of
-            # distinct landmarks (the first observation of each, then the second, ...).
-            order = np.lexsort((obs, pair))
-            obs, particle, slot, pair = obs[order], particle[order], slot[order], pair[order]
-            first = np.ones(len(pair), bool)
-            first[1:] = pair[1:] != pair[:-1]
-            repeat = np.arange(len(pair)) - np.maximum.accumulate(
-                np.where(first, np.arange(len(pair)), 0))
-            batches = [repeat == rank for rank in range(int(repeat.max()) + 1)]
-        for batch in batches:
-            p, s, j = particle[batch], slot[batch], obs[batch]
-            state = ws.state[p, s]
-            state[:, MEAN], state[:, COV] = update_landmarks(
-                self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
-                self.offset, self._noise(ranges[j]))
-            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + self._evidence[0],
-                                           LOGODDS_MAX)
-            ws.state[p, s] = state
-        ws.dirty[particle, slot] = True
-        observed[particle, slot] = True
-        return creating
-
-    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
-        """Lower the log-odds of landmarks in the perceptual range that were not observed."""
-        config = self.config
-        missed = self._evidence[1]
-        if missed == 0.0:
-            return
-        # This reading's new landmarks (from column ``first_new_slot`` on) were all observed.
-        existing = slice(0, ws.first_new_slot)
-        mean = ws.mean[:, existing]
-        t = observation_terms(self.poses[:, 0:1], self.poses[:, 1:2], self.poses[:, 2:3],
-                              mean[..., 0], mean[..., 1], self.offset)
-        inside = ws.valid[:, existing] & ~observed[:, existing]
-        inside &= (t.range >= config.min_range) & (t.range <= config.max_range)
-        if config.field_of_view < 2.0 * np.pi:
-            # |bearing| <= fov / 2  <=>  cos(bearing) >= cos(fov / 2), without an arctan.
-            along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
-            inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
-        logodds = ws.logodds[:, existing]
-        logodds[inside] += missed
-        ws.dirty[:, existing] |= inside
-        ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
 
     def _finish_update(self, ws: WorkingSet, choices: np.ndarray,
                        creating: np.ndarray) -> UpdateReport:
@@ -835,7 +496,7 @@ class FastSLAM:
         """
         ws, count = self.working.current, self.num_particles
         bad = ~np.isfinite(self.poses).all(axis=1)
-        if self._prior is not None:
+        if self._settled_prior() is not None:
             bad |= ~(np.isfinite(self._prior[0]).all(axis=1)
                      & np.isfinite(self._prior[1]).reshape(count, -1).all(axis=1))
         if ws is not None:
@@ -855,8 +516,8 @@ class FastSLAM:
         indices = np.arange(count)
         indices[bad] = good[np.arange(int(bad.sum())) % len(good)]
         self.poses = self.poses[indices]
-        if self._prior is not None:
-            self._prior = (self._prior[0][indices], self._prior[1][indices])
+        if self._settled_prior() is not None:
+            self._set_prior((self._prior[0][indices], self._prior[1][indices]))
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)

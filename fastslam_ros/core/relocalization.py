@@ -12,9 +12,12 @@ over those). All pairs and candidates are scored at once, as arrays.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .geometry import rigid_fit, wrap_angle
+from .observation import MIN_OBSERVATION_RANGE
 
 MIN_PAIR_DISTANCE = 2.0
 """Observed pairs closer than this (m) give too uncertain a heading to propose a pose."""
@@ -27,6 +30,17 @@ MAX_SCORED_POINTS = 40
 """Observed points (spread evenly over the reading) that score the candidates."""
 SCORE_CHUNK = 200
 """Candidates scored at once: (200, 40, N) distances bound the memory of a search."""
+RELOCALIZATION_RADIUS = 10.0
+"""Metres beyond the sensor's reach around the best particle within which the map's landmarks
+are matched to a reading when the filter is lost (``FastSLAM._relocalize``)."""
+RELOCALIZATION_RETRY = 1.0
+"""Seconds after a pose search that found nothing before the next one (a search over a
+reading costs tens of milliseconds)."""
+MAX_RELOCALIZATION_LANDMARKS = 150
+"""Landmarks (the nearest to the best particle) a pose search matches a reading against: the
+search's pair matching grows with their square."""
+MIN_RELOCALIZATION_INLIERS = 3
+"""Observations a pose found from one reading must put near landmarks (two pin any pair)."""
 
 
 def world_points(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -118,3 +132,74 @@ def _fit(points: np.ndarray, targets: np.ndarray, guess: np.ndarray) -> np.ndarr
         return guess
     yaw, translation = rigid_fit(points, targets)
     return np.array([translation[0], translation[1], float(yaw)])
+
+
+class Relocalizing:
+    """Localization on a fixed map, the part of ``FastSLAM`` that finds its pose again when lost."""
+
+    def _relocalize(self, ranges: np.ndarray, bearings: np.ndarray, stamp: float) -> None:
+        """Localization on a fixed map (sensor resetting). The best particle is lost while at
+        most half of each reading's observations lie within ``relocalization_gate`` of a
+        landmark seen from it. While lost, once per ``RELOCALIZATION_RETRY`` s, the pose that
+        explains more of them is searched (``relocalization.find_pose``, over the landmarks
+        within the sensor's reach plus ``RELOCALIZATION_RADIUS``, the nearest
+        ``MAX_RELOCALIZATION_LANDMARKS``); a pose that explains more than half and at least
+        ``MIN_RELOCALIZATION_INLIERS`` is taken once the loss has lasted
+        ``relocalization_delay`` s, or earlier once it lies ``relocalization_gate`` farther
+        from the best particle than the closest such pose of this loss (the filter is drifting
+        away from the map, not finding it by itself), or at once while the map has not been
+        found since an ``initialize_pose`` (a pose a user guessed, not a filter that may find
+        the map by itself). Taking it redraws the
+        ``relocalization_fraction`` lightest particles (among equal weights, as after
+        resampling, the first ones) around it (weights uniform, as after resampling)."""
+        usable = (np.isfinite(ranges) & np.isfinite(bearings)
+                  & (ranges >= MIN_OBSERVATION_RANGE))
+        count = int(usable.sum())
+        if count < MIN_RELOCALIZATION_INLIERS or self._seed is None:
+            return
+        ranges, bearings = ranges[usable], bearings[usable]
+        angle = bearings + self.offset.yaw
+        points = np.column_stack([self.offset.x + ranges * np.cos(angle),
+                                  self.offset.y + ranges * np.sin(angle)])
+        pose = self.poses[self._best]
+        means = self._seed[0]
+        reach = self._reach(ranges) + RELOCALIZATION_RADIUS
+        squared = ((means - pose[:2]) ** 2).sum(axis=1)
+        near = means[squared <= reach * reach]
+        if len(near) > MAX_RELOCALIZATION_LANDMARKS:
+            near = means[np.argsort(squared, kind="stable")[:MAX_RELOCALIZATION_LANDMARKS]]
+        gate = self.config.relocalization_gate
+        hits = int(explained(world_points(pose, points), near, gate).sum())
+        if 2 * hits > count:
+            self._lost_since = None
+            self._placed = False
+            return
+        if self._lost_since is None:
+            self._lost_since, self._searched, self._closest = stamp, -math.inf, math.inf
+        if stamp - self._searched < RELOCALIZATION_RETRY:
+            # A search costs tens of milliseconds: one per RELOCALIZATION_RETRY s.
+            return
+        self._searched = stamp
+        found, inliers = find_pose(points, near, gate)
+        if 2 * inliers <= count or inliers < max(MIN_RELOCALIZATION_INLIERS, hits + 1):
+            # Nothing found (e.g. where the map has no landmarks).
+            self._closest = math.inf
+            return
+        apart = float(np.hypot(*(found[:2] - pose[:2])))
+        self._closest = min(self._closest, apart)
+        if (not self._placed and stamp - self._lost_since < self.config.relocalization_delay
+                and apart < self._closest + gate):
+            # Within the delay the filter may find the map by itself; once the pose the
+            # readings give has drifted a gate farther from it than it was, it will not.
+            return
+        redrawn = np.argsort(self.log_weights, kind="stable")[
+            :max(1, round(self.config.relocalization_fraction * self.num_particles))]
+        spread = np.array([0.5 * gate, 0.5 * gate, gate / max(float(ranges.max()), gate)])
+        poses = found + spread * self.rng.standard_normal((len(redrawn), 3))
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        self.poses[redrawn] = poses
+        self.log_weights = np.full(self.num_particles, -np.log(self.num_particles))
+        self._best = int(redrawn[0])
+        self._lost_since = None
+        self._placed = False
+        self.num_relocalizations += 1
