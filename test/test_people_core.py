@@ -692,3 +692,36 @@ def test_simulated_people_stamps_are_dated_like_a_recording():
     assert run.scan_stamps[0] == config.start_time
     np.testing.assert_allclose(np.diff(run.odometry.stamps), 1 / config.odometry_rate, atol=1e-6)
     np.testing.assert_allclose(np.diff(run.scan_stamps), 1 / config.scan_rate, atol=1e-6)
+
+
+def test_global_localization_weighs_a_bounded_number_of_beams_whatever_the_scan(monkeypatch):
+    """A dense laser (4,000 beams) costs the global localization what a 360-beam one does:
+    every weighing of the robot particles uses at most GLOBAL_MAX_BEAMS beams, spread over the
+    whole scan (the first and last kept beams near the scan's ends)."""
+    from fastslam_ros.people import conditional_filter
+    widths, spans = [], []
+    weigh = conditional_filter.likelihood_field_log_weights
+
+    def counted(distances, *args):
+        widths.append(distances.shape[1])
+        return weigh(distances, *args)
+    monkeypatch.setattr(conditional_filter, "likelihood_field_log_weights", counted)
+    original_ends = conditional_filter.beam_endpoints
+
+    def ends(sensors, ranges, angles):
+        spans.append(float(angles.max() - angles.min()))
+        return original_ends(sensors, ranges, angles)
+    monkeypatch.setattr(conditional_filter, "beam_endpoints", ends)
+    room = np.zeros((200, 200), bool)
+    room[[0, -1]] = room[:, [0, -1]] = True
+    grid = OccupancyMap(room, ~room, 0.05, (0.0, 0.0), 1.0)
+    for beams in (360, 4000):
+        widths.clear()
+        spans.clear()
+        angles = -math.pi + (np.arange(beams) + 0.5) * 2 * math.pi / beams
+        ranges = cast_scan(grid, np.array([2.0, 5.0, 0.0]), angles, np.zeros((0, 2)), 12.0)
+        tracker = PeopleTracker(TrackerSettings(seed=1, global_particles=500), grid)
+        tracker.update(0.0, Scan(ranges, angles[0], angles[1] - angles[0], 12.0))
+        assert tracker.globally_localizing
+        assert widths and max(widths) == conditional_filter.GLOBAL_MAX_BEAMS
+        assert min(spans) > 1.9 * math.pi

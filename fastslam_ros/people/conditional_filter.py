@@ -85,6 +85,11 @@ one within sigma_hit of the true pose (200,000 over a 370 m^2 floor: 0.07 on ave
 0.1 m and 0.01 rad), and copies of one candidate never move sideways (the odometry's noise
 is along the path): unroughened, a near miss at the true place can lose to a better-aligned
 candidate at a place that looks alike, and the filter converges there."""
+GLOBAL_MAX_BEAMS = 60
+"""Beams (of those ``beam_stride`` keeps, spread evenly over the scan) that weigh the robot
+particles while localizing globally: its first reading weighs GLOBAL_CANDIDATES x
+``global_particles`` poses, whose cost grows with the beams; 60 (AMCL's choice) keeps it near
+a second for a laser of any resolution, and is what a 360-beam scan gives at stride 6."""
 GLOBAL_CANDIDATES = 10
 """The first reading of a global localization weighs this many times global_particles poses."""
 CONVERGED_UPDATES = 20
@@ -312,6 +317,8 @@ class PeopleTracker:
         s = self.settings
         beams = np.flatnonzero(returns)
         beams = beams[beams % s.beam_stride == 0]
+        if len(beams) > GLOBAL_MAX_BEAMS:
+            beams = beams[np.linspace(0, len(beams) - 1, GLOBAL_MAX_BEAMS).round().astype(int)]
         ranges, angles = scan.ranges[beams], scan.angles[beams]
         if self._first_global_reading:
             self._first_global_reading = False

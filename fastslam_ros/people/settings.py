@@ -113,9 +113,8 @@ class TrackerSettings:
         4_000_000, "A map with more cells (width x height) is dropped unread (a 2000 x 2000 "
                    "map, 100 m x 100 m at 0.05 m, takes about 0.5 s to install).", low=1)
     max_beams_per_scan: int = parameter(
-        2048, "A scan with more beams is dropped unread (time and memory grow with the beams: "
-              "2048 beams are about 0.5 GB in the first reading of a global localization).",
-        low=1)
+        2048, "A scan with more beams is dropped unread (a tracked reading's time and memory grow "
+              "with the beams).", low=1)
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "
