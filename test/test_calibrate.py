@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ import pytest
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.core.observation import SensorOffset
-from fastslam_ros.tools.evaluation import calibrate
+from fastslam_ros.tools.evaluation import calibrate, calibration_check
 from fastslam_ros.tools.bags.bag_schema import PoseSeries, write_schema_bag
 from fastslam_ros.tools.bags.replay import load_params_file
 from fastslam_ros.tools.simulation.sim import SimConfig, simulate
@@ -144,7 +145,8 @@ def test_command_line_writes_a_loadable_parameter_file(tmp_path, capsys):
     base.write_text("/**:\n  ros__parameters:\n    num_particles: 30\n    sensor_x: 0.0\n"
                     "    alpha1: 0.2\n")
     out = tmp_path / "calibrated.yaml"
-    assert calibrate.main([str(bag), "--params", str(base), "--out", str(out)]) == 0
+    assert calibrate.main([str(bag), "--params", str(base), "--out", str(out),
+                           "--no-validate"]) == 0
     printed = capsys.readouterr().out
     assert "sigma_range:" in printed and "detection_probability" in printed
     values = load_params_file(out)
@@ -159,7 +161,7 @@ def test_command_line_writes_a_loadable_parameter_file(tmp_path, capsys):
     assert calibrate.main([str(bag), "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert calibrate.main([str(bag), "--out", str(out), "--overwrite",
-                           "--motion-model", "alphas"]) == 0
+                           "--motion-model", "alphas", "--no-validate"]) == 0
     values = load_params_file(out)
     assert values["rotation_variance_per_meter"] == 0.0 and "num_particles" not in values
     # Never its own input, not even with --overwrite.
@@ -203,3 +205,49 @@ def test_help(capsys):
     assert exit_info.value.code == 0
     printed = capsys.readouterr().out
     assert "usage: fastslam-calibrate" in printed and "``" not in printed
+
+
+def test_split_bag_holds_out_the_second_half_of_every_stream():
+    bag = simulate(SimConfig(seed=2, duration=40.0))
+    first, held_out = calibration_check.split_bag(bag)
+    cut = bag.odometry.stamps[0] + 0.5 * (bag.odometry.stamps[-1] - bag.odometry.stamps[0])
+    for whole, early, late in ((bag.odometry, first.odometry, held_out.odometry),
+                               (bag.ground_truth, first.ground_truth, held_out.ground_truth)):
+        assert early.stamps.max() < cut <= late.stamps.min()
+        np.testing.assert_array_equal(np.concatenate([early.stamps, late.stamps]), whole.stamps)
+        np.testing.assert_array_equal(np.concatenate([early.poses, late.poses]), whole.poses)
+    assert len(first.scans.stamps) + len(held_out.scans.stamps) == len(bag.scans.stamps)
+    assert all(len(points) == len(ids) for points, ids in zip(held_out.scans.points,
+                                                              held_out.scans.ids))
+
+
+@pytest.mark.parametrize("start, fitted, status", [(0.10, 0.20, 1), (0.20, 0.10, 0),
+                                                   (0.10, 0.101, 0)])
+def test_a_fit_that_does_worse_on_held_out_data_is_not_written(tmp_path, capsys, monkeypatch,
+                                                                 start, fitted, status):
+    """The verdict decides: the held-out ATE of the starting parameters, then of the fit (here
+    given), and the file is written only when the fit is no worse (within the tolerance)."""
+    bag = write_schema_bag(tmp_path / "sim", simulate(SimConfig(seed=5, duration=30.0)))
+    scores = iter([start, fitted])
+    monkeypatch.setattr(calibration_check, "held_out_ate", lambda bags, params: next(scores))
+    out = tmp_path / "fit.yaml"
+    assert calibrate.main([str(bag), "--out", str(out)]) == status
+    captured = capsys.readouterr()
+    assert out.exists() == (status == 0)
+    assert f"{start:.4g} m starting parameters, {fitted:.4g} m fitted" in captured.out
+    if status:
+        assert "not written" in captured.err and len(captured.err.strip().splitlines()) == 1
+
+
+def test_the_held_out_check_replays_the_second_half(tmp_path, capsys):
+    """End to end on a short simulated bag: both held-out scores are real replays (finite,
+    below the dead reckoning's error), and the file exists exactly when the fit kept."""
+    bag = write_schema_bag(tmp_path / "sim", simulate(SimConfig(seed=5, duration=60.0)))
+    out = tmp_path / "fit.yaml"
+    status = calibrate.main([str(bag), "--out", str(out)])
+    printed = capsys.readouterr().out
+    found = re.search(r"([0-9.e-]+) m starting parameters, ([0-9.e-]+) m fitted", printed)
+    start, fitted = float(found.group(1)), float(found.group(2))
+    assert 0.0 < start < 2.0 and 0.0 < fitted < 2.0
+    assert (status == 0) == (fitted <= calibration_check.TOLERANCE * start) == out.exists()
+

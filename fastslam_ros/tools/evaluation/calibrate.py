@@ -49,6 +49,7 @@ from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.node_support.timing import interpolate_poses
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.datasets.converters import robust_std
+from fastslam_ros.tools.evaluation.calibration_check import VALIDATION_SEEDS, check_fit
 from fastslam_ros.tools.evaluation.metrics import truth_covers
 
 CHI2_99_2DOF = 9.21
@@ -417,6 +418,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="longest ground-truth gap interpolated across (s)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing --out file (never a folder or an input)")
+    parser.add_argument("--no-validate", action="store_true",
+                        help="write --out without checking the fit on held-out data (the "
+                             "check fits on the first half of each bag, replays the second "
+                             "half with the starting and the fitted parameters, and writes "
+                             "only a fit that is no worse)")
     return parser
 
 
@@ -475,6 +481,28 @@ def main(argv: list[str] | None = None) -> int:
         values = params_file_values(params, args.motion_model, offset, base)
     except ParameterValueError as error:
         return cli.fail(prog, f"the fit gives no valid parameters: {error}", cli.EXIT_FAILURE)
+    if not args.no_validate:
+        start = dict(base, sensor_x=offset.x, sensor_y=offset.y, sensor_yaw=offset.yaw)
+        defaults = vars(FastSLAMConfig())
+        try:
+            verdict = check_fit(bags, start, lambda parts: params_file_values(
+                calibrate_bags(parts, offset, args.step, args.match_radius, args.max_gap)[0],
+                args.motion_model, offset, base))
+        except (CalibrationError, ParameterValueError, *cli.BAG_ERRORS) as error:
+            return cli.fail(prog, f"cannot check the fit on held-out data: {error} (see "
+                                  "--no-validate)", cli.EXIT_FAILURE)
+        print(f"# held-out ATE (second half of each bag, seeds {VALIDATION_SEEDS}): "
+              f"{verdict.start_ate:.4g} m starting parameters, {verdict.fitted_ate:.4g} m "
+              "fitted on the first half")
+        changed = {name: value for name, value in values.items()
+                   if start.get(name, defaults.get(name)) != value}
+        print("# changed: " + ", ".join(f"{name} {start.get(name, defaults.get(name))} -> "
+                                        f"{value}" for name, value in changed.items()))
+        if not verdict.keeps_fit:
+            return cli.fail(prog, f"not written: the fit does worse on held-out data "
+                                  f"({verdict.fitted_ate:.4g} m against {verdict.start_ate:.4g} "
+                                  "m with the starting parameters); keep those (or "
+                                  "--no-validate)", cli.EXIT_FAILURE)
     bag_names = " ".join(str(bag) for bag in args.bags)
     comment = "\n".join(textwrap.fill(line, 96) for line in [
         f"Calibrated by fastslam-calibrate {bag_names} (motion model {args.motion_model}, "
