@@ -28,6 +28,7 @@ import numpy as np
 
 from . import association as assoc
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
+from .existence import explains, missed_logodds, observed_logodds
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
 from .landmark_ekf import initialize_landmarks, pack, unpack, update_landmarks
@@ -126,6 +127,8 @@ class FastSLAM:
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
         self._evidence = self.config.existence_evidence()
         """(tau+, tau-) of the existence log-odds (``FastSLAMConfig.existence_evidence``)."""
+        self._confirmation = self.config.confirmation()
+        """(l_c, tau- of a confirmed landmark) (``FastSLAMConfig.confirmation``)."""
         self._log_outlier = assoc.log_outlier_density(config)
         self._localization = config.mode == "localization"
         self._seed: tuple[np.ndarray, ...] | None = None
@@ -388,7 +391,8 @@ class FastSLAM:
             creating = np.zeros(choices.shape, dtype=bool)
         else:
             creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
-            self._missed_evidence(ws, observed)
+            self._missed_evidence(ws, observed, creating | (choices == assoc.IGNORE), ranges,
+                                  bearings)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
         # This reading's new-landmark columns now hold landmarks (in some particles).
@@ -722,15 +726,18 @@ class FastSLAM:
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self._noise(ranges[j]))
-            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + self._evidence[0],
-                                           LOGODDS_MAX)
+            state[:, LOGODDS] = observed_logodds(state[:, LOGODDS], self._evidence[0],
+                                                 self._confirmation[0], LOGODDS_MAX)
             ws.state[p, s] = state
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
         return creating
 
-    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
-        """Lower the log-odds of landmarks in the perceptual range that were not observed."""
+    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray, rejected: np.ndarray,
+                         ranges: np.ndarray, bearings: np.ndarray) -> None:
+        """Lower the log-odds of landmarks in the perceptual range that were not observed and
+        that no observation the association rejected (``rejected`` (K, M)) explains
+        (``existence.explains``); a confirmed landmark loses less (``existence``)."""
         config = self.config
         missed = self._evidence[1]
         if missed == 0.0:
@@ -746,8 +753,21 @@ class FastSLAM:
             # |bearing| <= fov / 2  <=>  cos(bearing) >= cos(fov / 2), without an arctan.
             along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
             inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
+        obs, particle = rejected.nonzero()
+        if len(obs):
+            # (rejected pair, landmark): the observation explains the landmark's absence.
+            variance_r, variance_b = self._noise(ranges[obs])
+            variance_r = np.broadcast_to(variance_r, obs.shape)
+            near = explains(
+                ranges[obs, None] - t.range[particle],
+                wrap_angle(bearings[obs, None] - (np.arctan2(t.dy[particle], t.dx[particle])
+                                                  - t.heading[particle])),
+                variance_r[:, None], variance_b)
+            hit = np.zeros(inside.shape, bool)
+            np.logical_or.at(hit, particle, near)
+            inside &= ~hit
         logodds = ws.logodds[:, existing]
-        logodds[inside] += missed
+        logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
 
