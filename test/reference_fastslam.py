@@ -11,7 +11,11 @@ Semantics mirrored from the core (documented there): the association of every ob
 reading is decided at the pose before the reading is used (FastSLAM 1.0: the sampled pose;
 FastSLAM 2.0: the predicted mean, scored with L = G_s P G_s^T + Q); FastSLAM 2.0 then refines
 the proposal with each associated observation in turn, every Jacobian taken at the predicted
-mean, and samples the pose once.
+mean, and samples the pose once. Existence: a landmark in view that was not observed is
+missed unless an observation the association rejected (new, outlier or ignored) lies within 10
+sensor standard deviations of its predicted observation; a confirmed landmark (log-odds at
+least logit(map_min_existence)) goes back to the saturation when observed, and a miss costs it
+tau- (10 - l_c) / 20.
 """
 from __future__ import annotations
 
@@ -71,6 +75,12 @@ class ReferenceFastSLAM:
             if self.eps > 0.0 else -math.inf)
         self.removed = 0
         self.outliers = 0
+        self.explained = 0
+        p = config.map_min_existence
+        self.confirmed = (math.inf if p >= 1.0 else config.logodds_remove if p <= 0.0
+                          else max(math.log(p / (1.0 - p)), config.logodds_remove))
+        self.confirmed_missed = (config.logodds_missed * (LOGODDS_MAX - self.confirmed) / 20.0
+                                 if math.isfinite(self.confirmed) else 0.0)
 
     def noise(self, z_range):
         """R of one observation: the range variance grows with the range."""
@@ -211,10 +221,13 @@ class ReferenceFastSLAM:
             before = {id(lm) for lm in self.maps[m]}
             observed = set()
             created_by_label = {}
+            rejected = []
             for j, z in enumerate(z_all):
                 n = choice[j][m]
                 if n == "new" and c.association == "known" and labels[j] in created_by_label:
                     n = created_by_label[labels[j]]     # repeated id: update what it created
+                if isinstance(n, str):
+                    rejected.append(z)
                 if isinstance(n, (int, dict)):
                     lm = self.maps[m][n] if isinstance(n, int) else n
                     z_hat, _, g_m = measure(self.poses[m], lm["mean"], self.offset)
@@ -226,7 +239,8 @@ class ReferenceFastSLAM:
                     lm["mean"] = lm["mean"] + gain @ nu
                     a = np.eye(2) - gain @ g_m
                     lm["cov"] = a @ lm["cov"] @ a.T + gain @ r @ gain.T
-                    lm["logodds"] = min(lm["logodds"] + c.logodds_observed, LOGODDS_MAX)
+                    lm["logodds"] = (LOGODDS_MAX if lm["logodds"] >= self.confirmed
+                                     else min(lm["logodds"] + c.logodds_observed, LOGODDS_MAX))
                     observed.add(id(lm))
                 elif n == "new":
                     x, y, theta = self.poses[m]
@@ -247,7 +261,15 @@ class ReferenceFastSLAM:
                     z_hat, _, _ = measure(self.poses[m], lm["mean"], self.offset)
                     if (c.min_range <= z_hat[0] <= c.max_range
                             and abs(z_hat[1]) <= 0.5 * c.field_of_view):
-                        lm["logodds"] += c.logodds_missed
+                        if any((z[0] - z_hat[0]) ** 2 / self.noise(z[0])[0, 0]
+                               + wrap(z[1] - z_hat[1]) ** 2 / c.sigma_bearing ** 2 <= 100.0
+                               for z in rejected):
+                            self.explained += 1
+                            survivors.append(lm)
+                            continue
+                        lm["logodds"] += (self.confirmed_missed
+                                          if lm["logodds"] >= self.confirmed
+                                          else c.logodds_missed)
                         if lm["logodds"] < c.logodds_remove:
                             self.removed += 1
                             continue

@@ -560,3 +560,23 @@ def test_crew_runs_each_job_and_raises_a_workers_error_here():
             crew.run_each(failing, [(0,), (0,), (0,)])
     finally:
         crew.stop()
+
+
+def test_a_changed_twin_drops_the_whole_packages_cache(tmp_path):
+    """numba keys a cached kernel on its own file, yet a kernel holds the code of the twins it
+    calls: any source change of the package removes every cached kernel beside it."""
+    pytest.importorskip("numba")
+    from fastslam_ros.core.compiled.jit import drop_stale_cache
+    (tmp_path / "caller.py").write_text("x = 1\n")
+    (tmp_path / "callee.py").write_text("y = 1\n")
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    made = [cache / "caller.f-1.py311.nbi", cache / "caller.f-1.py311.1.nbc"]
+    for path in made:
+        path.write_bytes(b"compiled")
+    assert drop_stale_cache(tmp_path) and not any(path.exists() for path in made)
+    for path in made:
+        path.write_bytes(b"compiled")
+    assert not drop_stale_cache(tmp_path) and all(path.exists() for path in made)
+    (tmp_path / "callee.py").write_text("y = 2\n")  # the callee changed, the caller did not
+    assert drop_stale_cache(tmp_path) and not any(path.exists() for path in made)

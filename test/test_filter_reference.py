@@ -99,6 +99,8 @@ def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association
                               np.array([lm["label"] for lm in ref]))
             for g, w in zip(got, want):
                 np.testing.assert_allclose(g, w, atol=1e-9, rtol=0)
-    # The run must have exercised what it claims to test: creation, elimination, resampling.
+    # The run must have exercised what it claims to test: creation, elimination, resampling,
+    # landmarks a rejected observation explained.
     assert created > 0 and resampled > 0 and slow.removed > 0
+    assert slow.explained > 0 or (association == "known" and not extra)
     assert slow.outliers > 0 or "outlier_probability" not in (extra or {})

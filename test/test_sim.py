@@ -358,3 +358,37 @@ def test_simulated_crowd_is_deterministic_by_seed():
         return [positions.copy() for _, _, positions in _walk_crowd(crowd, 20.0)][-1]
     np.testing.assert_array_equal(track(4), track(4))
     assert track(4).shape != track(5).shape or not np.array_equal(track(4), track(5))
+
+
+def test_room_scenario_sees_its_tubes_from_the_laser_ahead_of_the_centre():
+    """The room: a 20-minute default, 17 tubes inside the room, 10 Hz readings of the tubes
+    within 0.4-5.6 m and 4.2 rad of the laser 0.219 m ahead of the robot's centre, about 60 %
+    of them detected, each the tube's surface facing the laser (its radius nearer)."""
+    assert SimConfig(scenario="room").resolved().duration == 1200.0
+    config = SimConfig(scenario="room", duration=60.0, sigma_range=1e-9, sigma_bearing=1e-9)
+    bag = simulate(config)
+    truth = bag.landmarks_truth.positions
+    assert len(truth) == 17 and np.all((truth > 0.0) & (truth < 6.0))
+    np.testing.assert_allclose(np.diff(bag.scans.stamps), 0.1, atol=1e-6)
+    index_of = {round(t * 40): i for i, t in enumerate(bag.ground_truth.stamps)}
+    detected = in_view = 0
+    for stamp, points, ids in zip(bag.scans.stamps, bag.scans.points, bag.scans.ids):
+        x, y, theta = bag.ground_truth.poses[index_of[round(stamp * 40)]]
+        c, s = math.cos(theta), math.sin(theta)
+        laser = np.array([x + 0.219 * c, y + 0.219 * s])
+        offset = truth - laser
+        distance = np.hypot(offset[:, 0], offset[:, 1])
+        bearing = np.angle(np.exp(1j * (np.arctan2(offset[:, 1], offset[:, 0]) - theta)))
+        visible = (distance >= 0.4) & (distance <= 5.6) & (np.abs(bearing) <= 2.1)
+        ranges = np.hypot(points[:, 0], points[:, 1])
+        np.testing.assert_allclose(ranges, distance[ids] - 0.1, atol=1e-4)
+        np.testing.assert_allclose(np.arctan2(points[:, 1], points[:, 0]), bearing[ids],
+                                   atol=1e-4)
+        assert np.all(visible[ids])
+        detected += len(ids)
+        in_view += int(np.count_nonzero(visible))
+    share = detected / in_view
+    assert abs(share - 0.6) < 4.0 * math.sqrt(0.24 / in_view) + 0.01
+    params = recommended_params(config)
+    assert (params["sensor_x"], params["min_range"], params["detection_probability"]) == (
+        0.219, 0.4, 0.6)

@@ -14,7 +14,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .existence import detection_evidence
+from .existence import confirmation_logodds, confirmed_evidence, detection_evidence
 from .params import ParameterValueError, check_fields, parameter
 
 ALGORITHMS = ("fastslam1", "fastslam2")
@@ -145,7 +145,10 @@ class FastSLAMConfig:
         "one); they saturate at 10.", low=0.0, low_exclusive=True, high=LOGODDS_MAX)
     logodds_missed: float = parameter(
         -0.5, "tau-: log-odds added when a landmark inside the perceptual range is not "
-        "observed.", low=-100.0, high=0.0)
+        "observed and no observation the association rejected lies within 10 sensor standard "
+        "deviations of it; a confirmed landmark (map_min_existence) loses tau- (10 - l_c) / 20 "
+        "and goes back to the saturation when observed, so only about 20 / |tau-| misses in a "
+        "row make it tentative again.", low=-100.0, high=0.0)
     detection_probability: float = parameter(
         0.0, "P_D: probability that the sensor detects a landmark inside the perceptual range "
         "in one reading (fastslam-calibrate measures it). > 0: the existence log-odds follow "
@@ -235,6 +238,13 @@ class FastSLAMConfig:
         view = (self.max_range - self.min_range) * self.field_of_view
         return detection_evidence(self.detection_probability, self.clutter_rate,
                                   min(gate / view, 1.0), LOGODDS_MAX)
+
+    def confirmation(self) -> tuple[float, float]:
+        """(l_c, tau- of a confirmed landmark): the log-odds from which a landmark is confirmed
+        (``map_min_existence``) and what a miss costs it (``existence.confirmed_evidence``)."""
+        confirmed = confirmation_logodds(self.map_min_existence, self.logodds_remove)
+        return confirmed, confirmed_evidence(self.existence_evidence()[1], confirmed,
+                                             LOGODDS_MAX)
 
     def replace(self, **changes) -> "FastSLAMConfig":
         """A validated copy with some fields changed."""

@@ -9,6 +9,24 @@ is not observed; a feature whose log-odds fall below the removal bound is remove
 tau- can be given, or follow by Bayes' rule from the sensor's detection probability and
 clutter rate (``detection_evidence``). These are small pure functions, shared by both
 filters.
+
+The landmark map (FastSLAM, both backends) adds two rules, so that the evidence cannot eat
+the map when the pose is slightly off:
+
+* A miss is only a landmark that should have been detected and was not: an observation of the
+  reading that the association rejected (it founded a landmark or was an outlier) within
+  ``EXPLAINED_GATE`` of a landmark's predicted observation explains that landmark, which is
+  then not missed (``explains``). A pose slightly off makes the association reject exactly
+  the observations of the landmarks it sees; without the rule each such reading lowers them,
+  and the map is removed and mapped again from the drifted pose.
+* A confirmed landmark (log-odds at least ``confirmation_logodds``) needs far stronger evidence
+  to go than a tentative one (``confirmed_evidence``): a detection of it restores the
+  saturation (in a static world, a confirmed landmark seen again exists), and a miss lowers it
+  by tau- (l_max - l_c) / ``CONFIRMED_MISS_EVIDENCE``, so it falls back to tentative only
+  after a run of misses without a detection whose probability, for a landmark that exists and
+  is detected with P_D = 1 - exp(tau-), is exp(-CONFIRMED_MISS_EVIDENCE) (2e-9): 22 readings
+  in a row at P_D 0.6, 40 with the default tau- -0.5. Tentative landmarks keep the plain
+  Bayes rule.
 """
 from __future__ import annotations
 
@@ -16,6 +34,15 @@ import math
 
 import numpy as np
 
+EXPLAINED_GATE = 100.0
+"""Squared distance, in standard deviations of the sensor noise (range and bearing), from a
+landmark's predicted observation within which an observation the association rejected
+explains the landmark's non-detection (10 sigma: beyond what a landmark in its place gives
+with the pose right, and well beyond where the association starts rejecting, about 5-6 sigma
+with the default p0)."""
+CONFIRMED_MISS_EVIDENCE = 20.0
+"""-log of the probability of the run of misses that takes a confirmed landmark from the
+saturation back to tentative (exp(-20) = 2e-9)."""
 LOGODDS_MAX = 3.0
 """Saturation of the existence log-odds (probability 0.95): a feature seen for minutes is
 removed after as many missed readings as one seen a few times."""
@@ -68,3 +95,45 @@ def in_perceptual_range(ranges: np.ndarray, bearings: np.ndarray, min_range: flo
     if field_of_view < 2.0 * np.pi:
         inside &= np.abs(bearings) <= 0.5 * field_of_view
     return inside
+
+
+def confirmation_logodds(map_min_existence: float, logodds_remove: float) -> float:
+    """l_c: the log-odds from which a landmark is confirmed, logit(map_min_existence), at least
+    the removal bound (map_min_existence 0 confirms every landmark; 1 none)."""
+    if map_min_existence >= 1.0:
+        return math.inf
+    if map_min_existence <= 0.0:
+        return logodds_remove
+    return max(math.log(map_min_existence / (1.0 - map_min_existence)), logodds_remove)
+
+
+def confirmed_evidence(logodds_missed: float, confirmed: float, logodds_max: float) -> float:
+    """tau- of a confirmed landmark: tau- (l_max - l_c) / ``CONFIRMED_MISS_EVIDENCE``, so that
+    misses totalling -CONFIRMED_MISS_EVIDENCE of plain evidence take it from ``logodds_max``
+    to ``confirmed`` (0 when nothing is confirmed)."""
+    if not math.isfinite(confirmed):
+        return 0.0
+    return logodds_missed * max(logodds_max - confirmed, 0.0) / CONFIRMED_MISS_EVIDENCE
+
+
+def observed_logodds(logodds: np.ndarray, logodds_observed: float, confirmed: float,
+                     logodds_max: float) -> np.ndarray:
+    """Log-odds after a detection: ``logodds_max`` for a confirmed landmark, else + tau+
+    (capped at ``logodds_max``)."""
+    return np.where(logodds >= confirmed, logodds_max,
+                    np.minimum(logodds + logodds_observed, logodds_max))
+
+
+def missed_logodds(logodds: np.ndarray, logodds_missed: float, confirmed: float,
+                   confirmed_missed: float) -> np.ndarray:
+    """Log-odds after a miss: + ``confirmed_missed`` for a confirmed landmark, else + tau-."""
+    return logodds + np.where(logodds >= confirmed, confirmed_missed, logodds_missed)
+
+
+def explains(range_error: np.ndarray, bearing_error: np.ndarray, range_variance,
+              bearing_variance: float) -> np.ndarray:
+    """Mask of the (observation, landmark) pairs where the observation lies within
+    ``EXPLAINED_GATE`` of the landmark's predicted observation (errors in m and rad, wrapped;
+    variances of the sensor noise)."""
+    return (range_error * range_error / range_variance
+            + bearing_error * bearing_error / bearing_variance) <= EXPLAINED_GATE

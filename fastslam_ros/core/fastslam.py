@@ -126,6 +126,8 @@ class FastSLAM(NumpyReading, Relocalizing):
         self._log_p0 = float(np.log(config.new_landmark_likelihood))
         self._evidence = self.config.existence_evidence()
         """(tau+, tau-) of the existence log-odds (``FastSLAMConfig.existence_evidence``)."""
+        self._confirmation = self.config.confirmation()
+        """(l_c, tau- of a confirmed landmark) (``FastSLAMConfig.confirmation``)."""
         self._log_outlier = assoc.log_outlier_density(config)
         self._localization = config.mode == "localization"
         self._seed: tuple[np.ndarray, ...] | None = None

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import association as assoc
 from .config import LOGODDS_MAX
+from .existence import explains, missed_logodds, observed_logodds
 from .geometry import wrap_angle
 from .landmark_ekf import initialize_landmarks, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, WorkingSet
@@ -61,7 +62,8 @@ class NumpyReading:
             creating = np.zeros(choices.shape, dtype=bool)
         else:
             creating = self._apply_to_map(ws, observed, choices, ranges, bearings, labels)
-            self._missed_evidence(ws, observed)
+            self._missed_evidence(ws, observed, creating | (choices == assoc.IGNORE), ranges,
+                                  bearings)
         self.history.record(stamp, self.poses)
         self.num_updates += 1
         # This reading's new-landmark columns now hold landmarks (in some particles).
@@ -258,15 +260,18 @@ class NumpyReading:
             state[:, MEAN], state[:, COV] = update_landmarks(
                 self.poses[p], state[:, MEAN], state[:, COV], ranges[j], bearings[j],
                 self.offset, self._noise(ranges[j]))
-            state[:, LOGODDS] = np.minimum(state[:, LOGODDS] + self._evidence[0],
-                                           LOGODDS_MAX)
+            state[:, LOGODDS] = observed_logodds(state[:, LOGODDS], self._evidence[0],
+                                                 self._confirmation[0], LOGODDS_MAX)
             ws.state[p, s] = state
         ws.dirty[particle, slot] = True
         observed[particle, slot] = True
         return creating
 
-    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray) -> None:
-        """Lower the log-odds of landmarks in the perceptual range that were not observed."""
+    def _missed_evidence(self, ws: WorkingSet, observed: np.ndarray, rejected: np.ndarray,
+                         ranges: np.ndarray, bearings: np.ndarray) -> None:
+        """Lower the log-odds of landmarks in the perceptual range that were not observed and
+        that no observation the association rejected (``rejected`` (K, M)) explains
+        (``existence.explains``); a confirmed landmark loses less (``existence``)."""
         config = self.config
         missed = self._evidence[1]
         if missed == 0.0:
@@ -282,7 +287,20 @@ class NumpyReading:
             # |bearing| <= fov / 2  <=>  cos(bearing) >= cos(fov / 2), without an arctan.
             along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
             inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
+        obs, particle = rejected.nonzero()
+        if len(obs):
+            # (rejected pair, landmark): the observation explains the landmark's absence.
+            variance_r, variance_b = self._noise(ranges[obs])
+            variance_r = np.broadcast_to(variance_r, obs.shape)
+            near = explains(
+                ranges[obs, None] - t.range[particle],
+                wrap_angle(bearings[obs, None] - (np.arctan2(t.dy[particle], t.dx[particle])
+                                                  - t.heading[particle])),
+                variance_r[:, None], variance_b)
+            hit = np.zeros(inside.shape, bool)
+            np.logical_or.at(hit, particle, near)
+            inside &= ~hit
         logodds = ws.logodds[:, existing]
-        logodds[inside] += missed
+        logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False

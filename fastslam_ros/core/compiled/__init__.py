@@ -17,6 +17,11 @@ raises ImportError, and the filter then runs on numpy (``FastSLAMConfig.backend`
 compiled code is cached beside these files when their folder is writable and in numba's user
 cache folder otherwise (``NUMBA_CACHE_DIR`` overrides both), so a read-only install works.
 
+numba keys each cached kernel on its own file only, while a kernel carries the code of the
+kernels it calls from the other twins: ``jit.drop_stale_cache`` (run on import) removes the
+package's cache whenever any of its sources changed, so an edited twin is never run in its old
+form inside another one.
+
 What follows is the whole interface the core calls.
 """
 from .crew import PARALLEL_MIN_PARTICLES, set_threads, splits

@@ -1,20 +1,47 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""What every numba twin shares: the compile options and the scalar helpers (angle wrap,
-sensor lever arm, log-add-exp) that the numpy modules write as array operations."""
+"""What every numba twin shares: the compile options, the cache's invalidation across the
+twins (``drop_stale_cache``), and the scalar helpers (angle wrap, sensor lever arm,
+log-add-exp) that the numpy modules write as array operations."""
 from __future__ import annotations
 
+import hashlib
 import math
+from pathlib import Path
 
 from numba import njit
 
 from ..geometry import TWO_PI
 
-
 LOG2 = math.log(2.0)
-
-
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+
+def drop_stale_cache(folder: Path = Path(__file__).parent) -> bool:
+    """Remove numba's cache files beside the sources in ``folder`` when the sources differ from
+    those the cache was made from (their digest, kept beside the cache); True if removed. A
+    read-only install (numba then caches in its user folder) is left as it is."""
+    digest = hashlib.sha256(b"".join(path.read_bytes()
+                                     for path in sorted(folder.glob("*.py")))).hexdigest()
+    cache = folder / "__pycache__"
+    stamp = cache / "sources.sha256"
+    try:
+        if stamp.read_text() == digest:
+            return False
+    except OSError:
+        pass
+    try:
+        stale = list(cache.glob("*.nbi")) + list(cache.glob("*.nbc"))
+        for path in stale:
+            path.unlink()
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        return False
+    return bool(stale)
+
+
+drop_stale_cache()
 
 
 @njit(**_JIT)

@@ -9,18 +9,20 @@ import math
 
 from numba import njit
 
-from ..association import NEW
+from ..association import IGNORE, NEW
 from ..geometry import TWO_PI
 from .jit import _JIT, _lever, _wrap
-from .settings import (F_FOV, F_LOGODDS_MAX, F_LOGODDS_MISSED, F_LOGODDS_OBSERVED, F_LOGODDS_REMOVE,
-                       F_MAX_RANGE, F_MIN_RANGE, F_NOISE_B, F_OX, F_OY, F_OYAW)
+from .settings import (F_CONFIRMED, F_CONFIRMED_MISSED, F_EXPLAINED_GATE, F_FOV, F_LOGODDS_MAX,
+                       F_LOGODDS_MISSED, F_LOGODDS_OBSERVED, F_LOGODDS_REMOVE, F_MAX_RANGE,
+                       F_MIN_RANGE, F_NOISE_B, F_OX, F_OY, F_OYAW)
 
 
 @njit(**_JIT)
 def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r, noise_b,
-            logodds_observed, logodds_max):
+            logodds_observed, logodds_max, confirmed):
     """Joseph-form EKF update (``update_landmarks``) of particle m's landmark ``slot`` by
-    observation k, its log-odds raised; False if the result is not finite."""
+    observation k, its log-odds raised (``existence.observed_logodds``: to ``logodds_max``
+    from ``confirmed`` on); False if the result is not finite."""
     mx, my = state[m, slot, 0], state[m, slot, 1]
     sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
     dx = mx - (px + lx)
@@ -50,7 +52,10 @@ def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_
     state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
     state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
     state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
-    state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
+    if state[m, slot, 5] >= confirmed:
+        state[m, slot, 5] = logodds_max
+    else:
+        state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
     finite = True
     for i in range(6):
         if not math.isfinite(state[m, slot, i]):
@@ -65,8 +70,9 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
     its new landmarks: the mean and packed covariance of each landmark it creates into
     ``fresh[k, m]`` (``_place_new`` puts them in their columns, known once every particle
     has chosen), the Joseph-form updates of its associated landmarks (observations in turn),
-    then the log-odds of the landmarks in the perceptual range it did not observe. False if an
-    updated landmark is not finite (``FastSLAM.check_state`` then repairs)."""
+    then the log-odds of the landmarks in the perceptual range it did not observe and no
+    observation it rejected explains (``existence``). False if an updated landmark is not
+    finite (``FastSLAM.check_state`` then repairs)."""
     count = choice.shape[0]
     ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
     logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
@@ -103,7 +109,7 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
         if slot < 0:
             continue
         if not _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r,
-                       noise_b, logodds_observed, logodds_max):
+                       noise_b, logodds_observed, logodds_max, fp[F_CONFIRMED]):
             finite = False
         dirty[m, slot] = True
         observed[slot] = True
@@ -114,6 +120,8 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
     # all observed).
     min_range, max_range, field_of_view = fp[F_MIN_RANGE], fp[F_MAX_RANGE], fp[F_FOV]
     logodds_remove = fp[F_LOGODDS_REMOVE]
+    confirmed, confirmed_missed = fp[F_CONFIRMED], fp[F_CONFIRMED_MISSED]
+    gate = fp[F_EXPLAINED_GATE]
     limited = field_of_view < TWO_PI
     cos_half = math.cos(0.5 * field_of_view)
     cos_h, sin_h = math.cos(heading), math.sin(heading)
@@ -127,7 +135,27 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
             continue
         if limited and dx * cos_h + dy * sin_h < r * cos_half:
             continue
-        state[m, j, 5] += logodds_missed
+        # An observation the association rejected (it founded a landmark, not as a repeat of
+        # an id, or was an outlier) near the landmark explains its absence
+        # (``existence.explains``).
+        predicted = math.atan2(dy, dx) - heading
+        near = False
+        for k in range(count):
+            rejected = choice[k, m] == IGNORE or (choice[k, m] == NEW and creator[k] == k)
+            if not rejected:
+                continue
+            range_error = ranges[k] - r
+            bearing_error = _wrap(bearings[k] - predicted)
+            if (range_error * range_error / noise_r[k]
+                    + bearing_error * bearing_error / noise_b) <= gate:
+                near = True
+                break
+        if near:
+            continue
+        if state[m, j, 5] >= confirmed:
+            state[m, j, 5] += confirmed_missed
+        else:
+            state[m, j, 5] += logodds_missed
         dirty[m, j] = True
         if state[m, j, 5] < logodds_remove:
             valid[m, j] = False
@@ -170,6 +198,6 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
             px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
             lx, ly = _lever(pth, ox, oy)
             if not _joseph(m, slot, k, state, px, py, lx, ly, pth + oyaw, ranges, bearings,
-                           noise_r, noise_b, logodds_observed, logodds_max):
+                           noise_r, noise_b, logodds_observed, logodds_max, fp[F_CONFIRMED]):
                 finite[m] = False
             dirty[m, slot] = True

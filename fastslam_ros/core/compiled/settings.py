@@ -8,6 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..existence import EXPLAINED_GATE
+
 
 MODE_CODES = {"known": 0, "ml": 1, "monte_carlo": 2, "two_gate": 3}
 
@@ -40,7 +42,8 @@ F_LINEAR_NOISE = 25                            # the four random-walk terms (``m
 F_MOTION = 29                                  # rot1, trans, rot2 and their variances
 
 
-NUM_F = 35
+F_CONFIRMED, F_CONFIRMED_MISSED, F_EXPLAINED_GATE = 35, 36, 37   # ``existence``'s rules
+NUM_F = 38
 
 
 I_MODE, I_LOCALIZATION, I_CENTRAL, I_SCORE_KNOWN, I_HAS_COV, I_PROPOSE, I_FIRST_KEY = range(7)
@@ -75,6 +78,8 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
                                                  config.field_of_view)
     floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
         *config.existence_evidence(), config.logodds_remove, logodds_max)
+    floats[[F_CONFIRMED, F_CONFIRMED_MISSED]] = config.confirmation()
+    floats[F_EXPLAINED_GATE] = EXPLAINED_GATE
     floats[F_ALPHAS:F_ALPHAS + 4] = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
     floats[F_MIN_TRANSLATION_SIGMA] = config.min_translation_sigma
     floats[F_MIN_ROTATION_SIGMA] = config.min_rotation_sigma

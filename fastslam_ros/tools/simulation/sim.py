@@ -10,8 +10,11 @@ clutter). True poses and the landmark map are written as ground truth (bag schem
 
 Scenarios: ``loop`` (one closed loop through a landmark field, 3.5 minutes), ``large``
 (thousands of landmarks, a long route with crossings), ``clutter`` (the loop with false
-detections and missed detections). The vehicle, the sensor and the landmark placement are those
-of ``fastslam_ros.tools.simulation.world``, which the in-memory test worlds share.
+detections and missed detections), ``room`` (a differential-drive robot at walking speed in a
+6 m x 6 m room with 17 tubes seen constantly for 20 minutes by an accurate laser 0.219 m ahead
+of its centre that misses 40 % of them; the scenario sets its own defaults, ``ROOM_DEFAULTS``).
+The vehicles, the sensor and the landmark placement are those of ``simulation/world.py``,
+which the in-memory test worlds share.
 """
 from __future__ import annotations
 
@@ -28,12 +31,12 @@ from fastslam_ros.tools import cli
 from fastslam_ros.tools.simulation import laser_sim
 from fastslam_ros.tools.bags.bag_schema import (LandmarkScans, LandmarkSet, PoseSeries, SchemaBag,
                                            write_schema_bag)
-from fastslam_ros.tools.datasets.converters import polar_to_points
 from fastslam_ros.output import check_output, write_params_yaml
-from fastslam_ros.tools.simulation.world import (Car, RangeBearingSensor, distance_to_route,
-                                      scatter_landmarks)
+from fastslam_ros.tools.datasets.converters import polar_to_points
+from fastslam_ros.tools.simulation.world import (Car, DifferentialDrive, RangeBearingSensor,
+                                                 distance_to_route, scatter_landmarks)
 
-SCENARIOS = ("loop", "large", "clutter")
+SCENARIOS = ("loop", "large", "clutter", "room")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),
                   (63.0, 147.0), (0.0, 119.0), (-28.0, 63.0), (-21.0, 17.0))
 """The loop scenario's route (m); the vehicle starts at the first point heading to the second."""
@@ -41,6 +44,21 @@ LARGE_WAYPOINTS = ((0.0, 0.0), (0.0, 300.0), (100.0, 300.0), (100.0, 0.0), (200.
                    (200.0, 300.0), (300.0, 300.0), (300.0, 0.0), (400.0, 0.0), (400.0, 150.0),
                    (0.0, 150.0))
 """The large scenario's route (m): a 400 m x 300 m meander, then a leg across every column."""
+ROOM_WAYPOINTS = ((1.0, 1.0), (5.0, 1.2), (4.8, 5.0), (3.0, 2.8), (1.2, 5.0))
+"""The room scenario's route (m), inside the room's walls at 0 and ``ROOM_SIZE``."""
+ROOM_SIZE = 6.0
+"""Side of the room scenario's square room (m)."""
+ROOM_CLEARANCE = 0.5
+"""Smallest distance (m) of a room scenario's tube from the route and from the walls."""
+ROOM_DEFAULTS = {
+    "speed": 1.0, "control_rate": 40.0, "observation_rate": 10.0, "max_range": 5.6,
+    "min_range": 0.4, "field_of_view": 4.2, "sigma_range": 0.03, "sigma_bearing": 0.026,
+    "sigma_speed": 0.05, "sigma_turn_rate": 0.1, "waypoint_radius": 0.2, "laps": 1000,
+    "num_landmarks": 17, "min_separation": 0.8, "detection_probability": 0.6,
+    "clutter_rate": 0.0, "duration": 1200.0, "sensor_x": 0.219, "sensor_frame": "laser",
+    "landmark_radius": 0.1}
+"""The room scenario's settings where the command line leaves a field at its default: a lab
+robot's laser ranging tubes (about 5 detections per reading at 10 Hz for 20 minutes)."""
 HEADING_NOISE_INFLATION = 10.0
 """Variance factor on the heading noise of the recommended parameters (see recommended_params)."""
 TRANSLATION_NOISE_INFLATION = 2.0
@@ -72,6 +90,11 @@ class SimConfig:
         "Control and odometry rate (Hz); ground truth is published at the same rate.")
     observation_rate: float = setting(5.0, "Sensor reading rate (Hz).")
     max_range: float = setting(30.0, "Landmarks farther than this are not observed (m).")
+    min_range: float = setting(0.0, "Landmarks nearer than this are not observed (m).")
+    landmark_radius: float = setting(0.0,
+        "Radius of the landmarks (m): a detection is the point of the surface facing the "
+        "sensor, nearer than the centre by the radius (a bias no sensor model states).")
+    sensor_x: float = setting(0.0, "Sensor position ahead of the vehicle's origin (m).")
     field_of_view: float = setting(2.0 * math.pi,
         "Full opening angle of the sensor, centred on the heading (rad); 2 pi sees all around.")
     sigma_range: float = setting(0.1, "Range noise standard deviation (m).")
@@ -80,6 +103,10 @@ class SimConfig:
         "Speed control noise standard deviation per control step (m/s).")
     sigma_steer: float = setting(math.radians(3.0),
         "Steering control noise standard deviation per control step (rad).")
+    max_turn_rate: float = setting(1.0, "Turn rate limit of the differential drive (rad/s).")
+    sigma_turn_rate: float = setting(0.0,
+        "Turn-rate control noise standard deviation per control step of the differential "
+        "drive (rad/s).")
     laps: int = setting(1,
         "Times the route is driven; the vehicle then continues to the route's second point, so the "
         "loop is closed over ground already mapped.")
@@ -92,7 +119,8 @@ class SimConfig:
         "scenario's default.")
     duration: float = setting(0.0, "Stop after this many seconds (0: drive the whole route).")
     sensor_frame: str = setting("base_link",
-        "frame_id of the landmark clouds (the sensor sits at the vehicle's origin).")
+        "frame_id of the landmark clouds (the sensor sits sensor_x ahead of the vehicle's "
+        "origin).")
     start_time: float = setting(1_700_000_000.0,
         "Stamp of the first message (s since the Unix epoch): a date, as a recording has, so "
         "viewers and tools that expect one show the bag as they would a real one.")
@@ -102,23 +130,32 @@ class SimConfig:
         if self.scenario not in SCENARIOS:
             raise ValueError(f"scenario: must be one of {SCENARIOS} (got {self.scenario!r})")
         defaults = {"loop": (85, 1.0, 0.0), "large": (2000, 1.0, 0.0),
-                    "clutter": (85, 0.9, 2.0)}[self.scenario]
+                    "clutter": (85, 0.9, 2.0), "room": (17, 0.6, 0.0)}[self.scenario]
+        config = self
+        if self.scenario == "room":
+            unset = {item.name: item.default for item in dataclasses.fields(SimConfig)}
+            config = dataclasses.replace(self, **{
+                name: value for name, value in ROOM_DEFAULTS.items()
+                if getattr(self, name) == unset[name]})
         config = dataclasses.replace(
-            self,
+            config,
             num_landmarks=self.num_landmarks or defaults[0],
             detection_probability=(defaults[1] if self.detection_probability < 0
                                    else self.detection_probability),
             clutter_rate=defaults[2] if self.clutter_rate < 0 else self.clutter_rate)
         for name in ("speed", "wheelbase", "max_steer", "max_steer_rate", "waypoint_radius",
                      "control_rate", "observation_rate", "max_range", "sigma_range",
-                     "sigma_bearing", "min_separation"):
+                     "sigma_bearing", "min_separation", "max_turn_rate"):
             if not getattr(config, name) > 0.0:
                 raise ValueError(f"{name}: must be > 0 (got {getattr(config, name)})")
-        for name in ("sigma_speed", "sigma_steer", "duration", "start_time"):
+        for name in ("sigma_speed", "sigma_steer", "sigma_turn_rate", "duration", "start_time",
+                     "min_range", "landmark_radius"):
             if getattr(config, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(config, name)})")
         if not 0.0 < config.field_of_view <= 2.0 * math.pi:
             raise ValueError("field_of_view: must be in (0, 2 pi]")
+        if config.min_range >= config.max_range:
+            raise ValueError("min_range: must be < max_range")
         if not 0.0 < config.detection_probability <= 1.0:
             raise ValueError("detection_probability: must be in (0, 1]")
         if config.laps < 1:
@@ -140,6 +177,8 @@ class World:
 def build_world(config: SimConfig) -> World:
     """The scenario's route and a landmark field around it (seeded by ``world_seed``)."""
     rng = np.random.default_rng(config.world_seed)
+    if config.scenario == "room":
+        return build_room(config, rng)
     waypoints = np.array(LARGE_WAYPOINTS if config.scenario == "large" else LOOP_WAYPOINTS)
     # Every landmark is within sensor range of some point of the route, off the road itself.
     near, far = 2.0, min(25.0, 0.9 * config.max_range)
@@ -153,6 +192,18 @@ def build_world(config: SimConfig) -> World:
     return World(waypoints, LandmarkSet(positions, np.arange(len(positions), dtype=np.int32)))
 
 
+def build_room(config: SimConfig, rng: np.random.Generator) -> World:
+    """The room scenario: its route and tubes anywhere in the room ``ROOM_CLEARANCE`` from the
+    route and the walls."""
+    waypoints = np.array(ROOM_WAYPOINTS)
+
+    def off_route(points: np.ndarray) -> np.ndarray:
+        return distance_to_route(points, waypoints) >= ROOM_CLEARANCE
+    positions = scatter_landmarks(rng, config.num_landmarks, ROOM_CLEARANCE,
+                                  ROOM_SIZE - ROOM_CLEARANCE, config.min_separation, off_route)
+    return World(waypoints, LandmarkSet(positions, np.arange(len(positions), dtype=np.int32)))
+
+
 def simulate(config: SimConfig) -> SchemaBag:
     """Drive the scenario's route and return the schema bag (odometry, scans, ground truth)."""
     config = config.resolved()
@@ -160,16 +211,23 @@ def simulate(config: SimConfig) -> SchemaBag:
     # Separate streams: the odometry noise does not change with the sensor settings or the world.
     control_rng = np.random.default_rng([config.seed, 0])
     sensor_rng = np.random.default_rng([config.seed, 1])
-    car = Car(config.speed, config.wheelbase, config.max_steer, config.max_steer_rate,
-              config.waypoint_radius, config.sigma_speed, config.sigma_steer)
-    true_poses, odometry_poses = car.drive(world.waypoints, config.laps, config.control_rate,
-                                           control_rng, config.duration)
+    vehicle = (DifferentialDrive(config.speed, config.max_turn_rate, config.waypoint_radius,
+                                 config.sigma_speed, config.sigma_turn_rate)
+               if config.scenario == "room" else
+               Car(config.speed, config.wheelbase, config.max_steer, config.max_steer_rate,
+                   config.waypoint_radius, config.sigma_speed, config.sigma_steer))
+    true_poses, odometry_poses = vehicle.drive(world.waypoints, config.laps,
+                                               config.control_rate, control_rng, config.duration)
     sensor = RangeBearingSensor(config.max_range, config.sigma_range, config.sigma_bearing,
                                 config.detection_probability, config.clutter_rate,
-                                field_of_view=config.field_of_view)
+                                field_of_view=config.field_of_view, min_range=config.min_range,
+                                landmark_radius=config.landmark_radius)
+    # The sensor's poses: sensor_x ahead of the vehicle's origin, facing forward.
+    sensor_poses = true_poses + config.sensor_x * np.column_stack(
+        [np.cos(true_poses[:, 2]), np.sin(true_poses[:, 2]), np.zeros(len(true_poses))])
     steps_per_reading = int(round(config.control_rate / config.observation_rate))
     reading_steps = np.arange(steps_per_reading, len(true_poses), steps_per_reading)
-    readings = [sensor.observe(true_poses[step], world.landmarks.positions, sensor_rng)
+    readings = [sensor.observe(sensor_poses[step], world.landmarks.positions, sensor_rng)
                 for step in reading_steps]
     stamps = config.start_time + np.arange(len(true_poses)) / config.control_rate
     return SchemaBag(
@@ -190,8 +248,9 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     """Node parameters matched to the simulated sensor and control noise.
 
     The motion-noise alphas start from the control noise accumulated over one observation
-    interval (per-step speed and steering noise integrated through the bicycle model), divided
-    by the squared distance travelled in it. The heading term is inflated 10x and the
+    interval (per-step speed and steering noise integrated through the bicycle model, or the
+    turn-rate noise of the differential drive), divided by the squared distance travelled in
+    it. The heading term is inflated 10x and the
     translation term 2x: with the exact values the particles are too concentrated to close the
     loop on some seeds (landmarks seen at the start are mapped again), which the inflation
     mostly cures. The landmarks that still come back outside the gate close the loop once two
@@ -208,6 +267,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     travel = config.speed * steps * dt
     translation_variance = steps * (config.sigma_speed * dt) ** 2
     heading_variance = steps * (config.speed * dt * config.sigma_steer / config.wheelbase) ** 2
+    if config.scenario == "room":
+        heading_variance = steps * (config.sigma_turn_rate * dt) ** 2
     params: dict[str, float | int | str] = {
         "sigma_range": config.sigma_range,
         "sigma_bearing": config.sigma_bearing,
@@ -226,6 +287,10 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     }
     if config.field_of_view < 2.0 * math.pi:
         params["field_of_view"] = config.field_of_view
+    if config.min_range > 0.0:
+        params["min_range"] = config.min_range
+    if config.sensor_x != 0.0:
+        params["sensor_x"] = config.sensor_x
     if config.clutter_rate > 0.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
     elif config.detection_probability < 1.0:
@@ -244,7 +309,9 @@ def build_parser() -> argparse.ArgumentParser:
     defaults = SimConfig()
     parser = cli.parser("fastslam-sim", __doc__, first_paragraph=True)
     parser.add_argument("--scenario", choices=SCENARIOS, default=defaults.scenario,
-                        help="world and route")
+                        help="world and route (room: flags left at their default take the "
+                             "room's: 1 m/s, 10 Hz, 0.4-5.6 m, 4.2 rad, 0.03 m, 0.026 rad, "
+                             "sensor 0.219 m ahead, 17 tubes of 0.1 m radius, P_D 0.6, 1200 s)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output bag folder (default: sim_<scenario>)")
     parser.add_argument("--params-out", type=Path, default=None,

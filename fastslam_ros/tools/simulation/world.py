@@ -6,12 +6,12 @@ One model for ``fastslam-sim`` (``simulation/sim.py``, written to bags) and for 
 and ``fastslam-bench`` (``simulation/synthetic.py``, kept in memory): point landmarks scattered
 at least a minimum distance apart, a true path, odometry that drifts from it, and a range-
 bearing sensor (:class:`RangeBearingSensor`) that detects each landmark within its reach with a
-probability, adds Gaussian range and bearing noise, and reports Poisson clutter. Two vehicles
-drive the worlds: a car (:class:`Car`, a bicycle model steering towards waypoints) whose
-odometry integrates noisy controls, as wheel odometry does, and a robot on a circle
-(:func:`circle_path`) whose odometry carries the filter's own odometry-model noise
-(:func:`odometry_with_noise`), so that tests meet exactly the model the filter assumes. Plain
-numpy, no ROS.
+probability, adds Gaussian range and bearing noise, and reports Poisson clutter. Vehicles drive
+the worlds: a car (:class:`Car`, a bicycle model steering towards waypoints) and a differential-
+drive robot (:class:`DifferentialDrive`) whose odometry integrates noisy controls, as wheel
+odometry does, and a robot on a circle (:func:`circle_path`) whose odometry carries the filter's
+own odometry-model noise (:func:`odometry_with_noise`), so that tests meet exactly the model the
+filter assumes. Plain numpy, no ROS.
 """
 from __future__ import annotations
 
@@ -81,9 +81,10 @@ class Reading:
 class RangeBearingSensor:
     """A range-bearing sensor at the vehicle's origin, looking forward (SI units, radians).
 
-    Each landmark within ``max_range`` and within ``field_of_view`` (the full opening, centred
-    on the vehicle's heading; 2 pi sees all around) is detected with ``detection_probability``,
-    its range and bearing off by N(0, sigma_range) and N(0, sigma_bearing); each reading adds
+    Each landmark within ``min_range``..``max_range`` and within ``field_of_view`` (the full
+    opening, centred on the vehicle's heading; 2 pi sees all around) is detected with
+    ``detection_probability``, its range and bearing off by N(0, sigma_range) and
+    N(0, sigma_bearing); each reading adds
     Poisson(``clutter_rate``) false detections, spread evenly over the area the sensor reaches
     (``clutter_spread="area"``, as false returns from anywhere in view) or evenly over range and
     bearing (``"range"``, the outlier density the filter assumes, which puts more of them near
@@ -97,6 +98,11 @@ class RangeBearingSensor:
     clutter_rate: float = 0.0
     clutter_spread: Literal["area", "range"] = "area"
     field_of_view: float = 2.0 * math.pi
+    min_range: float = 0.0
+    """Landmarks nearer than this (m) are not detected (a laser's blind zone)."""
+    landmark_radius: float = 0.0
+    """Radius (m) of the landmarks (tubes): a detection reports the point of the surface
+    facing the sensor, this much nearer than the centre the map should hold."""
 
     def __post_init__(self):
         if self.clutter_spread not in ("area", "range"):
@@ -112,13 +118,14 @@ class RangeBearingSensor:
         ranges = np.hypot(offset[:, 0], offset[:, 1])
         half = 0.5 * self.field_of_view
         true_bearings = wrap_angle(np.arctan2(offset[:, 1], offset[:, 0]) - pose[2])
-        in_view = ranges <= self.max_range
+        in_view = (ranges <= self.max_range) & (ranges >= self.min_range)
         if half < math.pi:
             in_view &= np.abs(true_bearings) <= half
         visible = np.flatnonzero(in_view)
         detected = visible[rng.random(len(visible)) < self.detection_probability]
         bearings = true_bearings[detected]
-        measured_range = ranges[detected] + rng.normal(0.0, self.sigma_range, len(detected))
+        measured_range = (ranges[detected] - self.landmark_radius
+                          + rng.normal(0.0, self.sigma_range, len(detected)))
         measured_bearing = bearings + rng.normal(0.0, self.sigma_bearing, len(detected))
         labels = detected
         clutter_count = rng.poisson(self.clutter_rate) if self.clutter_rate > 0 else 0
@@ -131,7 +138,8 @@ class RangeBearingSensor:
             measured_bearing = np.concatenate([measured_bearing, clutter_bearing])
             labels = np.concatenate([labels, np.full(clutter_count, -1)])
         measured_bearing = wrap_angle(measured_bearing)
-        keep = (measured_range > 0.0) & (measured_range <= self.max_range)
+        keep = ((measured_range > 0.0) & (measured_range <= self.max_range)
+                & (measured_range >= self.min_range))
         if half < math.pi:
             # A detection whose noisy bearing falls outside the opening is not reported.
             keep &= np.abs(measured_bearing) <= half
@@ -211,6 +219,66 @@ class Car:
             true_poses.append(true_pose)
             odometry_poses.append(odometry_pose)
         return np.array(true_poses), np.array(odometry_poses)
+
+
+@dataclass(frozen=True)
+class DifferentialDrive:
+    """A differential-drive robot that drives waypoints (SI units, radians).
+
+    It turns towards the next waypoint at a rate proportional to the heading error (at most
+    ``max_turn_rate``) and slows with the cosine of that error (turning on the spot when the
+    waypoint is behind it). Its odometry integrates the commanded speed and turn rate with
+    Gaussian noise on each control step, as wheel encoders drift.
+    """
+
+    speed: float
+    max_turn_rate: float
+    waypoint_radius: float
+    """A waypoint is reached within this distance (m)."""
+    sigma_speed: float
+    """Speed noise standard deviation per control step (m/s)."""
+    sigma_turn_rate: float
+    """Turn-rate noise standard deviation per control step (rad/s)."""
+    turn_gain: float = 2.0
+    """Turn rate per radian of heading error (1/s)."""
+
+    def drive(self, route: np.ndarray, laps: int, control_rate: float,
+              rng: np.random.Generator, duration: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """True and odometry poses (T, 3), as ``Car.drive``."""
+        dt = 1.0 / control_rate
+        targets = [i % len(route) for i in range(1, laps * len(route) + 2)]
+        first_heading = math.atan2(route[1][1] - route[0][1], route[1][0] - route[0][0])
+        true_pose = np.array([route[0][0], route[0][1], first_heading])
+        odometry_pose = true_pose.copy()
+        true_poses, odometry_poses = [true_pose], [odometry_pose]
+        route_length = np.sum(np.linalg.norm(np.diff(route, axis=0, append=route[:1]), axis=1))
+        max_steps = int(round(duration * control_rate)) if duration > 0 else int(
+            10 * route_length * (laps + 1) / self.speed * control_rate)
+        while targets and len(true_poses) <= max_steps:
+            target = route[targets[0]]
+            if np.hypot(*(target - true_pose[:2])) < self.waypoint_radius:
+                targets.pop(0)
+                continue
+            error = wrap_angle(math.atan2(target[1] - true_pose[1], target[0] - true_pose[0])
+                               - true_pose[2])
+            turn_rate = float(np.clip(self.turn_gain * error, -self.max_turn_rate,
+                                      self.max_turn_rate))
+            speed = self.speed * max(math.cos(error), 0.0)
+            true_pose = unicycle_step(true_pose, speed, turn_rate, dt)
+            odometry_pose = unicycle_step(odometry_pose,
+                                          speed + rng.normal(0.0, self.sigma_speed),
+                                          turn_rate + rng.normal(0.0, self.sigma_turn_rate), dt)
+            true_poses.append(true_pose)
+            odometry_poses.append(odometry_pose)
+        return np.array(true_poses), np.array(odometry_poses)
+
+
+def unicycle_step(pose: np.ndarray, speed: float, turn_rate: float, dt: float) -> np.ndarray:
+    """One step of ``dt`` s at ``speed`` (m/s) and ``turn_rate`` (rad/s), midpoint heading."""
+    heading = pose[2] + 0.5 * turn_rate * dt
+    return np.array([pose[0] + speed * dt * math.cos(heading),
+                     pose[1] + speed * dt * math.sin(heading),
+                     wrap_angle(pose[2] + turn_rate * dt)])
 
 
 def circle_path(radius: float, num_steps: int, laps: float) -> np.ndarray:
