@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
+"""The real-laser world of the people simulator (two legs per person, furniture on thin legs)
+against closed forms and the world's own rules, and the benchmark count of the scorer."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fastslam_ros.tools import people_legs
+from fastslam_ros.tools.people_eval import Frame, clear_mot
+from fastslam_ros.tools.people_sim import PeopleSimConfig, build_map, simulate_people
+
+
+def test_circle_ranges_match_the_closed_form():
+    sensor = np.array([1.0, 2.0, 0.0])
+    centre = np.array([[4.0, 2.0]])
+    # straight at it: the near face; at bearing b: d cos b - sqrt(r^2 - d^2 sin^2 b)
+    bearings = np.array([0.0, 0.01, 0.025, -0.03])
+    d, r = 3.0, 0.1
+    expected = d * np.cos(bearings) - np.sqrt(r ** 2 - (d * np.sin(bearings)) ** 2)
+    np.testing.assert_allclose(people_legs.circle_ranges(sensor, bearings, centre, r), expected,
+                               atol=1e-12)
+    # beside it, behind the sensor, or no circle: nothing
+    misses = people_legs.circle_ranges(sensor, np.array([0.04, math.pi]), centre, r)
+    assert np.all(np.isinf(misses))
+    assert np.all(np.isinf(people_legs.circle_ranges(sensor, bearings, np.zeros((0, 2)), r)))
+
+
+def test_legs_are_hip_width_apart_standing_and_swing_in_antiphase_walking():
+    gait = people_legs.Gait()
+    position = np.array([[2.0, 3.0]])
+    legs = gait.legs([7], position, np.zeros((1, 2)), 0.1)
+    assert np.linalg.norm(legs[0] - legs[1]) == pytest.approx(people_legs.HIP_WIDTH)
+    np.testing.assert_allclose(legs.mean(axis=0), position[0])
+    gaps, along = [], []
+    for _ in range(50):   # walking along +x at 1 m/s
+        legs = gait.legs([7], position, np.array([[1.0, 0.0]]), 0.1)
+        np.testing.assert_allclose(legs.mean(axis=0), position[0], atol=1e-12)
+        gaps.append(np.linalg.norm(legs[0] - legs[1]))
+        along.append(legs[0, 0] - legs[1, 0])
+    widest = math.hypot(people_legs.HIP_WIDTH, 2.0 * people_legs.SWING)
+    assert min(gaps) >= people_legs.HIP_WIDTH - 1e-12 and max(gaps) <= widest + 1e-12
+    assert max(gaps) > 0.95 * widest          # a full stride is reached
+    assert min(along) < -0.25 and max(along) > 0.25   # each leg leads in turn
+    # the across offset is perpendicular to the heading (+y for walking along +x)
+    np.testing.assert_allclose(abs(legs[0, 1] - legs[1, 1]), people_legs.HIP_WIDTH, atol=1e-12)
+
+
+def test_leg_world_maps_every_furniture_leg_and_keeps_people_out_of_footprints():
+    world = people_legs.LegWorld(build_map())
+    assert world.map.is_occupied(world.furniture).all()
+    assert len(world.furniture) == 4 * len(people_legs.furniture_footprints())
+    for x0, x1, y0, y1 in people_legs.furniture_footprints():
+        inside = np.array([[0.5 * (x0 + x1), 0.5 * (y0 + y1)]])
+        assert world.map.is_free(inside).all()       # the tabletop is above the laser
+        rows, cols, _ = world.map.cells(inside)
+        assert not world.walkable[rows, cols].any()  # but no one stands in it
+
+
+def test_a_person_broadside_returns_two_leg_arcs():
+    world = people_legs.LegWorld(build_map())
+    sensor = np.array([5.0, 10.0, 0.0])
+    angles = np.radians(np.arange(-30.0, 30.0, 0.25))
+    # a person 2 m ahead walking across the beams (+y), standing: legs at y +-0.1
+    ranges, legs = world.cast(sensor, angles, [0], np.array([[7.0, 10.0]]), np.zeros((1, 2)),
+                              0.1, 12.0)
+    near = ranges < 3.0
+    runs = np.flatnonzero(np.diff(near.astype(int)) == 1)
+    assert len(runs) == 2                              # two separate arcs
+    assert np.all(ranges[near] >= 2.0 - people_legs.LEG_RADIUS - 1e-9)
+    assert np.all(ranges[near] <= 2.0 + 1e-9)
+    np.testing.assert_allclose(np.sort(legs[:, 0]), [7.0, 7.0])
+
+
+def test_legs_world_people_walk_close_to_walls_and_never_into_furniture():
+    config = PeopleSimConfig(seed=2, duration=40.0, people=5, legs=True)
+    run = simulate_people(config)
+    world = people_legs.LegWorld(build_map())
+    positions = np.concatenate([p for _, p in run.people])
+    rows, cols, inside = world.map.cells(positions)
+    assert inside.all() and world.walkable[rows, cols].all()
+    # closer than the 0.3 m of the plain world's clearance to an obstacle, at times
+    assert (world.map.distance_at(positions) < 0.45).mean() > 0.02
+    # the map handed over holds the furniture legs
+    assert run.grid.is_occupied(world.furniture).all()
+
+
+def test_plain_world_is_unchanged_by_the_legs_option():
+    a = simulate_people(PeopleSimConfig(seed=3, duration=3.0))
+    b = simulate_people(PeopleSimConfig(seed=3, duration=3.0, legs=False))
+    for x, y in zip(a.scans, b.scans):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_clear_mot_counts_at_the_benchmark_radius():
+    truth = [Frame(0.0, np.array([1]), np.array([[0.0, 0.0]]))]
+    track = [Frame(0.0, np.array([5]), np.array([[0.6, 0.0]]))]
+    at_half = clear_mot(truth, track, 0.5)
+    at_benchmark = clear_mot(truth, track, 0.75)
+    assert (at_half["misses"], at_half["false_positives"]) == (1, 1)
+    assert at_half["mota"] == -1.0
+    assert (at_benchmark["misses"], at_benchmark["false_positives"]) == (0, 0)
+    assert at_benchmark["mota"] == 1.0 and at_benchmark["motp"] == 0.6
