@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
 from fastslam_ros.tools import people_legs
 from fastslam_ros.tools.people_eval import Frame, clear_mot
 from fastslam_ros.tools.people_sim import PeopleSimConfig, build_map, simulate_people
@@ -104,3 +105,73 @@ def test_clear_mot_counts_at_the_benchmark_radius():
     assert at_half["mota"] == -1.0
     assert (at_benchmark["misses"], at_benchmark["false_positives"]) == (0, 0)
     assert at_benchmark["mota"] == 1.0 and at_benchmark["motp"] == 0.6
+
+
+# ---------------------------------------------------------------- the leg detector
+
+LEGS = LegModel(leg_radius=0.06, max_leg_width=0.25, max_leg_spacing=0.5,
+                max_person_width=1.0, min_beams=2)
+
+
+def _detect(circles: list[tuple[float, float, float]], beams: int = 720,
+            noise: float = 0.0, seed: int = 0) -> np.ndarray:
+    """(P, 2) sensor-frame people detected by ``detect_legs`` in a scan from the origin of
+    circles (x, y, radius) in open space (every return dynamic)."""
+    angles = -math.pi + (np.arange(beams) + 0.5) * (2.0 * math.pi / beams)
+    ranges = np.full(beams, np.inf)
+    for x, y, r in circles:
+        ranges = np.minimum(ranges, people_legs.circle_ranges(
+            np.zeros(3), angles, np.array([[x, y]]), r))
+    ranges = ranges + np.random.default_rng(seed).normal(0.0, noise, beams)
+    scan = Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
+    returns = scan.returns(0.05, 12.0)
+    segments = segment_scan(scan, returns, 0.3)
+    found = detect_legs(segments, np.ones((1, len(segments.beams)), bool), 0, LEGS)
+    valid = found.valid[0]
+    return np.stack([found.ranges[0, valid] * np.cos(found.bearings[0, valid]),
+                     found.ranges[0, valid] * np.sin(found.bearings[0, valid])], axis=1)
+
+
+def test_two_legs_are_one_person_at_their_midpoint():
+    # legs 0.25 m apart across the line of sight at 3 m: the person is the midpoint (3, 0.5)
+    people = _detect([(3.0, 0.375, 0.06), (3.0, 0.625, 0.06)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [3.0, 0.5], atol=0.015)
+
+
+def test_one_leg_alone_is_a_person_at_the_leg():
+    people = _detect([(-2.0, -2.0, 0.06)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [-2.0, -2.0], atol=0.015)
+
+
+def test_two_people_side_by_side_are_two_people():
+    left = [(4.0, 0.2, 0.06), (4.1, 0.42, 0.06)]     # centre (4.05, 0.31)
+    right = [(4.0, -0.35, 0.06), (3.9, -0.57, 0.06)]   # centre (3.95, -0.46)
+    people = _detect(left + right)
+    assert people.shape == (2, 2)
+    order = np.argsort(-people[:, 1])
+    np.testing.assert_allclose(people[order], [[4.05, 0.31], [3.95, -0.46]], atol=0.02)
+
+
+def test_a_round_body_is_one_person_at_its_centre():
+    people = _detect([(2.5, 1.0, 0.2)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [2.5, 1.0], atol=0.02)
+
+
+def test_leg_positions_are_not_biased_away_from_the_laser():
+    # noisy ranges (0.02 m) at 1-6 m: the mean error along the line of sight is near zero,
+    # where the nearest return plus a person radius is about 0.1 m too far
+    rng = np.random.default_rng(5)
+    along = []
+    for seed in range(40):
+        distance, bearing = rng.uniform(1.0, 6.0), rng.uniform(-math.pi, math.pi)
+        centre = distance * np.array([math.cos(bearing), math.sin(bearing)])
+        forward = np.array([-math.sin(bearing), math.cos(bearing)])
+        legs = [tuple(centre + sign * 0.12 * forward) + (0.06,) for sign in (-1, 1)]
+        people = _detect(legs, beams=1080, noise=0.02, seed=seed)
+        if len(people) == 1:
+            along.append((people[0] - centre) @ (centre / distance))
+    assert len(along) >= 35
+    assert abs(np.mean(along)) < 0.02

@@ -62,7 +62,8 @@ from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, 
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
-from fastslam_ros.people.detection import Scan, detect_people, segment_scan
+from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
+                                           segment_scan)
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               roughen, sample_free_poses,
@@ -167,6 +168,9 @@ class PeopleTracker:
         self.rng = rng if rng is not None else np.random.default_rng(
             None if settings.seed < 0 else settings.seed)
         self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
+        self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
+                                   settings.max_leg_spacing, settings.max_person_width,
+                                   settings.min_detection_beams)
         self.grid: OccupancyMap | None = None
         self.globally_localizing = True
         self.next_key = 0
@@ -285,8 +289,12 @@ class PeopleTracker:
         self.log_weights = self.log_weights + likelihood_field_log_weights(
             distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
         far = (distances >= s.min_obstacle_distance) & self.grid.is_free(ends)
-        detections = detect_people(segments, far, s.min_detection_beams, s.max_person_width,
-                                   s.person_radius)
+        if s.person_model == "legs":
+            detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
+                                     self._leg_model)
+        else:
+            detections = detect_people(segments, far, s.min_detection_beams,
+                                       s.max_person_width, s.person_radius)
         observed, created, unexplained = self._associate(sensors, detections)
         removed_count = self._missed_evidence(sensors, scan, observed, max_range)
         best_before = int(np.argmax(self.log_weights))

@@ -116,6 +116,22 @@ class TrackerSettings:
         2048, "A scan with more beams is dropped unread (time and memory grow with the beams: "
               "2048 beams are about 0.5 GB in the first reading of a global localization).",
         low=1)
+    person_model: str = parameter(
+        "legs", "How a person looks in the scan: 'legs' (clusters of leg size paired into a "
+                "person at the midpoint of the legs' centres, one leg alone still a person) or "
+                "'blob' (one segment per person, its nearest beam end plus person_radius).",
+        choices=("legs", "blob"))
+    leg_radius: float = parameter(
+        0.06, "Radius of a leg at the laser's height (m): a leg's centre is the mean of its "
+              "cluster's beam ends pushed back pi/4 of this along the beam (the mean depth "
+              "of a circle's front arc).", low=0.0)
+    max_leg_width: float = parameter(
+        0.25, "Clusters up to this wide (m, first to last beam end) are one leg; wider ones, "
+              "up to max_person_width, are a person whose legs are seen as one.",
+        low=0.0, low_exclusive=True)
+    max_leg_spacing: float = parameter(
+        0.5, "Two legs whose centres are at most this far apart (m) are one person's.",
+        low=0.0)
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "

@@ -598,8 +598,10 @@ def write_people_bag(path: str | Path, run: PeopleRun, config: PeopleSimConfig,
 
 
 def recommended_params(config: PeopleSimConfig) -> dict[str, float | int | str]:
-    """Tracker parameters matched to the simulated laser and odometry."""
-    return {"max_range": float(config.max_range), "seed": int(config.seed)}
+    """Tracker parameters matched to the simulated laser, odometry and people (the plain
+    world's people are round bodies: the 'blob' person model)."""
+    return {"max_range": float(config.max_range), "seed": int(config.seed),
+            "person_model": "legs" if config.legs else "blob"}
 
 
 # ---------------------------------------------------------------- command line
