@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
 from fastslam_ros.tools import people_legs
 from fastslam_ros.tools.people_eval import Frame, clear_mot
@@ -175,3 +176,49 @@ def test_leg_positions_are_not_biased_away_from_the_laser():
             along.append((people[0] - centre) @ (centre / distance))
     assert len(along) >= 35
     assert abs(np.mean(along)) < 0.02
+
+
+# ---------------------------------------------------------------- dynamic evidence near the map
+
+def _legs_scan(grid: OccupancyMap, pose, legs) -> Scan:
+    """A scan of the grid and the legs (x, y) (radius 0.06), 720 beams, no noise."""
+    angles = -math.pi + (np.arange(720) + 0.5) * (2.0 * math.pi / 720)
+    world = pose[2] + angles
+    ranges = grid.cast(np.broadcast_to(np.asarray(pose[:2], float), (720, 2)), world, 12.0)
+    ranges = np.minimum(ranges, people_legs.circle_ranges(np.asarray(pose, float), world,
+                                                          np.asarray(legs, float), 0.06))
+    return Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
+
+
+def _people_seen(short_margin: float, legs) -> np.ndarray:
+    cells = 160
+    centres = (np.arange(cells) + 0.5) * 0.05
+    x, y = np.meshgrid(centres, centres)
+    occupied = (x < 0.15) | (x > 7.85) | (y < 0.15) | (y > 7.85)
+    grid = OccupancyMap(occupied, ~occupied, 0.05)
+    pose = (4.0, 4.0, 0.0)
+    tracker = PeopleTracker(TrackerSettings(num_particles=5, people_particles=30, seed=1,
+                                            short_margin=short_margin), grid)
+    tracker.reset(np.array(pose), np.diag([1e-8, 1e-8, 1e-10]))
+    for k in range(4):
+        tracker.update(0.1 * k, _legs_scan(grid, pose, legs))
+    return tracker.published_people().means
+
+
+def test_a_person_against_a_wall_is_seen_by_the_expected_range():
+    # legs 0.1 m from the right wall's face (x = 7.85): every return within 0.3 m of the
+    # wall, 0.16-0.22 m short of it along the beams
+    legs = [(7.69, 3.9), (7.69, 4.1)]
+    seen = _people_seen(0.15, legs)
+    assert len(seen) == 1
+    np.testing.assert_allclose(seen[0], [7.69, 4.0], atol=0.05)
+    assert len(_people_seen(0.0, legs)) == 0     # by the distance rule alone: invisible
+    # a person in the open is seen either way, at its place
+    for margin in (0.0, 0.15):
+        seen = _people_seen(margin, [(5.5, 2.4), (5.5, 2.6)])
+        assert len(seen) == 1
+        np.testing.assert_allclose(seen[0], [5.5, 2.5], atol=0.05)
+
+
+def test_the_walls_alone_are_not_people_by_the_expected_range():
+    assert len(_people_seen(0.15, np.zeros((0, 2)))) == 0

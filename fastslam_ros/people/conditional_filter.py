@@ -63,7 +63,7 @@ from fastslam_ros.core.motion import OdometryControl, control_variances, sample_
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
-                                           segment_scan)
+                                           dynamic_beams, segment_scan)
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               roughen, sample_free_poses,
@@ -288,7 +288,8 @@ class PeopleTracker:
         weighed[np.flatnonzero(segments.beams % s.beam_stride == 0)] = True
         self.log_weights = self.log_weights + likelihood_field_log_weights(
             distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
-        far = (distances >= s.min_obstacle_distance) & self.grid.is_free(ends)
+        far = dynamic_beams(self.grid, sensors, ends, distances, angles,
+                            s.min_obstacle_distance, s.short_margin)
         if s.person_model == "legs":
             detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
                                      self._leg_model)

@@ -17,6 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.people.grid import OccupancyMap
+
+SHORT_FLOOR_CELLS = 1.4
+"""A beam ending in the cell next to a mapped obstacle (its centre within this many cells of
+an occupied one: the four side neighbours) is never dynamic by the expected-range rule: at a
+grazing angle along a wall the map's expected range is not meaningful."""
 
 
 @dataclass(frozen=True)
@@ -88,6 +94,33 @@ def segment_scan(scan: Scan, returns: np.ndarray, jump: float) -> Segments:
     angles = np.unwrap(scan.angle_min + scan.angle_increment * beams.astype(float)) \
         if len(beams) else np.zeros(0)
     return Segments(beams, starts.astype(np.intp), scan.ranges[beams].astype(float), angles)
+
+
+def dynamic_beams(grid: OccupancyMap, sensors: np.ndarray, ends: np.ndarray,
+                  distances: np.ndarray, angles: np.ndarray, min_obstacle_distance: float,
+                  short_margin: float) -> np.ndarray:
+    """(M, K) beams that are evidence of something dynamic, per robot particle (sensor poses
+    (M, 3), beam ends (M, K, 2), their likelihood-field ``distances`` (M, K), beam ``angles``
+    (K,)): ending in a free cell, and either at least ``min_obstacle_distance`` from every
+    mapped obstacle or clearly short of the range the map predicts (no occupied cell within
+    ``short_margin`` beyond the end along the beam: ray casting on the grid, for the few
+    beams near an obstacle only), so a person beside a wall or a table is seen."""
+    free = grid.is_free(ends)
+    dynamic = free & (distances >= min_obstacle_distance)
+    if short_margin <= 0.0:
+        return dynamic
+    m, k = np.nonzero(free & ~dynamic
+                      & (distances >= SHORT_FLOOR_CELLS * grid.resolution - 1e-9))
+    if len(m) == 0:
+        return dynamic
+    step = 0.5 * grid.resolution
+    along = np.arange(1, int(np.ceil(short_margin / step)) + 1) * step
+    along[-1] = short_margin
+    heading = sensors[m, 2] + angles[k]
+    direction = np.stack([np.cos(heading), np.sin(heading)], axis=1)
+    points = ends[m, k][:, None, :] + along[None, :, None] * direction[:, None, :]
+    dynamic[m, k] = ~grid.is_occupied(points).any(axis=1)
+    return dynamic
 
 
 @dataclass

@@ -80,6 +80,11 @@ class TrackerSettings:
     min_obstacle_distance: float = parameter(
         0.3, "A beam ending at least this far (m) from every mapped obstacle may hit a person.",
         low=0.0, low_exclusive=True)
+    short_margin: float = parameter(
+        0.15, "A beam ending in free space nearer than min_obstacle_distance to a mapped "
+             "obstacle is still dynamic when the map has no obstacle within this distance (m) "
+             "beyond its end along the beam (the beam ended clearly short of the map's "
+             "expected range: a person beside a wall or a table); 0: off.", low=0.0)
     segment_jump: float = parameter(
         0.3, "Neighbouring beams whose ranges differ by more than this (m) belong to different "
              "objects.", low=0.0, low_exclusive=True)
