@@ -190,7 +190,7 @@ def _legs_scan(grid: OccupancyMap, pose, legs) -> Scan:
     return Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
 
 
-def _people_seen(short_margin: float, legs) -> np.ndarray:
+def _people_seen(short_margin: float, legs, scans: int = 4, **settings) -> np.ndarray:
     cells = 160
     centres = (np.arange(cells) + 0.5) * 0.05
     x, y = np.meshgrid(centres, centres)
@@ -198,9 +198,9 @@ def _people_seen(short_margin: float, legs) -> np.ndarray:
     grid = OccupancyMap(occupied, ~occupied, 0.05)
     pose = (4.0, 4.0, 0.0)
     tracker = PeopleTracker(TrackerSettings(num_particles=5, people_particles=30, seed=1,
-                                            short_margin=short_margin), grid)
+                                            short_margin=short_margin, **settings), grid)
     tracker.reset(np.array(pose), np.diag([1e-8, 1e-8, 1e-10]))
-    for k in range(4):
+    for k in range(scans):
         tracker.update(0.1 * k, _legs_scan(grid, pose, legs))
     return tracker.published_people().means
 
@@ -222,3 +222,14 @@ def test_a_person_against_a_wall_is_seen_by_the_expected_range():
 
 def test_the_walls_alone_are_not_people_by_the_expected_range():
     assert len(_people_seen(0.15, np.zeros((0, 2)))) == 0
+
+
+def test_two_legs_are_published_at_once_one_leg_after_two_detections():
+    pair, leg = [(5.5, 2.4), (5.5, 2.6)], [(5.5, 2.4)]
+    # log-odds: a new person starts at tau+ = 1 < logodds_confirm = 1.5; a pair of legs
+    # starts at logodds_confirm - tau+ first, reaching it with its first detection
+    assert len(_people_seen(0.15, pair, scans=1)) == 1
+    assert len(_people_seen(0.15, pair, scans=1, confirm_pairs=False)) == 0
+    assert len(_people_seen(0.15, leg, scans=1)) == 0
+    assert len(_people_seen(0.15, leg, scans=2)) == 1
+    assert len(_people_seen(0.15, pair, scans=2, confirm_pairs=False)) == 1

@@ -466,6 +466,10 @@ class PeopleTracker:
             self.alive[m, slot] = True
             mean[m, slot] = points[m, j]
             self.logodds[m, slot] = 0.0
+            if s.confirm_pairs and detections.paired is not None:  # two legs: confirmed now
+                self.logodds[m, slot] = np.where(
+                    detections.paired[m, j],
+                    max(0.0, s.logodds_confirm - s.logodds_observed), 0.0)
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
             self.last_seen[m, slot] = self.last_stamp

@@ -131,6 +131,9 @@ class Detections:
     valid: np.ndarray
     ranges: np.ndarray
     bearings: np.ndarray
+    paired: np.ndarray | None = None
+    """(M, S) the detection is two legs seen apart (strong evidence of a person); None: no
+    such distinction (``detect_people``)."""
 
 
 def detect_people(segments: Segments, far: np.ndarray, min_beams: int, max_width: float,
@@ -254,7 +257,7 @@ def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegM
                 + (1.0 - weight_a)[..., None] * centres[second][None])   # (M, P, 2)
     ranges = np.where(valid, np.hypot(position[..., 0], position[..., 1]), 0.0)
     bearings = np.where(valid, np.arctan2(position[..., 1], position[..., 0]), 0.0)
-    return Detections(valid, ranges, wrap_angle(bearings))
+    return Detections(valid, ranges, wrap_angle(bearings), valid & both)
 
 
 def fit_arc(ends: np.ndarray, max_radius: float) -> np.ndarray | None:

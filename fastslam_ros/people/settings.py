@@ -137,6 +137,9 @@ class TrackerSettings:
     max_leg_spacing: float = parameter(
         0.5, "Two legs whose centres are at most this far apart (m) are one person's.",
         low=0.0)
+    confirm_pairs: bool = parameter(
+        True, "A new person seen as two legs apart is confirmed (published) at its first "
+              "detection; one leg alone, or legs seen as one, at logodds_confirm.")
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "
