@@ -62,7 +62,8 @@ from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, 
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
-from fastslam_ros.people.detection import Scan, detect_people, segment_scan
+from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
+                                           dynamic_beams, segment_scan)
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               roughen, sample_free_poses,
@@ -172,6 +173,9 @@ class PeopleTracker:
         self.rng = rng if rng is not None else np.random.default_rng(
             None if settings.seed < 0 else settings.seed)
         self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
+        self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
+                                   settings.max_leg_spacing, settings.max_person_width,
+                                   settings.min_detection_beams)
         self.grid: OccupancyMap | None = None
         self.globally_localizing = True
         self.next_key = 0
@@ -289,9 +293,14 @@ class PeopleTracker:
         weighed[np.flatnonzero(segments.beams % s.beam_stride == 0)] = True
         self.log_weights = self.log_weights + likelihood_field_log_weights(
             distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
-        far = (distances >= s.min_obstacle_distance) & self.grid.is_free(ends)
-        detections = detect_people(segments, far, s.min_detection_beams, s.max_person_width,
-                                   s.person_radius)
+        far = dynamic_beams(self.grid, sensors, ends, distances, angles,
+                            s.min_obstacle_distance, s.short_margin)
+        if s.person_model == "legs":
+            detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
+                                     self._leg_model)
+        else:
+            detections = detect_people(segments, far, s.min_detection_beams,
+                                       s.max_person_width, s.person_radius)
         observed, created, unexplained = self._associate(sensors, detections)
         removed_count = self._missed_evidence(sensors, scan, observed, max_range)
         best_before = int(np.argmax(self.log_weights))
@@ -464,6 +473,10 @@ class PeopleTracker:
             self.alive[m, slot] = True
             mean[m, slot] = points[m, j]
             self.logodds[m, slot] = 0.0
+            if s.confirm_pairs and detections.paired is not None:  # two legs: confirmed now
+                self.logodds[m, slot] = np.where(
+                    detections.paired[m, j],
+                    max(0.0, s.logodds_confirm - s.logodds_observed), 0.0)
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
             self.last_seen[m, slot] = self.last_stamp

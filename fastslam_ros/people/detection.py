@@ -11,11 +11,18 @@ beams and at their nearest range plus ``person_radius`` (the beams hit the perso
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.people.grid import OccupancyMap
+
+SHORT_FLOOR_CELLS = 1.4
+"""A beam ending in the cell next to a mapped obstacle (its centre within this many cells of
+an occupied one: the four side neighbours) is never dynamic by the expected-range rule: at a
+grazing angle along a wall the map's expected range is not meaningful."""
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,33 @@ def segment_scan(scan: Scan, returns: np.ndarray, jump: float) -> Segments:
     return Segments(beams, starts.astype(np.intp), scan.ranges[beams].astype(float), angles)
 
 
+def dynamic_beams(grid: OccupancyMap, sensors: np.ndarray, ends: np.ndarray,
+                  distances: np.ndarray, angles: np.ndarray, min_obstacle_distance: float,
+                  short_margin: float) -> np.ndarray:
+    """(M, K) beams that are evidence of something dynamic, per robot particle (sensor poses
+    (M, 3), beam ends (M, K, 2), their likelihood-field ``distances`` (M, K), beam ``angles``
+    (K,)): ending in a free cell, and either at least ``min_obstacle_distance`` from every
+    mapped obstacle or clearly short of the range the map predicts (no occupied cell within
+    ``short_margin`` beyond the end along the beam: ray casting on the grid, for the few
+    beams near an obstacle only), so a person beside a wall or a table is seen."""
+    free = grid.is_free(ends)
+    dynamic = free & (distances >= min_obstacle_distance)
+    if short_margin <= 0.0:
+        return dynamic
+    m, k = np.nonzero(free & ~dynamic
+                      & (distances >= SHORT_FLOOR_CELLS * grid.resolution - 1e-9))
+    if len(m) == 0:
+        return dynamic
+    step = 0.5 * grid.resolution
+    along = np.arange(1, int(np.ceil(short_margin / step)) + 1) * step
+    along[-1] = short_margin
+    heading = sensors[m, 2] + angles[k]
+    direction = np.stack([np.cos(heading), np.sin(heading)], axis=1)
+    points = ends[m, k][:, None, :] + along[None, :, None] * direction[:, None, :]
+    dynamic[m, k] = ~grid.is_occupied(points).any(axis=1)
+    return dynamic
+
+
 @dataclass
 class Detections:
     """Per robot particle and candidate segment: ``valid`` (M, S), and the detection's range
@@ -97,6 +131,9 @@ class Detections:
     valid: np.ndarray
     ranges: np.ndarray
     bearings: np.ndarray
+    paired: np.ndarray | None = None
+    """(M, S) the detection is two legs seen apart (strong evidence of a person); None: no
+    such distinction (``detect_people``)."""
 
 
 def detect_people(segments: Segments, far: np.ndarray, min_beams: int, max_width: float,
@@ -123,3 +160,143 @@ def detect_people(segments: Segments, far: np.ndarray, min_beams: int, max_width
         bearings = np.where(valid, wrap_angle(np.where(valid, 0.5 * (first + last), 0.0)), 0.0)
     ranges = np.where(valid, nearest + person_radius, 0.0)
     return Detections(valid, ranges, bearings)
+
+
+ARC_DEPTH = math.pi / 4.0
+"""The mean of a circle's front arc, hit at an even spacing across the line of sight, lies
+this many radii in front of its centre (the mean of sqrt(R^2 - u^2) over u in [-R, R])."""
+ARC_FIT_BEAMS = 3
+"""A cluster wider than a leg with at least this many beams is fitted with a circle."""
+ARC_FIT_TOLERANCE = 0.05
+"""A fitted circle passes within this distance (m) of every beam end of its cluster."""
+
+
+@dataclass(frozen=True)
+class LegModel:
+    """How people look at knee height: legs of ``leg_radius`` (m) whose clusters are at most
+    ``max_leg_width`` wide (m; wider, up to ``max_person_width``, is two legs seen as one),
+    paired into a person within ``max_leg_spacing`` (m, centre to centre); a person returns
+    at least ``min_beams`` beams."""
+
+    leg_radius: float
+    max_leg_width: float
+    max_leg_spacing: float
+    max_person_width: float
+    min_beams: int
+
+
+def leg_clusters(segments: Segments, dynamic: np.ndarray) -> np.ndarray:
+    """Offsets (C,) into ``segments.beams`` where clusters start: at each segment's start and
+    wherever the reference mask ``dynamic`` (K,) changes (a leg beside a wall is cut off it)."""
+    count = len(segments.beams)
+    if count == 0:
+        return np.zeros(0, dtype=np.intp)
+    start = np.zeros(count, dtype=bool)
+    start[segments.starts] = True
+    start[1:] |= dynamic[1:] != dynamic[:-1]
+    start[0] = True
+    return np.flatnonzero(start)
+
+
+def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegModel
+                ) -> Detections:
+    """People per robot particle from leg clusters (Arras et al.'s leg model, simplified).
+
+    Clusters are cut in the sensor frame (segments, cut again where the ``reference``
+    particle's dynamic mask changes); a cluster is dynamic for particle m when at least half
+    of its beams end away from the map (``far`` (M, K)). A cluster's centre is the mean of its
+    beam ends pushed back by ARC_DEPTH ``leg_radius`` along its bearing (the beams hit the
+    leg's front); a wider one's is the centre of a circle fitted to them (``fit_arc``), if
+    one fits.
+    Clusters up to ``max_leg_width`` wide are legs; the closest legs within
+    ``max_leg_spacing`` of each other are paired (once, in the sensor frame, among the
+    reference particle's dynamic clusters). A person is the midpoint of its two legs, or the
+    one leg a particle sees (the other occluded); a cluster wider than a leg and up to
+    ``max_person_width`` is a person whose legs are seen as one.
+    """
+    particles = far.shape[0]
+    empty = np.zeros((particles, 0))
+    if len(segments.beams) == 0:
+        return Detections(empty.astype(bool), empty, empty)
+    starts = leg_clusters(segments, far[reference])
+    counts = np.diff(np.append(starts, len(segments.beams)))
+    candidate = far[reference][starts]
+    if not candidate.any():
+        return Detections(empty.astype(bool), empty, empty)
+    x = segments.ranges * np.cos(segments.angles)
+    y = segments.ranges * np.sin(segments.angles)
+    points = np.stack([np.add.reduceat(x, starts), np.add.reduceat(y, starts)], axis=1)
+    points /= counts[:, None]
+    ends = np.stack([x, y], axis=1)
+    last = np.append(starts[1:], len(segments.beams)) - 1
+    width = np.linalg.norm(ends[last] - ends[starts], axis=1)
+    norm = np.maximum(np.linalg.norm(points, axis=1), 1e-9)
+    centres = points * ((norm + ARC_DEPTH * model.leg_radius) / norm)[:, None]
+    keep = np.flatnonzero(candidate & (width <= model.max_person_width))
+    for k in keep[(width[keep] > model.max_leg_width) & (counts[keep] >= ARC_FIT_BEAMS)]:
+        fitted = fit_arc(ends[starts[k]:last[k] + 1], 0.5 * model.max_person_width)
+        if fitted is not None:
+            centres[k] = fitted
+    if len(keep) == 0:
+        return Detections(empty.astype(bool), empty, empty)
+    far_count = np.add.reduceat(far.astype(np.int32), starts, axis=1)[:, keep]   # (M, C)
+    seen = 2 * far_count >= counts[keep]
+    beams = np.where(seen, counts[keep], 0)
+    centres, width = centres[keep], width[keep]
+    people = _pair_legs(centres, width, model)                    # (P, 2): -1 for no second
+    first, second = people[:, 0], people[:, 1]
+    has_second = second >= 0
+    second = np.where(has_second, second, first)
+    seen_a = seen[:, first]
+    seen_b = seen[:, second] & has_second
+    valid = (seen_a | seen_b) & (beams[:, first] + np.where(has_second, beams[:, second], 0)
+                                 >= model.min_beams)
+    both = seen_a & seen_b
+    weight_a = np.where(both, 0.5, seen_a.astype(float))
+    position = (weight_a[..., None] * centres[first][None]
+                + (1.0 - weight_a)[..., None] * centres[second][None])   # (M, P, 2)
+    ranges = np.where(valid, np.hypot(position[..., 0], position[..., 1]), 0.0)
+    bearings = np.where(valid, np.arctan2(position[..., 1], position[..., 0]), 0.0)
+    return Detections(valid, ranges, wrap_angle(bearings), valid & both)
+
+
+def fit_arc(ends: np.ndarray, max_radius: float) -> np.ndarray | None:
+    """Centre (2,) of the circle through beam ends (K, 2) (Kasa's algebraic fit), when it is
+    a convex arc facing the sensor (centre behind the ends' mean), of radius at most
+    ``max_radius``, within ARC_FIT_TOLERANCE of every end; None otherwise (a wide cluster that
+    is not one round body: two legs seen as one, a flat object)."""
+    design = np.column_stack([ends, np.ones(len(ends))])
+    target = -(ends ** 2).sum(axis=1)
+    (d, e, f), *_ = np.linalg.lstsq(design, target, rcond=None)
+    centre = np.array([-0.5 * d, -0.5 * e])
+    radius_sq = centre @ centre - f
+    if not radius_sq > 0.0:
+        return None
+    radius = float(np.sqrt(radius_sq))
+    mean = ends.mean(axis=0)
+    residual = np.abs(np.linalg.norm(ends - centre, axis=1) - radius).max()
+    if radius > max_radius or residual > ARC_FIT_TOLERANCE or centre @ mean <= mean @ mean:
+        return None
+    return centre
+
+
+def _pair_legs(centres: np.ndarray, width: np.ndarray, model: LegModel) -> np.ndarray:
+    """(P, 2) cluster indices of the people: the closest pair of legs (clusters up to
+    ``max_leg_width``) within ``max_leg_spacing`` first, then the next; a leg left alone and
+    a wider cluster are a person by themselves (second index -1)."""
+    count = len(centres)
+    is_leg = width <= model.max_leg_width
+    gaps = np.linalg.norm(centres[:, None] - centres[None], axis=2)
+    gaps[~is_leg] = np.inf
+    gaps[:, ~is_leg] = np.inf
+    gaps[np.arange(count), np.arange(count)] = np.inf
+    people, used = [], np.zeros(count, dtype=bool)
+    for flat in np.argsort(gaps, axis=None):
+        a, b = divmod(int(flat), count)
+        if gaps[a, b] > model.max_leg_spacing:
+            break
+        if a < b and not used[a] and not used[b]:
+            people.append((a, b))
+            used[a] = used[b] = True
+    people.extend((k, -1) for k in np.flatnonzero(~used))
+    return np.array(people, dtype=np.intp).reshape(-1, 2)

@@ -80,6 +80,11 @@ class TrackerSettings:
     min_obstacle_distance: float = parameter(
         0.3, "A beam ending at least this far (m) from every mapped obstacle may hit a person.",
         low=0.0, low_exclusive=True)
+    short_margin: float = parameter(
+        0.15, "A beam ending in free space nearer than min_obstacle_distance to a mapped "
+             "obstacle is still dynamic when the map has no obstacle within this distance (m) "
+             "beyond its end along the beam (the beam ended clearly short of the map's "
+             "expected range: a person beside a wall or a table); 0: off.", low=0.0)
     segment_jump: float = parameter(
         0.3, "Neighbouring beams whose ranges differ by more than this (m) belong to different "
              "objects.", low=0.0, low_exclusive=True)
@@ -115,6 +120,25 @@ class TrackerSettings:
     max_beams_per_scan: int = parameter(
         2048, "A scan with more beams is dropped unread (a tracked reading's time and memory grow "
               "with the beams).", low=1)
+    person_model: str = parameter(
+        "legs", "How a person looks in the scan: 'legs' (clusters of leg size paired into a "
+                "person at the midpoint of the legs' centres, one leg alone still a person) or "
+                "'blob' (one segment per person, its nearest beam end plus person_radius).",
+        choices=("legs", "blob"))
+    leg_radius: float = parameter(
+        0.06, "Radius of a leg at the laser's height (m): a leg's centre is the mean of its "
+              "cluster's beam ends pushed back pi/4 of this along the beam (the mean depth "
+              "of a circle's front arc).", low=0.0)
+    max_leg_width: float = parameter(
+        0.25, "Clusters up to this wide (m, first to last beam end) are one leg; wider ones, "
+              "up to max_person_width, are a person whose legs are seen as one.",
+        low=0.0, low_exclusive=True)
+    max_leg_spacing: float = parameter(
+        0.5, "Two legs whose centres are at most this far apart (m) are one person's.",
+        low=0.0)
+    confirm_pairs: bool = parameter(
+        True, "A new person seen as two legs apart is confirmed (published) at its first "
+              "detection; one leg alone, or legs seen as one, at logodds_confirm.")
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "

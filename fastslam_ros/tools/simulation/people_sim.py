@@ -135,6 +135,9 @@ class PeopleSimConfig:
     """Turn rate error of the odometry (rad/s per rad/s)."""
     initial_pose: bool = True
     """Write ``/initialpose`` (the true start pose); without it the tracker localizes globally."""
+    legs: bool = False
+    """The real-laser world (``people_legs``): people as two swinging legs, tables and chairs
+    on thin legs in the map, people walking close to walls and furniture."""
 
     def validate(self) -> "PeopleSimConfig":
         for name in ("duration", "scan_rate", "odometry_rate", "max_range", "speed",
@@ -226,11 +229,15 @@ class Crowd:
     """
 
     def __init__(self, count: int, rng: np.random.Generator,
-                 grid: OccupancyMap | None = None) -> None:
+                 grid: OccupancyMap | None = None, walkable: np.ndarray | None = None,
+                 lateral: float = 0.3) -> None:
         self.rng = rng
         self.grid = grid if grid is not None else build_map()
-        self.walkable = self.grid.free & (self.grid.distance >= WALL_CLEARANCE)
+        self.walkable = (walkable if walkable is not None
+                         else self.grid.free & (self.grid.distance >= WALL_CLEARANCE))
         """Cells a person's centre may be in."""
+        self.lateral = lateral
+        """People walk up to this far (m) to either side of the graph's edges."""
         self.graph = _graph()
         self.people: list[Person] = []
         self.next_id = 0
@@ -267,7 +274,7 @@ class Crowd:
     def _spawn(self, node: str, position: np.ndarray) -> None:
         rng = self.rng
         person = Person(self.next_id, position, node, speed=float(rng.uniform(0.5, 1.1)),
-                        offset=float(rng.uniform(-0.3, 0.3)),
+                        offset=float(rng.uniform(-self.lateral, self.lateral)),
                         pause=float(rng.uniform(0.0, 3.0)),
                         patience=float(rng.uniform(1.5, 2.5)))
         self.next_id += 1
@@ -429,7 +436,14 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
     rng_world = np.random.default_rng([config.seed, 0])
     rng_odometry = np.random.default_rng([config.seed, 1])
     rng_laser = np.random.default_rng([config.seed, 2])
-    crowd = Crowd(config.people, rng_world, grid)
+    world = None
+    if config.legs:
+        from fastslam_ros.tools.simulation.people_legs import LATERAL, LegWorld
+        world = LegWorld(grid)
+        grid = world.map
+        crowd = Crowd(config.people, rng_world, grid, world.walkable, LATERAL)
+    else:
+        crowd = Crowd(config.people, rng_world, grid)
     dt = 1.0 / config.odometry_rate
     per_scan = int(round(config.odometry_rate / config.scan_rate))
     route = np.array(ROUTE)
@@ -449,7 +463,12 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
         if step % per_scan == 0:
             positions = (np.array([p.position for p in crowd.people])
                          if crowd.people else np.zeros((0, 2)))
-            ranges = cast_scan(grid, pose, angles, positions, config.max_range)
+            if world is None:
+                ranges = cast_scan(grid, pose, angles, positions, config.max_range)
+            else:
+                ranges, _ = world.cast(pose, angles, [p.ident for p in crowd.people], positions,
+                                       np.array([p.velocity for p in crowd.people]).reshape(-1, 2),
+                                       1.0 / config.scan_rate, config.max_range)
             noisy = ranges + rng_laser.normal(0.0, config.range_noise, len(ranges))
             scans.append(np.where(np.isfinite(ranges), np.maximum(noisy, 0.0), np.inf))
             scan_stamps.append(config.start_time + t)
@@ -581,8 +600,10 @@ def write_people_bag(path: str | Path, run: PeopleRun, config: PeopleSimConfig,
 
 
 def recommended_params(config: PeopleSimConfig) -> dict[str, float | int | str]:
-    """Tracker parameters matched to the simulated laser and odometry."""
-    return {"max_range": float(config.max_range), "seed": int(config.seed)}
+    """Tracker parameters matched to the simulated laser, odometry and people (the plain
+    world's people are round bodies: the 'blob' person model)."""
+    return {"max_range": float(config.max_range), "seed": int(config.seed),
+            "person_model": "legs" if config.legs else "blob"}
 
 
 # ---------------------------------------------------------------- command line
@@ -607,11 +628,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--people", type=int, default=defaults.people, help="number of people")
     parser.add_argument("--no-initial-pose", action="store_true",
                         help="write no /initialpose: the tracker must localize globally")
+    parser.add_argument("--legs", action="store_true",
+                        help="the real-laser world: people as two swinging legs, tables and "
+                             "chairs on thin legs, people close to walls and furniture")
     args = parser.parse_args(argv)
     params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
     try:
         config = PeopleSimConfig(seed=args.seed, duration=args.duration, people=args.people,
-                                 initial_pose=not args.no_initial_pose).validate()
+                                 initial_pose=not args.no_initial_pose,
+                                 legs=args.legs).validate()
         cli.output_folder(args.out, "--out")
         cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any

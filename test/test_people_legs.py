@@ -1,0 +1,235 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
+"""The real-laser world of the people simulator (two legs per person, furniture on thin legs)
+against closed forms and the world's own rules, and the benchmark count of the scorer."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
+from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
+from fastslam_ros.tools.simulation import people_legs
+from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
+from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, build_map, simulate_people
+
+
+def test_circle_ranges_match_the_closed_form():
+    sensor = np.array([1.0, 2.0, 0.0])
+    centre = np.array([[4.0, 2.0]])
+    # straight at it: the near face; at bearing b: d cos b - sqrt(r^2 - d^2 sin^2 b)
+    bearings = np.array([0.0, 0.01, 0.025, -0.03])
+    d, r = 3.0, 0.1
+    expected = d * np.cos(bearings) - np.sqrt(r ** 2 - (d * np.sin(bearings)) ** 2)
+    np.testing.assert_allclose(people_legs.circle_ranges(sensor, bearings, centre, r), expected,
+                               atol=1e-12)
+    # beside it, behind the sensor, or no circle: nothing
+    misses = people_legs.circle_ranges(sensor, np.array([0.04, math.pi]), centre, r)
+    assert np.all(np.isinf(misses))
+    assert np.all(np.isinf(people_legs.circle_ranges(sensor, bearings, np.zeros((0, 2)), r)))
+
+
+def test_legs_are_hip_width_apart_standing_and_swing_in_antiphase_walking():
+    gait = people_legs.Gait()
+    position = np.array([[2.0, 3.0]])
+    legs = gait.legs([7], position, np.zeros((1, 2)), 0.1)
+    assert np.linalg.norm(legs[0] - legs[1]) == pytest.approx(people_legs.HIP_WIDTH)
+    np.testing.assert_allclose(legs.mean(axis=0), position[0])
+    gaps, along = [], []
+    for _ in range(50):   # walking along +x at 1 m/s
+        legs = gait.legs([7], position, np.array([[1.0, 0.0]]), 0.1)
+        np.testing.assert_allclose(legs.mean(axis=0), position[0], atol=1e-12)
+        gaps.append(np.linalg.norm(legs[0] - legs[1]))
+        along.append(legs[0, 0] - legs[1, 0])
+    widest = math.hypot(people_legs.HIP_WIDTH, 2.0 * people_legs.SWING)
+    assert min(gaps) >= people_legs.HIP_WIDTH - 1e-12 and max(gaps) <= widest + 1e-12
+    assert max(gaps) > 0.95 * widest          # a full stride is reached
+    assert min(along) < -0.25 and max(along) > 0.25   # each leg leads in turn
+    # the across offset is perpendicular to the heading (+y for walking along +x)
+    np.testing.assert_allclose(abs(legs[0, 1] - legs[1, 1]), people_legs.HIP_WIDTH, atol=1e-12)
+
+
+def test_leg_world_maps_every_furniture_leg_and_keeps_people_out_of_footprints():
+    world = people_legs.LegWorld(build_map())
+    assert world.map.is_occupied(world.furniture).all()
+    assert len(world.furniture) == 4 * len(people_legs.furniture_footprints())
+    for x0, x1, y0, y1 in people_legs.furniture_footprints():
+        inside = np.array([[0.5 * (x0 + x1), 0.5 * (y0 + y1)]])
+        assert world.map.is_free(inside).all()       # the tabletop is above the laser
+        rows, cols, _ = world.map.cells(inside)
+        assert not world.walkable[rows, cols].any()  # but no one stands in it
+
+
+def test_a_person_broadside_returns_two_leg_arcs():
+    world = people_legs.LegWorld(build_map())
+    sensor = np.array([5.0, 10.0, 0.0])
+    angles = np.radians(np.arange(-30.0, 30.0, 0.25))
+    # a person 2 m ahead walking across the beams (+y), standing: legs at y +-0.1
+    ranges, legs = world.cast(sensor, angles, [0], np.array([[7.0, 10.0]]), np.zeros((1, 2)),
+                              0.1, 12.0)
+    near = ranges < 3.0
+    runs = np.flatnonzero(np.diff(near.astype(int)) == 1)
+    assert len(runs) == 2                              # two separate arcs
+    assert np.all(ranges[near] >= 2.0 - people_legs.LEG_RADIUS - 1e-9)
+    assert np.all(ranges[near] <= 2.0 + 1e-9)
+    np.testing.assert_allclose(np.sort(legs[:, 0]), [7.0, 7.0])
+
+
+def test_legs_world_people_walk_close_to_walls_and_never_into_furniture():
+    config = PeopleSimConfig(seed=2, duration=40.0, people=5, legs=True)
+    run = simulate_people(config)
+    world = people_legs.LegWorld(build_map())
+    positions = np.concatenate([p for _, p in run.people])
+    rows, cols, inside = world.map.cells(positions)
+    assert inside.all() and world.walkable[rows, cols].all()
+    # closer than the 0.3 m of the plain world's clearance to an obstacle, at times
+    assert (world.map.distance_at(positions) < 0.45).mean() > 0.02
+    # the map handed over holds the furniture legs
+    assert run.grid.is_occupied(world.furniture).all()
+
+
+def test_plain_world_is_unchanged_by_the_legs_option():
+    a = simulate_people(PeopleSimConfig(seed=3, duration=3.0))
+    b = simulate_people(PeopleSimConfig(seed=3, duration=3.0, legs=False))
+    for x, y in zip(a.scans, b.scans):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_clear_mot_counts_at_the_benchmark_radius():
+    truth = [Frame(0.0, np.array([1]), np.array([[0.0, 0.0]]))]
+    track = [Frame(0.0, np.array([5]), np.array([[0.6, 0.0]]))]
+    at_half = clear_mot(truth, track, 0.5)
+    at_benchmark = clear_mot(truth, track, 0.75)
+    assert (at_half["misses"], at_half["false_positives"]) == (1, 1)
+    assert at_half["mota"] == -1.0
+    assert (at_benchmark["misses"], at_benchmark["false_positives"]) == (0, 0)
+    assert at_benchmark["mota"] == 1.0 and at_benchmark["motp"] == 0.6
+
+
+# ---------------------------------------------------------------- the leg detector
+
+LEGS = LegModel(leg_radius=0.06, max_leg_width=0.25, max_leg_spacing=0.5,
+                max_person_width=1.0, min_beams=2)
+
+
+def _detect(circles: list[tuple[float, float, float]], beams: int = 720,
+            noise: float = 0.0, seed: int = 0) -> np.ndarray:
+    """(P, 2) sensor-frame people detected by ``detect_legs`` in a scan from the origin of
+    circles (x, y, radius) in open space (every return dynamic)."""
+    angles = -math.pi + (np.arange(beams) + 0.5) * (2.0 * math.pi / beams)
+    ranges = np.full(beams, np.inf)
+    for x, y, r in circles:
+        ranges = np.minimum(ranges, people_legs.circle_ranges(
+            np.zeros(3), angles, np.array([[x, y]]), r))
+    ranges = ranges + np.random.default_rng(seed).normal(0.0, noise, beams)
+    scan = Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
+    returns = scan.returns(0.05, 12.0)
+    segments = segment_scan(scan, returns, 0.3)
+    found = detect_legs(segments, np.ones((1, len(segments.beams)), bool), 0, LEGS)
+    valid = found.valid[0]
+    return np.stack([found.ranges[0, valid] * np.cos(found.bearings[0, valid]),
+                     found.ranges[0, valid] * np.sin(found.bearings[0, valid])], axis=1)
+
+
+def test_two_legs_are_one_person_at_their_midpoint():
+    # legs 0.25 m apart across the line of sight at 3 m: the person is the midpoint (3, 0.5)
+    people = _detect([(3.0, 0.375, 0.06), (3.0, 0.625, 0.06)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [3.0, 0.5], atol=0.015)
+
+
+def test_one_leg_alone_is_a_person_at_the_leg():
+    people = _detect([(-2.0, -2.0, 0.06)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [-2.0, -2.0], atol=0.015)
+
+
+def test_two_people_side_by_side_are_two_people():
+    left = [(4.0, 0.2, 0.06), (4.1, 0.42, 0.06)]     # centre (4.05, 0.31)
+    right = [(4.0, -0.35, 0.06), (3.9, -0.57, 0.06)]   # centre (3.95, -0.46)
+    people = _detect(left + right)
+    assert people.shape == (2, 2)
+    order = np.argsort(-people[:, 1])
+    np.testing.assert_allclose(people[order], [[4.05, 0.31], [3.95, -0.46]], atol=0.02)
+
+
+def test_a_round_body_is_one_person_at_its_centre():
+    people = _detect([(2.5, 1.0, 0.2)])
+    assert people.shape == (1, 2)
+    np.testing.assert_allclose(people[0], [2.5, 1.0], atol=0.02)
+
+
+def test_leg_positions_are_not_biased_away_from_the_laser():
+    # noisy ranges (0.02 m) at 1-6 m: the mean error along the line of sight is near zero,
+    # where the nearest return plus a person radius is about 0.1 m too far
+    rng = np.random.default_rng(5)
+    along = []
+    for seed in range(40):
+        distance, bearing = rng.uniform(1.0, 6.0), rng.uniform(-math.pi, math.pi)
+        centre = distance * np.array([math.cos(bearing), math.sin(bearing)])
+        forward = np.array([-math.sin(bearing), math.cos(bearing)])
+        legs = [tuple(centre + sign * 0.12 * forward) + (0.06,) for sign in (-1, 1)]
+        people = _detect(legs, beams=1080, noise=0.02, seed=seed)
+        if len(people) == 1:
+            along.append((people[0] - centre) @ (centre / distance))
+    assert len(along) >= 35
+    assert abs(np.mean(along)) < 0.02
+
+
+# ---------------------------------------------------------------- dynamic evidence near the map
+
+def _legs_scan(grid: OccupancyMap, pose, legs) -> Scan:
+    """A scan of the grid and the legs (x, y) (radius 0.06), 720 beams, no noise."""
+    angles = -math.pi + (np.arange(720) + 0.5) * (2.0 * math.pi / 720)
+    world = pose[2] + angles
+    ranges = grid.cast(np.broadcast_to(np.asarray(pose[:2], float), (720, 2)), world, 12.0)
+    ranges = np.minimum(ranges, people_legs.circle_ranges(np.asarray(pose, float), world,
+                                                          np.asarray(legs, float), 0.06))
+    return Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
+
+
+def _people_seen(short_margin: float, legs, scans: int = 4, **settings) -> np.ndarray:
+    cells = 160
+    centres = (np.arange(cells) + 0.5) * 0.05
+    x, y = np.meshgrid(centres, centres)
+    occupied = (x < 0.15) | (x > 7.85) | (y < 0.15) | (y > 7.85)
+    grid = OccupancyMap(occupied, ~occupied, 0.05)
+    pose = (4.0, 4.0, 0.0)
+    tracker = PeopleTracker(TrackerSettings(num_particles=5, people_particles=30, seed=1,
+                                            short_margin=short_margin, **settings), grid)
+    tracker.reset(np.array(pose), np.diag([1e-8, 1e-8, 1e-10]))
+    for k in range(scans):
+        tracker.update(0.1 * k, _legs_scan(grid, pose, legs))
+    return tracker.published_people().means
+
+
+def test_a_person_against_a_wall_is_seen_by_the_expected_range():
+    # legs 0.1 m from the right wall's face (x = 7.85): every return within 0.3 m of the
+    # wall, 0.16-0.22 m short of it along the beams
+    legs = [(7.69, 3.9), (7.69, 4.1)]
+    seen = _people_seen(0.15, legs)
+    assert len(seen) == 1
+    np.testing.assert_allclose(seen[0], [7.69, 4.0], atol=0.05)
+    assert len(_people_seen(0.0, legs)) == 0     # by the distance rule alone: invisible
+    # a person in the open is seen either way, at its place
+    for margin in (0.0, 0.15):
+        seen = _people_seen(margin, [(5.5, 2.4), (5.5, 2.6)])
+        assert len(seen) == 1
+        np.testing.assert_allclose(seen[0], [5.5, 2.5], atol=0.05)
+
+
+def test_the_walls_alone_are_not_people_by_the_expected_range():
+    assert len(_people_seen(0.15, np.zeros((0, 2)))) == 0
+
+
+def test_two_legs_are_published_at_once_one_leg_after_two_detections():
+    pair, leg = [(5.5, 2.4), (5.5, 2.6)], [(5.5, 2.4)]
+    # log-odds: a new person starts at tau+ = 1 < logodds_confirm = 1.5; a pair of legs
+    # starts at logodds_confirm - tau+ first, reaching it with its first detection
+    assert len(_people_seen(0.15, pair, scans=1)) == 1
+    assert len(_people_seen(0.15, pair, scans=1, confirm_pairs=False)) == 0
+    assert len(_people_seen(0.15, leg, scans=1)) == 0
+    assert len(_people_seen(0.15, leg, scans=2)) == 1
+    assert len(_people_seen(0.15, pair, scans=2, confirm_pairs=False)) == 1
