@@ -77,7 +77,8 @@ class ReferenceFastSLAM:
         self.outliers = 0
         self.explained = 0
         p = config.map_min_existence
-        self.confirmed = (math.inf if p >= 1.0 else config.logodds_remove if p <= 0.0
+        self.confirmed = (math.inf if p >= 1.0 or not config.persistent_landmarks
+                          else config.logodds_remove if p <= 0.0
                           else max(math.log(p / (1.0 - p)), config.logodds_remove))
         self.confirmed_missed = (config.logodds_missed * (LOGODDS_MAX - self.confirmed) / 20.0
                                  if math.isfinite(self.confirmed) else 0.0)
@@ -261,7 +262,8 @@ class ReferenceFastSLAM:
                     z_hat, _, _ = measure(self.poses[m], lm["mean"], self.offset)
                     if (c.min_range <= z_hat[0] <= c.max_range
                             and abs(z_hat[1]) <= 0.5 * c.field_of_view):
-                        if any((z[0] - z_hat[0]) ** 2 / self.noise(z[0])[0, 0]
+                        if c.persistent_landmarks and any(
+                               (z[0] - z_hat[0]) ** 2 / self.noise(z[0])[0, 0]
                                + wrap(z[1] - z_hat[1]) ** 2 / c.sigma_bearing ** 2 <= 100.0
                                for z in rejected):
                             self.explained += 1

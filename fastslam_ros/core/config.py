@@ -14,7 +14,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .existence import confirmation_logodds, confirmed_evidence, detection_evidence
+from .existence import (EXPLAINED_GATE, confirmation_logodds, confirmed_evidence,
+                        detection_evidence)
 from .params import ParameterValueError, check_fields, parameter
 
 ALGORITHMS = ("fastslam1", "fastslam2")
@@ -145,10 +146,14 @@ class FastSLAMConfig:
         "one); they saturate at 10.", low=0.0, low_exclusive=True, high=LOGODDS_MAX)
     logodds_missed: float = parameter(
         -0.5, "tau-: log-odds added when a landmark inside the perceptual range is not "
-        "observed and no observation the association rejected lies within 10 sensor standard "
-        "deviations of it; a confirmed landmark (map_min_existence) loses tau- (10 - l_c) / 20 "
-        "and goes back to the saturation when observed, so only about 20 / |tau-| misses in a "
-        "row make it tentative again.", low=-100.0, high=0.0)
+        "observed (see persistent_landmarks).", low=-100.0, high=0.0)
+    persistent_landmarks: bool = parameter(
+        False, "A landmark in view is not missed when an observation the association rejected "
+        "lies within 10 sensor standard deviations of it, and a confirmed one "
+        "(map_min_existence) loses tau- (10 - l_c) / 20 per miss and goes back to the "
+        "saturation when observed, so only about 20 / |tau-| misses in a row make it tentative "
+        "again. Keeps the map of a few landmarks seen constantly (MRCLAM, a room); costs a "
+        "cluttered outdoor map (Victoria Park) its accuracy.")
     detection_probability: float = parameter(
         0.0, "P_D: probability that the sensor detects a landmark inside the perceptual range "
         "in one reading (fastslam-calibrate measures it). > 0: the existence log-odds follow "
@@ -242,9 +247,16 @@ class FastSLAMConfig:
     def confirmation(self) -> tuple[float, float]:
         """(l_c, tau- of a confirmed landmark): the log-odds from which a landmark is confirmed
         (``map_min_existence``) and what a miss costs it (``existence.confirmed_evidence``)."""
+        if not self.persistent_landmarks:
+            return math.inf, 0.0  # no landmark is treated as confirmed
         confirmed = confirmation_logodds(self.map_min_existence, self.logodds_remove)
         return confirmed, confirmed_evidence(self.existence_evidence()[1], confirmed,
                                              LOGODDS_MAX)
+
+    def explained_gate(self) -> float:
+        """Squared Mahalanobis distance within which a rejected observation explains a missed
+        landmark (``existence.EXPLAINED_GATE``); -1 (never) without ``persistent_landmarks``."""
+        return EXPLAINED_GATE if self.persistent_landmarks else -1.0
 
     def replace(self, **changes) -> "FastSLAMConfig":
         """A validated copy with some fields changed."""

@@ -288,7 +288,7 @@ class NumpyReading:
             along = t.dx * np.cos(t.heading) + t.dy * np.sin(t.heading)
             inside &= along >= t.range * np.cos(0.5 * config.field_of_view)
         obs, particle = rejected.nonzero()
-        if len(obs):
+        if len(obs) and config.persistent_landmarks:
             # (rejected pair, landmark): the observation explains the landmark's absence.
             variance_r, variance_b = self._noise(ranges[obs])
             variance_r = np.broadcast_to(variance_r, obs.shape)

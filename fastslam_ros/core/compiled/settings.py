@@ -8,8 +8,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..existence import EXPLAINED_GATE
-
 
 MODE_CODES = {"known": 0, "ml": 1, "monte_carlo": 2, "two_gate": 3}
 
@@ -79,7 +77,7 @@ def reading_settings(config, offset, log_p0: float, log_outlier: float,
     floats[[F_LOGODDS_OBSERVED, F_LOGODDS_MISSED, F_LOGODDS_REMOVE, F_LOGODDS_MAX]] = (
         *config.existence_evidence(), config.logodds_remove, logodds_max)
     floats[[F_CONFIRMED, F_CONFIRMED_MISSED]] = config.confirmation()
-    floats[F_EXPLAINED_GATE] = EXPLAINED_GATE
+    floats[F_EXPLAINED_GATE] = config.explained_gate()
     floats[F_ALPHAS:F_ALPHAS + 4] = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
     floats[F_MIN_TRANSLATION_SIGMA] = config.min_translation_sigma
     floats[F_MIN_ROTATION_SIGMA] = config.min_rotation_sigma

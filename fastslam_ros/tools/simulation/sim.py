@@ -291,6 +291,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params["min_range"] = config.min_range
     if config.sensor_x != 0.0:
         params["sensor_x"] = config.sensor_x
+    if config.scenario == "room":  # a few landmarks seen constantly (docs/benchmarks.md)
+        params["persistent_landmarks"] = True
     if config.clutter_rate > 0.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
     elif config.detection_probability < 1.0:
