@@ -436,3 +436,16 @@ def test_bench_checks_its_json_output_before_measuring(tmp_path, capsys):
     assert "--overwrite" in capsys.readouterr().err and existing.read_text() == "{}"
     assert bench.main(tiny + ["--json", str(existing), "--overwrite"]) == 0
     assert "sweep" in json.loads(existing.read_text())
+
+
+def test_benchmark_makes_its_own_workspace_and_writes_its_tables(tmp_path, dataset_dir, capsys):
+    """A first run into a new --out-dir: the converted bags and the runs go into folders of its
+    own (the one rule of outputs makes no folder for a tool that did not say so)."""
+    world = dataset_dir("FreiburgRobotMapping")
+    out = tmp_path / "bench"
+    assert benchmark.main(["--datasets", str(world), "--quick", "--seeds", "1",
+                           "--algorithms", "fastslam2", "--associations", "config",
+                           "--out-dir", str(out)]) == 0
+    assert (out / "benchmark.md").read_text().startswith("|")
+    assert any((out / "bags").iterdir()) and any((out / "runs").iterdir())
+    capsys.readouterr()

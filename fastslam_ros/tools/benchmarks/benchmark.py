@@ -287,7 +287,8 @@ def main(argv: list[str] | None = None) -> int:
         cli.output_folder(args.out_dir, "--out-dir")
     except cli.UsageError as error:
         return cli.fail("fastslam-benchmark", error)
-    args.out_dir.mkdir(exist_ok=True)
+    for folder in (args.out_dir, args.out_dir / "bags", args.out_dir / "runs"):
+        folder.mkdir(exist_ok=True)  # the benchmark's own workspace: converted bags and runs
     try:
         bags = {s: bag_for(s, args.out_dir / "bags", duration) for s in sequences}
         baselines = {s.name: m for s in sequences if (m := dead_reckoning(bags[s])) is not None}
