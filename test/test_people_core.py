@@ -698,20 +698,20 @@ def test_global_localization_weighs_a_bounded_number_of_beams_whatever_the_scan(
     """A dense laser (4,000 beams) costs the global localization what a 360-beam one does:
     every weighing of the robot particles uses at most GLOBAL_MAX_BEAMS beams, spread over the
     whole scan (the first and last kept beams near the scan's ends)."""
-    from fastslam_ros.people import conditional_filter
+    from fastslam_ros.people import global_localization
     widths, spans = [], []
-    weigh = conditional_filter.likelihood_field_log_weights
+    weigh = global_localization.likelihood_field_log_weights
 
     def counted(distances, *args):
         widths.append(distances.shape[1])
         return weigh(distances, *args)
-    monkeypatch.setattr(conditional_filter, "likelihood_field_log_weights", counted)
-    original_ends = conditional_filter.beam_endpoints
+    monkeypatch.setattr(global_localization, "likelihood_field_log_weights", counted)
+    original_ends = global_localization.beam_endpoints
 
     def ends(sensors, ranges, angles):
         spans.append(float(angles.max() - angles.min()))
         return original_ends(sensors, ranges, angles)
-    monkeypatch.setattr(conditional_filter, "beam_endpoints", ends)
+    monkeypatch.setattr(global_localization, "beam_endpoints", ends)
     room = np.zeros((200, 200), bool)
     room[[0, -1]] = room[:, [0, -1]] = True
     grid = OccupancyMap(room, ~room, 0.05, (0.0, 0.0), 1.0)
@@ -723,5 +723,5 @@ def test_global_localization_weighs_a_bounded_number_of_beams_whatever_the_scan(
         tracker = PeopleTracker(TrackerSettings(seed=1, global_particles=500), grid)
         tracker.update(0.0, Scan(ranges, angles[0], angles[1] - angles[0], 12.0))
         assert tracker.globally_localizing
-        assert widths and max(widths) == conditional_filter.GLOBAL_MAX_BEAMS
+        assert widths and max(widths) == global_localization.GLOBAL_MAX_BEAMS
         assert min(spans) > 1.9 * math.pi

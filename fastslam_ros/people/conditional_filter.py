@@ -45,7 +45,7 @@ whatever key the (new) best particle gives it, and of two people within PUBLISHE
 each other only one is reported (the one continuing, else the one published longer).
 
 Without an initial pose the robot particles start uniform over the free space
-(``global_particles`` of them), are roughened at every resampling (GLOBAL_ROUGHENING), and are
+(``global_particles`` of them), are localized globally (``global_localization.py``) and are
 reduced to ``num_particles`` once their spread is below ``converged_spread``.
 """
 from __future__ import annotations
@@ -54,7 +54,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.existence import (existence_probability, in_perceptual_range, removed,
                                          update_logodds)
@@ -64,50 +63,19 @@ from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_w
                                           systematic_resample)
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
                                            dynamic_beams, segment_scan)
+from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
+from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
-                                              roughen, sample_free_poses,
+                                              sample_free_poses,
                                               sample_gaussian_poses, sensor_poses)
 from fastslam_ros.people.settings import TrackerSettings
 
 MISSED_FRACTION = 0.5
 """A person with at least this fraction of its particles in seen free space is in view."""
-GLOBAL_TEMPERING = 0.1
-"""Exponent of the likelihood field while localizing globally: the beams of one scan are far
-from independent, and at full strength one reading picks a single hypothesis of thousands."""
-MIN_CONVERGED_FIT = 0.6
-"""Global localization converges only on a pose where at least this fraction of the beams ends
-within 2 sigma_hit of a mapped obstacle; a single hypothesis that fits worse is replaced, half
-of the particles drawn again over the free space."""
-GLOBAL_ROUGHENING = 0.2
-"""Roughening factor K (Gordon, Salmond and Smith's 0.2) of the robot particles at every
-resampling while localizing globally. The first reading's candidates are too sparse to hold
-one within sigma_hit of the true pose (200,000 over a 370 m^2 floor: 0.07 on average within
-0.1 m and 0.01 rad), and copies of one candidate never move sideways (the odometry's noise
-is along the path): unroughened, a near miss at the true place can lose to a better-aligned
-candidate at a place that looks alike, and the filter converges there."""
-GLOBAL_MAX_BEAMS = 60
-"""Beams (of those ``beam_stride`` keeps, spread evenly over the scan) that weigh the robot
-particles while localizing globally: its first reading weighs GLOBAL_CANDIDATES x
-``global_particles`` poses, whose cost grows with the beams; 60 (AMCL's choice) keeps it near
-a second for a laser of any resolution, and is what a 360-beam scan gives at stride 6."""
-GLOBAL_CANDIDATES = 10
-"""The first reading of a global localization weighs this many times global_particles poses."""
-CONVERGED_UPDATES = 20
-"""Readings the particles' spread must stay below converged_spread to end global
-localization (2 s at 10 Hz)."""
 MAX_DIFFUSION_STEP = 2.0
 """Seconds of Brownian motion at most between two readings (a gap in the data does not blow
 the people up to the size of the map)."""
-VOTE_GATE = 0.3
-"""A person takes the id that most of the robot particles' weight gives a person within this
-distance (m) of it (the weighted centroid of that id's people)."""
-REID_MIN_UNSEEN = 1.0
-"""A person unseen for at least this long (s) may be re-identified in a new detection."""
-REID_MARGIN = 0.5
-"""Re-identification reach beyond walking: max_person_speed x time unseen + this (m)."""
-REID_MEMORY = 60.0
-"""A removed person's id is kept this long (s) after it was last detected, for re-identification."""
 DUPLICATE_GATE = 0.5
 """A detection no person explains starts no new person within this distance (m) of a person
 of its robot particle (tentative or confirmed, already detected in this scan or not): it is
@@ -117,11 +85,6 @@ SEEN_FREE_LIKELIHOOD = 0.1
 beam passed through it: no person there), against 1 for one the laser could not see. A
 particle left there k readings weighs 0.1^k; soft, the weight keeps more particles of a
 narrow shadow apart than a near-zero one (which gave as much MOTA, more identity switches)."""
-PUBLISHED_GATE = 0.4
-"""Two people to publish within this distance (m) of each other are one person (two tracks on
-it: one is reported), and a person within it of one published at the previous reading is
-that person (keeps its id). Below the 0.6 m two people's centres keep apart, as the tracks of
-a close pair may come nearer each other than their people."""
 
 
 @dataclass
@@ -163,7 +126,7 @@ def batched_systematic_resample(weights: np.ndarray, rng: np.random.Generator) -
     return np.clip(flat.reshape(rows, count) - offsets * count, 0, count - 1)
 
 
-class PeopleTracker:
+class PeopleTracker(GlobalLocalization, PeopleIdentities):
     """The conditional particle filter on an ``OccupancyMap``; feed ``predict`` with odometry
     pose pairs and ``update`` with scans, in stamp order."""
 
@@ -316,76 +279,6 @@ class PeopleTracker:
         self.published_people()  # every reading: the ids' continuity is reading to reading
         return report
 
-    def _localize_globally(self, scan: Scan, returns: np.ndarray, max_range: float
-                           ) -> UpdateReport:
-        """While the pose is unknown: weigh the many robot particles by the likelihood field
-        (tempered by GLOBAL_TEMPERING, as the beams are not independent), resample, and end
-        the phase once their spread stayed below ``converged_spread`` for CONVERGED_UPDATES
-        readings at a pose the map explains (MIN_CONVERGED_FIT). The first reading weighs a
-        denser set of poses (``_draw_from_first_reading``). People are tracked from then on."""
-        s = self.settings
-        beams = np.flatnonzero(returns)
-        beams = beams[beams % s.beam_stride == 0]
-        if len(beams) > GLOBAL_MAX_BEAMS:
-            beams = beams[np.linspace(0, len(beams) - 1, GLOBAL_MAX_BEAMS).round().astype(int)]
-        ranges, angles = scan.ranges[beams], scan.angles[beams]
-        if self._first_global_reading:
-            self._first_global_reading = False
-            self._draw_from_first_reading(ranges, angles, max_range)
-        ends = beam_endpoints(sensor_poses(self.poses, self.offset), ranges, angles)
-        distances = self.grid.distance_at(ends)
-        self.log_weights = self.log_weights + GLOBAL_TEMPERING * likelihood_field_log_weights(
-            distances, s.sigma_hit, s.z_hit, max_range)
-        self.log_weights, _ = normalize_log_weights(self.log_weights)
-        weights = np.exp(self.log_weights)
-        report = UpdateReport(0, 0, 0, 0, 0, effective_sample_size(weights), False, False)
-        mean = weights @ self.poses[:, :2]
-        spread = math.sqrt(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2, axis=1)) / 2)
-        fit = float(np.mean(distances[int(np.argmax(weights))] < 2.0 * s.sigma_hit)) \
-            if distances.shape[1] else 0.0
-        if spread < s.converged_spread and fit < MIN_CONVERGED_FIT:
-            # one hypothesis left, and the map does not explain its scan: look again elsewhere
-            fresh = self.rng.random(self.num_particles) < 0.5
-            self.poses[fresh] = sample_free_poses(self.grid, int(fresh.sum()), self.rng)
-            self.log_weights = np.full(self.num_particles, -math.log(self.num_particles))
-            self._converging = 0
-            return report
-        self._converging = self._converging + 1 if spread < s.converged_spread else 0
-        if self._converging >= CONVERGED_UPDATES:
-            index = systematic_resample(weights, self.rng)
-            stride = max(1, self.num_particles // s.num_particles)
-            start = int(self.rng.integers(stride))
-            self._allocate(self.poses[index[start::stride][:s.num_particles]])
-            self.globally_localizing = False
-            report.resampled = report.converged = True
-        elif report.effective_sample_size < s.resample_threshold * self.num_particles:
-            index = systematic_resample(weights, self.rng)
-            self.poses = roughen(self.poses[index], GLOBAL_ROUGHENING, self.rng)
-            self.log_weights = np.full(len(index), -math.log(len(index)))
-            report.resampled = True
-        return report
-
-    def _draw_from_first_reading(self, ranges: np.ndarray, angles: np.ndarray,
-                                 max_range: float) -> None:
-        """Replace the uniform start by GLOBAL_CANDIDATES times as many uniform poses weighed
-        by the first reading and resampled to ``global_particles``: the pose space is covered
-        that much more densely once, at the cost of one weighing."""
-        s = self.settings
-        count = self.num_particles
-        candidates = sample_free_poses(self.grid, GLOBAL_CANDIDATES * count, self.rng)
-        log_weights = np.concatenate([
-            GLOBAL_TEMPERING * likelihood_field_log_weights(
-                self.grid.distance_at(beam_endpoints(sensor_poses(part, self.offset), ranges,
-                                                     angles)),
-                s.sigma_hit, s.z_hit, max_range)
-            for part in np.array_split(candidates, GLOBAL_CANDIDATES)])
-        weights = np.exp(normalize_log_weights(log_weights)[0])
-        index = systematic_resample(weights, self.rng)
-        start = int(self.rng.integers(GLOBAL_CANDIDATES))
-        self.poses = roughen(candidates[index[start::GLOBAL_CANDIDATES][:count]],
-                             GLOBAL_ROUGHENING, self.rng)
-        self.log_weights = np.full(count, -math.log(count))
-
     def _person_summaries(self) -> tuple[np.ndarray, np.ndarray]:
         """Mean (M, N, 2) and covariance (M, N, 2, 2) of every live person's particles (a
         free slot: mean 0, identity covariance; its particles are not read)."""
@@ -532,40 +425,6 @@ class PeopleTracker:
             likelihood[m, :, n] = 0.0
         return slot_of, likelihood_of
 
-    def _reidentify(self, m: np.ndarray, points: np.ndarray, mean: np.ndarray,
-                    observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Re-identification of the new people at ``points`` (K, 2) of robot particles ``m``
-        (K,): the nearest confirmed person of the particle unseen for at least
-        REID_MIN_UNSEEN (hidden, its cloud left behind where it was last seen) or removed at
-        most REID_MEMORY ago (lost), that could have walked there since its last detection
-        (``max_person_speed`` x time unseen + REID_MARGIN). Returns the keys (K,) (-1: none)
-        and the slot of an unseen person to reuse (K,) (-1: a free one)."""
-        s = self.settings
-        if len(m) == 0:
-            return np.zeros(0, np.int64), np.zeros(0, np.intp)
-        now = self.last_stamp
-        unseen = now - self.last_seen[m]
-        hidden = (self.alive[m] & self.confirmed[m] & ~observed[m] & (unseen >= REID_MIN_UNSEEN)
-                  & (np.linalg.norm(mean[m] - points[:, None], axis=2)
-                     <= s.max_person_speed * unseen + REID_MARGIN))
-        gone = now - self.lost_seen[m]
-        alive_keys = np.where(self.alive[m], self.keys[m], -1)
-        lost = ((self.lost_keys[m] >= 0) & (gone <= REID_MEMORY)
-                & ~np.any(self.lost_keys[m][:, :, None] == alive_keys[:, None, :], axis=2)
-                & (np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2)
-                   <= s.max_person_speed * gone + REID_MARGIN))
-        distance = np.concatenate([
-            np.where(hidden, np.linalg.norm(mean[m] - points[:, None], axis=2), np.inf),
-            np.where(lost, np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2),
-                     np.inf)], axis=1)
-        choice = np.argmin(distance, axis=1)
-        found = np.isfinite(distance[np.arange(len(m)), choice])
-        slots = self.alive.shape[1]
-        from_slot = found & (choice < slots)
-        keys = np.where(from_slot, self.keys[m, np.minimum(choice, slots - 1)],
-                        self.lost_keys[m, np.maximum(choice - slots, 0)])
-        return np.where(found, keys, -1), np.where(from_slot, choice, -1)
-
     def _missed_evidence(self, sensors: np.ndarray, scan: Scan, observed: np.ndarray,
                          max_range: float) -> np.ndarray:
         """Negative information: update the people not detected; returns the people removed
@@ -638,21 +497,6 @@ class PeopleTracker:
         index = batched_systematic_resample(w, self.rng)
         self.people[m, n] = np.take_along_axis(self.people[m, n], index[..., None], axis=1)
 
-    def _remember(self, gone: np.ndarray, mean: np.ndarray) -> None:
-        """Keep the removed confirmed people ``gone`` (M, N) for re-identification: each
-        replaces its own key's entry, else an empty or the oldest one (one slot per round,
-        a round per slot holding a removal)."""
-        rows = np.arange(self.num_particles)
-        for n in np.flatnonzero(gone.any(axis=0)):
-            m = rows[gone[:, n]]
-            same = self.lost_keys[m] == self.keys[m, n, None]
-            oldest = np.argmin(np.where(self.lost_keys[m] < 0, -np.inf, self.lost_seen[m]),
-                               axis=1)
-            entry = np.where(same.any(axis=1), np.argmax(same, axis=1), oldest)
-            self.lost_keys[m, entry] = self.keys[m, n]
-            self.lost_positions[m, entry] = mean[m, n]
-            self.lost_seen[m, entry] = self.last_seen[m, n]
-
     def _finish(self, report: UpdateReport) -> None:
         """Normalise, resample when N_eff is low, end global localization when converged."""
         s = self.settings
@@ -663,30 +507,6 @@ class PeopleTracker:
         if report.effective_sample_size < s.resample_threshold * self.num_particles:
             self._gather(systematic_resample(weights, self.rng))
             report.resampled = True
-
-    def _vote_keys(self, weights: np.ndarray) -> None:
-        """Ids voted across the robot particles: a person whose position is within VOTE_GATE
-        of the weighted centroid of an id that more weight holds than its own takes that id
-        (unless its particle holds it already), so that the robot particles agree on the ids
-        and a change of the best particle does not change them."""
-        m, n, _, means = self._live_people()
-        if len(m) == 0:
-            return
-        unique, own = np.unique(self.keys[m, n], return_inverse=True)
-        total = np.bincount(own, weights[m], len(unique))
-        centroid = np.stack([np.bincount(own, weights[m] * means[:, i], len(unique))
-                             for i in range(2)], axis=1) / np.maximum(total, 1e-300)[:, None]
-        near = np.linalg.norm(means[:, None] - centroid[None], axis=2) < VOTE_GATE
-        choice = np.argmax(np.where(near, total, -1.0), axis=1)
-        rows = np.arange(len(m))
-        take = near[rows, choice] & (total[choice] > total[own])
-        take &= ~np.any(self.alive[m] & (self.keys[m] == unique[choice][:, None]), axis=1)
-        _, first, count = np.unique(m * len(unique) + choice, return_index=True,
-                                    return_counts=True)
-        single = np.zeros(len(m), dtype=bool)
-        single[first[count == 1]] = True
-        take &= single
-        self.keys[m[take], n[take]] = unique[choice[take]]
 
     def _gather(self, index: np.ndarray) -> None:
         """Keep the robot particles ``index`` with their people, at equal weights."""
@@ -746,40 +566,6 @@ class PeopleTracker:
                                   people.existence[rows])
         self._published = (self._updates, estimate)
         return estimate
-
-    def _published_ids(self, keys: np.ndarray, means: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray]:
-        """Published ids of the people ``keys`` at ``means`` (K, 2): paired by least total
-        distance with the people published at the previous reading, a person within
-        PUBLISHED_GATE of one keeps its id, whatever key its robot particle gives it (the best
-        particle changed, or the person was lost and created again in place); an unpaired
-        one takes its key's last published id (a fresh one if that is taken), else its key.
-        The key then publishes that id until continuity hands it another. Returns the ids
-        (K,) and whether each continues a person of the previous reading (K,)."""
-        ids = np.array([self._id_of_key.get(k, k) for k in keys.tolist()], dtype=np.int64)
-        previous_ids, previous_means = self._last_published
-        kept = np.zeros(len(keys), dtype=bool)
-        if len(keys) and len(previous_ids):
-            apart = np.linalg.norm(means[:, None] - previous_means[None], axis=2)
-            rows, cols = linear_sum_assignment(np.where(apart < PUBLISHED_GATE, apart, 1e6))
-            near = apart[rows, cols] < PUBLISHED_GATE
-            kept[rows[near]] = True
-            ids[rows[near]] = previous_ids[cols[near]]
-        used = set(ids[kept].tolist())
-        for i in np.flatnonzero(~kept):  # an id continuity gave another: a fresh one
-            if ids[i] in used:
-                ids[i] = self.next_key
-                self.next_key += 1
-            used.add(int(ids[i]))
-        self._id_of_key.update(zip(keys.tolist(), ids.tolist()))
-        # Only a key some robot particle tracks or may re-identify (its lost people) can be
-        # published again: the tables keep those, not every person of a whole shift.
-        live = set(self.keys[self.alive].tolist()) | set(self.lost_keys[self.lost_keys >= 0]
-                                                          .tolist())
-        self._id_of_key = {k: i for k, i in self._id_of_key.items() if k in live}
-        in_use = set(self._id_of_key.values())
-        self._first_published = {i: s for i, s in self._first_published.items() if i in in_use}
-        return ids, kept
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
