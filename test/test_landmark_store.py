@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fastslam_ros.core.landmark_store import LandmarkStore, ResampledTable
+from fastslam_ros.core.landmark_store import LandmarkStore
+from fastslam_ros.core.resampled_table import ResampledTable
 from model_helpers import edit_box, insert, landmark_counts
 
 
