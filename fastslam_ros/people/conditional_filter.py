@@ -66,6 +66,7 @@ from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_p
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
+from fastslam_ros.people.report import UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               sample_free_poses,
                                               sample_gaussian_poses, sensor_poses)
@@ -96,22 +97,6 @@ class PeopleEstimate:
     means: np.ndarray
     covariances: np.ndarray
     existence: np.ndarray
-
-
-@dataclass
-class UpdateReport:
-    """What one reading did (from every robot particle's view, counted over the best one)."""
-
-    detections: int
-    """Detections of the best particle."""
-    associated: int
-    created: int
-    unexplained: int
-    """Detections the best particle could not explain (no free person slot)."""
-    removed: int
-    effective_sample_size: float
-    resampled: bool
-    converged: bool
 
 
 def batched_systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -7,18 +7,14 @@ explains; the first reading weighs a denser set of candidates."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
 from fastslam_ros.people.detection import Scan
+from fastslam_ros.people.report import UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               roughen, sample_free_poses, sensor_poses)
-
-if TYPE_CHECKING:
-    from fastslam_ros.people.conditional_filter import UpdateReport
 
 GLOBAL_TEMPERING = 0.1
 """Exponent of the likelihood field while localizing globally: the beams of one scan are far
@@ -71,7 +67,6 @@ class GlobalLocalization:
             distances, s.sigma_hit, s.z_hit, max_range)
         self.log_weights, _ = normalize_log_weights(self.log_weights)
         weights = np.exp(self.log_weights)
-        from fastslam_ros.people.conditional_filter import UpdateReport  # its importer
         report = UpdateReport(0, 0, 0, 0, 0, effective_sample_size(weights), False, False)
         mean = weights @ self.poses[:, :2]
         spread = math.sqrt(float(weights @ np.sum((self.poses[:, :2] - mean) ** 2, axis=1)) / 2)

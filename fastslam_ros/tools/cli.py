@@ -150,6 +150,27 @@ def output_folder(path: Path | str, what: str = "output folder") -> Path:
     return path
 
 
+def check_scoring_paths(run: Path, ground_truth: Path | None, json_path: Path | None,
+                        plot: Path | None, plot_suffixes: tuple[str, ...],
+                        written: list[Path], overwrite: bool) -> None:
+    """What ``fastslam-eval`` checks before it reads a run (either kind of run): ``--json`` and
+    ``--plot`` can be written (the plot in one of ``plot_suffixes``), the run and the ground
+    truth are bags, and every file to write (``written``) may be (``output.check_output``,
+    never one of the inputs); UsageError or FileExistsError otherwise."""
+    from fastslam_ros.output import check_output
+
+    if json_path is not None:
+        output_file(json_path, "--json")
+    if plot is not None:
+        output_file(plot, "--plot", plot_suffixes)
+    input_bag(run)
+    if ground_truth is not None:
+        input_bag(ground_truth, "ground-truth bag")
+    inputs = [run] + ([ground_truth] if ground_truth is not None else [])
+    for path in written:
+        check_output(path, overwrite, "file", inputs)
+
+
 def fail(prog: str, error: BaseException | str, code: int | None = None) -> int:
     """Print ``prog: error`` as one line on stderr; return the exit status: 2 for an error of
     ``BAD_INPUT_ERRORS`` (whatever ``code`` says: a path that cannot be used is always a usage

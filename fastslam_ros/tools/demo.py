@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             run_people_demo(args.out_dir, args.seed or 1, args.duration or 60.0,
                             args.progress or sys.stderr.isatty(), args.overwrite)
             return 0
-        seed = args.seed or 1 if args.scenario == "laser" else args.seed
+        seed = (args.seed or 1) if args.scenario == "laser" else args.seed
         run_demo(args.out_dir, args.scenario, args.particles, seed, args.algorithm,
                  args.association, args.duration, args.progress or sys.stderr.isatty(),
                  args.overwrite)

@@ -52,7 +52,7 @@ from fastslam_ros.tools.evaluation.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHO
                                                    evaluate_trajectory, json_ready,
                                                    landmark_metrics, pose_stamped_series,
                                                    reference_positions)
-from fastslam_ros.output import check_output, staged_output, write_text
+from fastslam_ros.output import staged_output, write_text
 
 POSE_TOPIC = "/fastslam/pose"
 PATH_TOPIC = "/fastslam/path"
@@ -402,23 +402,16 @@ def main(argv: list[str] | None = None) -> int:
     written = [args.json, args.plot] + ([args.tum / name for name in TUM_NAMES.values()]
                                         + [args.tum / TUM_GROUND_TRUTH]
                                         if args.tum and args.tum.is_dir() else [])
+    suffixes: tuple[str, ...] = ()
+    if args.plot is not None:  # matplotlib only when a plot is asked for
+        from fastslam_ros.tools.evaluation.plot import plot_formats
+        suffixes = plot_formats()
     try:
-        cli.input_bag(args.out)
-        if args.ground_truth is not None:
-            cli.input_bag(args.ground_truth, "ground-truth bag")
-        if args.json is not None:
-            cli.output_file(args.json, "--json")
-        if args.plot is not None:
-            from fastslam_ros.tools.evaluation.plot import plot_formats
-            cli.output_file(args.plot, "--plot", plot_formats())
         if args.tum is not None:
             cli.output_folder(args.tum, "--tum")
-        for path in written:
-            if path is not None:
-                check_output(path, args.overwrite, "file", inputs)
-    except cli.UsageError as error:
-        return cli.fail(prog, error)
-    except FileExistsError as error:
+        cli.check_scoring_paths(args.out, args.ground_truth, args.json, args.plot, suffixes,
+                                [path for path in written if path is not None], args.overwrite)
+    except (cli.UsageError, FileExistsError) as error:
         return cli.fail(prog, error)
     try:
         run = load_run(args.out, args.ground_truth)

@@ -466,19 +466,11 @@ def main(argv: list[str] | None = None) -> int:
     from fastslam_ros.tools.evaluation.plot import plot_formats
     inputs = [args.out] + ([args.ground_truth] if args.ground_truth else [])
     try:
-        if args.json is not None:
-            cli.output_file(args.json, "--json")
-        if args.plot is not None:
-            cli.output_file(args.plot, "--plot", suffixes=plot_formats())
-        cli.input_bag(args.out)
-        if args.ground_truth is not None:
-            cli.input_bag(args.ground_truth, "ground-truth bag")
-        for path in (args.json, args.plot):
-            if path is not None:
-                check_output(path, args.overwrite, "file", inputs)
-    except cli.UsageError as error:
-        return cli.fail(prog, error)
-    except FileExistsError as error:
+        cli.check_scoring_paths(args.out, args.ground_truth, args.json, args.plot,
+                                plot_formats() if args.plot is not None else (),
+                                [path for path in (args.json, args.plot) if path is not None],
+                                args.overwrite)
+    except (cli.UsageError, FileExistsError) as error:
         return cli.fail(prog, error)
     try:
         metrics, plot_data = evaluate_people_bag(args.out, args.ground_truth, args.min_existence)
