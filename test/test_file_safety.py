@@ -14,12 +14,11 @@ import numpy as np
 import pytest
 import rclpy
 from rclpy.context import Context
-from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from fastslam_ros import map_files
 from fastslam_ros.core import LandmarkMap
-from fastslam_ros.node import FastSLAMNode, ParameterError
+from fastslam_ros.node import ParameterError
 from fastslam_ros.output import OutputExistsError, is_bag, staged_output
 from fastslam_ros.tools import demo
 from fastslam_ros.tools.bags import replay
@@ -28,6 +27,7 @@ from fastslam_ros.tools.evaluation import evaluate
 from fastslam_ros.tools.simulation import sim
 from fastslam_ros.tools.bags.bag_schema import write_schema_bag
 from fastslam_ros.tools.simulation.sim import SimConfig, simulate
+from test_map_lifecycle import node_with
 
 DOMAIN_ID = 100 + os.getpid() % 100
 PARTICLES = ["--set", "num_particles=5"]
@@ -122,7 +122,7 @@ def test_an_empty_map_is_an_error(tmp_path, text):
         map_files.read_map_file(path)
 
 
-# --- the node's services ------------------------------------------------------------------
+# --- the node's services (the node as test_map_lifecycle makes it) ----------------------
 
 @pytest.fixture
 def context():
@@ -130,13 +130,6 @@ def context():
     rclpy.init(context=ctx, domain_id=DOMAIN_ID)
     yield ctx
     rclpy.shutdown(context=ctx)
-
-
-def node_with(context, **values) -> FastSLAMNode:
-    return FastSLAMNode(context=context, parameter_overrides=[
-        Parameter(name, value=value) for name, value in {"num_particles": 10, "seed": 1,
-                                                         "use_sim_time": True,
-                                                         **values}.items()])
 
 
 def test_save_map_service_refuses_user_files_unless_told(context, user_tree):
