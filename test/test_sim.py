@@ -392,3 +392,31 @@ def test_room_scenario_sees_its_tubes_from_the_laser_ahead_of_the_centre():
     params = recommended_params(config)
     assert (params["sensor_x"], params["min_range"], params["detection_probability"]) == (
         0.219, 0.4, 0.6)
+
+
+def test_faults_scenario_turns_and_slips_only_in_its_episodes():
+    """The faults scenario (noise-free controls): every control step where the robot and its
+    odometry differ is a turn not executed (the robot keeps its heading, the odometry turns)
+    or a slip (the robot covers 30 % of the odometry's distance), and each kind takes about
+    its share of the time (2 episodes of 1 s a minute, Poisson: about 3 %)."""
+    assert SimConfig(scenario="faults").resolved().turn_faults == 2.0
+    # (a value left at its default takes the room's: the noise is set tiny, not 0)
+    config = SimConfig(scenario="faults", duration=600.0, sigma_speed=1e-15,
+                       sigma_turn_rate=1e-15)
+    bag = simulate(config)
+    truth, odometry = bag.ground_truth.poses, bag.odometry.poses
+    moved = relative_pose(truth[:-1], truth[1:])
+    reported = relative_pose(odometry[:-1], odometry[1:])
+    true_distance = np.hypot(moved[:, 0], moved[:, 1])
+    odometry_distance = np.hypot(reported[:, 0], reported[:, 1])
+    not_turned = (np.abs(moved[:, 2]) < 1e-12) & (np.abs(reported[:, 2]) > 1e-9)
+    slipped = np.isclose(true_distance, 0.3 * odometry_distance, rtol=1e-6) & (
+        odometry_distance > 1e-6)
+    same = (np.abs(moved[:, 2] - reported[:, 2]) < 1e-9) & np.isclose(
+        true_distance, odometry_distance, rtol=1e-6, atol=1e-9)
+    assert np.all(same | not_turned | slipped)
+    steps = len(moved)
+    for share in (np.count_nonzero(~same & ~slipped), np.count_nonzero(slipped)):
+        assert 0.01 * steps < share < 0.06 * steps
+    clean = simulate(dataclasses.replace(config, scenario="room"))
+    np.testing.assert_allclose(clean.odometry.poses, clean.ground_truth.poses, atol=1e-6)

@@ -12,7 +12,8 @@ Scenarios: ``loop`` (one closed loop through a landmark field, 3.5 minutes), ``l
 (thousands of landmarks, a long route with crossings), ``clutter`` (the loop with false
 detections and missed detections), ``room`` (a differential-drive robot at walking speed in a
 6 m x 6 m room with 17 tubes seen constantly for 20 minutes by an accurate laser 0.219 m ahead
-of its centre that misses 40 % of them; the scenario sets its own defaults, ``ROOM_DEFAULTS``).
+of its centre that misses 40 % of them; the scenario sets its own defaults, ``ROOM_DEFAULTS``),
+``faults`` (the room with odometry faults: commanded turns not executed, wheel slip).
 The vehicles, the sensor and the landmark placement are those of ``simulation/world.py``,
 which the in-memory test worlds share.
 """
@@ -33,10 +34,11 @@ from fastslam_ros.tools.bags.bag_schema import (LandmarkScans, LandmarkSet, Pose
                                            write_schema_bag)
 from fastslam_ros.output import check_output, write_params_yaml
 from fastslam_ros.tools.datasets.converters import polar_to_points
-from fastslam_ros.tools.simulation.world import (Car, DifferentialDrive, RangeBearingSensor,
-                                                 distance_to_route, scatter_landmarks)
+from fastslam_ros.tools.simulation.world import (Car, DifferentialDrive, OdometryFaults,
+                                                 RangeBearingSensor, distance_to_route,
+                                                 scatter_landmarks)
 
-SCENARIOS = ("loop", "large", "clutter", "room")
+SCENARIOS = ("loop", "large", "clutter", "room", "faults")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),
                   (63.0, 147.0), (0.0, 119.0), (-28.0, 63.0), (-21.0, 17.0))
 """The loop scenario's route (m); the vehicle starts at the first point heading to the second."""
@@ -59,6 +61,10 @@ ROOM_DEFAULTS = {
     "landmark_radius": 0.1}
 """The room scenario's settings where the command line leaves a field at its default: a lab
 robot's laser ranging tubes (about 5 detections per reading at 10 Hz for 20 minutes)."""
+FAULTS_DEFAULTS = {"turn_faults": 2.0, "slip_faults": 2.0}
+"""The faults scenario: the room, with odometry faults (two episodes of each kind a minute)."""
+ROOM_SCENARIOS = ("room", "faults")
+"""Scenarios of the lab robot in the room (a differential drive)."""
 HEADING_NOISE_INFLATION = 10.0
 """Variance factor on the heading noise of the recommended parameters (see recommended_params)."""
 TRANSLATION_NOISE_INFLATION = 2.0
@@ -118,6 +124,13 @@ class SimConfig:
         "Mean number of false detections per reading (Poisson, uniform in range); -1 picks the "
         "scenario's default.")
     duration: float = setting(0.0, "Stop after this many seconds (0: drive the whole route).")
+    turn_faults: float = setting(0.0,
+        "Episodes per minute in which the differential drive does not execute its commanded "
+        "turn while its odometry reports it (room and faults scenarios).")
+    slip_faults: float = setting(0.0,
+        "Episodes per minute in which the differential drive's wheels slip: it covers 30 % of "
+        "the distance its odometry reports (room and faults scenarios).")
+    fault_duration: float = setting(1.0, "Length of a turn or slip episode (s).")
     sensor_frame: str = setting("base_link",
         "frame_id of the landmark clouds (the sensor sits sensor_x ahead of the vehicle's "
         "origin).")
@@ -130,12 +143,15 @@ class SimConfig:
         if self.scenario not in SCENARIOS:
             raise ValueError(f"scenario: must be one of {SCENARIOS} (got {self.scenario!r})")
         defaults = {"loop": (85, 1.0, 0.0), "large": (2000, 1.0, 0.0),
-                    "clutter": (85, 0.9, 2.0), "room": (17, 0.6, 0.0)}[self.scenario]
+                    "clutter": (85, 0.9, 2.0), "room": (17, 0.6, 0.0),
+                    "faults": (17, 0.6, 0.0)}[self.scenario]
         config = self
-        if self.scenario == "room":
+        if self.scenario in ROOM_SCENARIOS:
             unset = {item.name: item.default for item in dataclasses.fields(SimConfig)}
+            scenario_defaults = {**ROOM_DEFAULTS,
+                                 **(FAULTS_DEFAULTS if self.scenario == "faults" else {})}
             config = dataclasses.replace(self, **{
-                name: value for name, value in ROOM_DEFAULTS.items()
+                name: value for name, value in scenario_defaults.items()
                 if getattr(self, name) == unset[name]})
         config = dataclasses.replace(
             config,
@@ -149,6 +165,7 @@ class SimConfig:
             if not getattr(config, name) > 0.0:
                 raise ValueError(f"{name}: must be > 0 (got {getattr(config, name)})")
         for name in ("sigma_speed", "sigma_steer", "sigma_turn_rate", "duration", "start_time",
+                     "turn_faults", "slip_faults", "fault_duration",
                      "min_range", "landmark_radius"):
             if getattr(config, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(config, name)})")
@@ -177,7 +194,7 @@ class World:
 def build_world(config: SimConfig) -> World:
     """The scenario's route and a landmark field around it (seeded by ``world_seed``)."""
     rng = np.random.default_rng(config.world_seed)
-    if config.scenario == "room":
+    if config.scenario in ROOM_SCENARIOS:
         return build_room(config, rng)
     waypoints = np.array(LARGE_WAYPOINTS if config.scenario == "large" else LOOP_WAYPOINTS)
     # Every landmark is within sensor range of some point of the route, off the road itself.
@@ -211,9 +228,11 @@ def simulate(config: SimConfig) -> SchemaBag:
     # Separate streams: the odometry noise does not change with the sensor settings or the world.
     control_rng = np.random.default_rng([config.seed, 0])
     sensor_rng = np.random.default_rng([config.seed, 1])
+    faults = (OdometryFaults(config.turn_faults, config.slip_faults, config.fault_duration)
+              if config.turn_faults > 0.0 or config.slip_faults > 0.0 else None)
     vehicle = (DifferentialDrive(config.speed, config.max_turn_rate, config.waypoint_radius,
-                                 config.sigma_speed, config.sigma_turn_rate)
-               if config.scenario == "room" else
+                                 config.sigma_speed, config.sigma_turn_rate, faults=faults)
+               if config.scenario in ROOM_SCENARIOS else
                Car(config.speed, config.wheelbase, config.max_steer, config.max_steer_rate,
                    config.waypoint_radius, config.sigma_speed, config.sigma_steer))
     true_poses, odometry_poses = vehicle.drive(world.waypoints, config.laps,
@@ -267,7 +286,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     travel = config.speed * steps * dt
     translation_variance = steps * (config.sigma_speed * dt) ** 2
     heading_variance = steps * (config.speed * dt * config.sigma_steer / config.wheelbase) ** 2
-    if config.scenario == "room":
+    if config.scenario in ROOM_SCENARIOS:
         heading_variance = steps * (config.sigma_turn_rate * dt) ** 2
     params: dict[str, float | int | str] = {
         "sigma_range": config.sigma_range,
@@ -291,7 +310,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params["min_range"] = config.min_range
     if config.sensor_x != 0.0:
         params["sensor_x"] = config.sensor_x
-    if config.scenario == "room":  # a few landmarks seen constantly (docs/benchmarks.md)
+    if config.scenario in ROOM_SCENARIOS:  # a few landmarks seen constantly (docs/benchmarks.md)
         params["persistent_landmarks"] = True
     if config.clutter_rate > 0.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
@@ -313,7 +332,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--scenario", choices=SCENARIOS, default=defaults.scenario,
                         help="world and route (room: flags left at their default take the "
                              "room's: 1 m/s, 10 Hz, 0.4-5.6 m, 4.2 rad, 0.03 m, 0.026 rad, "
-                             "sensor 0.219 m ahead, 17 tubes of 0.1 m radius, P_D 0.6, 1200 s)")
+                             "sensor 0.219 m ahead, 17 tubes of 0.1 m radius, P_D 0.6, 1200 s; "
+                             "faults: the room with 2 turn and 2 slip faults a minute)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output bag folder (default: sim_<scenario>)")
     parser.add_argument("--params-out", type=Path, default=None,

@@ -241,6 +241,8 @@ class DifferentialDrive:
     """Turn-rate noise standard deviation per control step (rad/s)."""
     turn_gain: float = 2.0
     """Turn rate per radian of heading error (1/s)."""
+    faults: "OdometryFaults | None" = None
+    """Episodes in which the robot does not do what its odometry reports; None: none."""
 
     def drive(self, route: np.ndarray, laps: int, control_rate: float,
               rng: np.random.Generator, duration: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -264,13 +266,46 @@ class DifferentialDrive:
             turn_rate = float(np.clip(self.turn_gain * error, -self.max_turn_rate,
                                       self.max_turn_rate))
             speed = self.speed * max(math.cos(error), 0.0)
-            true_pose = unicycle_step(true_pose, speed, turn_rate, dt)
+            executed_speed, executed_turn = (speed, turn_rate) if self.faults is None else \
+                self.faults.executed(speed, turn_rate, dt, rng)
+            true_pose = unicycle_step(true_pose, executed_speed, executed_turn, dt)
             odometry_pose = unicycle_step(odometry_pose,
                                           speed + rng.normal(0.0, self.sigma_speed),
                                           turn_rate + rng.normal(0.0, self.sigma_turn_rate), dt)
             true_poses.append(true_pose)
             odometry_poses.append(odometry_pose)
         return np.array(true_poses), np.array(odometry_poses)
+
+
+@dataclass
+class OdometryFaults:
+    """Episodes of a differential drive whose odometry integrates the commanded velocities:
+    a commanded turn not executed (the robot goes on straight while its odometry turns) and
+    wheel slip (the robot covers ``1 - SLIP_LOSS`` of the commanded distance), as MRCLAM's
+    robots show. Episodes start at random (Poisson, per minute) and last ``duration`` s."""
+
+    turn_rate: float
+    """Turn-fault episodes per minute."""
+    slip_rate: float
+    """Slip episodes per minute."""
+    duration: float
+    """Length of an episode (s)."""
+    turn_left: float = 0.0
+    slip_left: float = 0.0
+
+    SLIP_LOSS = 0.7
+    """Share of the commanded distance a slipping robot does not cover."""
+
+    def executed(self, speed: float, turn_rate: float, dt: float,
+                 rng: np.random.Generator) -> tuple[float, float]:
+        """(speed, turn rate) the robot executes this control step of ``dt`` s."""
+        self.turn_left, self.slip_left = self.turn_left - dt, self.slip_left - dt
+        if self.turn_left <= 0.0 and rng.random() < self.turn_rate * dt / 60.0:
+            self.turn_left = self.duration
+        if self.slip_left <= 0.0 and rng.random() < self.slip_rate * dt / 60.0:
+            self.slip_left = self.duration
+        return (speed * (1.0 - self.SLIP_LOSS) if self.slip_left > 0.0 else speed,
+                0.0 if self.turn_left > 0.0 else turn_rate)
 
 
 def unicycle_step(pose: np.ndarray, speed: float, turn_rate: float, dt: float) -> np.ndarray:
