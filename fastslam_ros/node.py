@@ -5,10 +5,10 @@
 The node does no estimation math. It reads odometry and landmark clouds, feeds the filter in
 stamp order (the particles are predicted to each observation's stamp with odometry interpolated
 there), and publishes the estimate. The input gates, the parameters, /diagnostics and
-``_publish`` (which also hands each message to ``output_listeners``) are the ones every node of
-the package shares (``node_base.FilterNode``); throttled outputs follow the node clock inside
-the callbacks, so a replay that calls the callbacks directly and sets the clock gets the same
-outputs as a live run. See docs/node.md for the interface and the parameters.
+``_publish`` are the ones every node of the package shares (``node_base.FilterNode``);
+throttled outputs follow the node clock inside the callbacks, so a replay that calls the
+callbacks directly and sets the clock (``tools/bags/in_process.py``) gets the same outputs as a
+live run. See docs/node.md for the interface and the parameters.
 """
 from __future__ import annotations
 
@@ -390,8 +390,7 @@ class FastSLAMNode(FilterNode):
         """~/pose and map -> odom at the latest observation (every observation: cheap)."""
         header = self._header()
         pose, covariance = self._estimate()
-        build = ros_io.pose_with_covariance_view if self._lean() else ros_io.pose_with_covariance
-        self._publish(self._pose_pub, build(header, pose, covariance))
+        self._publish(self._pose_pub, self._pose_message(header, pose, covariance))
         self._publish_map_to_odom(header, pose)
 
     def _publish_throttled(self, now: float) -> None:
@@ -412,14 +411,15 @@ class FastSLAMNode(FilterNode):
         keep = decimation(len(stamps), self.settings["path_max_poses"])
         if keep is not None:
             stamps, poses = stamps[keep], poses[keep]
-        if self._path_builder.lean != self._lean():
-            self._path_builder = ros_io.PathBuilder(self._lean())
         self._publish(self._path_pub, self._path_builder.build(self._header(), stamps, poses))
 
     def _publish_particles(self) -> None:
-        header, poses = self._header(), self.slam.particle_poses()
-        self._publish(self._particles_pub, ros_io.PlanarPoseArray(header, poses) if self._lean()
-                      else ros_io.pose_array(header, poses))
+        self._publish(self._particles_pub,
+                      self._particles_message(self._header(), self.slam.particle_poses()))
+
+    def _particles_message(self, header: Header, poses: np.ndarray) -> PoseArray:
+        """The ``~/particles`` message of the particles' planar poses."""
+        return ros_io.pose_array(header, poses)
 
     def _publish_map(self) -> None:
         """~/landmarks markers (DELETE for landmarks gone or unconfirmed since the last time) and
@@ -428,9 +428,6 @@ class FastSLAMNode(FilterNode):
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)
-        lean = self._lean()
-        if self._marker_builder.lean != lean:
-            self._marker_builder = ros_markers.MarkerBuilder(lean)
         self._publish(self._markers_pub, self._marker_builder.build(header, landmark_map, removed))
         self._publish(self._map_cloud_pub, ros_io.map_cloud(header, landmark_map))
         self._published_keys = keys

@@ -8,9 +8,9 @@ holds what the SLAM node and the people tracker do the same way: parameters decl
 their specs (core ones fixed at start, ROS-side ones changeable at runtime), the bad-input
 gates (frames, orientations, invalid and outlier stamps, time going backwards, implausible
 odometry), every drop counted and warned about (throttled), the input-rate watch, /diagnostics,
-map -> odom, and ``_publish``, which also hands each message to ``output_listeners`` (a replay
-records them). A subclass adds its filter: ``_set_up``, ``_update``, ``_predict``,
-``_publish_throttled`` and ``reset``.
+map -> odom and ``_publish``. A subclass adds its filter: ``_set_up``, ``_update``,
+``_predict``, ``_publish_throttled`` and ``reset``. A replay runs the node in-process through
+``tools/bags/in_process.py``, which overrides the clock, ``_publish`` and the message builders.
 """
 from __future__ import annotations
 
@@ -167,21 +167,8 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         missing = [name for name in (*gates, f"{reading_topic}_missing")
                    if name not in counters]
         assert not missing, f"counters missing: {missing}"
-        self.output_listeners: list[Callable[[str, object], None]] = []
-        self._topic_names: dict[Any, str] = {}
         self._last_header: tuple[Any, Header | None] = (None, None)
         self._counter_values: dict[str, tuple[int, KeyValue]] = {}
-        self.publish_to_dds = True
-        """False: outputs go only to ``output_listeners`` (an in-process replay, no DDS cost)."""
-        self._node_time_ns: int | None = None
-        """Node time given by ``set_node_time`` (an in-process replay); None: the rclpy clock."""
-        self.lean_outputs = False
-        """True, with ``publish_to_dds`` False: ``~/particles``, ``~/landmarks``, ``~/pose``,
-        ``~/map_to_odom`` and ``~/path`` go to the listeners as ``ros_io.PlanarPoseArray``,
-        ``ros_markers.MarkerArrayView``, ``ros_io.PoseWithCovarianceStampedView``,
-        ``ros_io.TransformStampedView`` and ``ros_io.PathView`` (a replay serializes them
-        directly; rclpy builds a message object per particle, per marker and per
-        sub-message)."""
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
         self.settings: dict[str, Any] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""
@@ -245,17 +232,9 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             self._warned[kind] = now
             self.get_logger().warning(message)
 
-    def set_node_time(self, nanoseconds: int) -> None:
-        """Set the node time (ns) before an input, as an in-process replay does: ``_now`` and the
-        /diagnostics stamp read it instead of the rclpy clock, whose override and every read
-        build a Time object (a replay hands over about 70,000 inputs). A live node, which never
-        calls it, follows its rclpy clock."""
-        self._node_time_ns = nanoseconds
-
     def _now_ns(self) -> int:
-        """Node time (ns): ``set_node_time``'s, else the rclpy clock's."""
-        nanoseconds = self._node_time_ns
-        return self.get_clock().now().nanoseconds if nanoseconds is None else nanoseconds
+        """Node time (ns): the rclpy clock's (/clock with use_sim_time)."""
+        return self.get_clock().now().nanoseconds
 
     def _now(self) -> float:
         return self._now_ns() * 1e-9
@@ -457,20 +436,19 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
 
     # --- outputs -------------------------------------------------------------------------------
 
-    def _lean(self) -> bool:
-        """Whether outputs go to the listeners as plain look-alikes (``lean_outputs``)."""
-        return self.lean_outputs and not self.publish_to_dds
-
     def _publish(self, publisher, msg) -> None:
-        """Publish and hand the message to every output listener (replay records them)."""
-        if self.publish_to_dds:
-            publisher.publish(msg)
-        if self.output_listeners:
-            topic = self._topic_names.get(publisher)
-            if topic is None:  # asking rcl costs more than recording the message
-                topic = self._topic_names[publisher] = publisher.topic_name
-            for listener in self.output_listeners:
-                listener(topic, msg)
+        """Publish one output (every output of the node goes through here)."""
+        publisher.publish(msg)
+
+    def _pose_message(self, header: Header, pose: np.ndarray,
+                      covariance: np.ndarray) -> PoseWithCovarianceStamped:
+        """The ``~/pose`` message of a planar pose and its covariance over x, y, yaw."""
+        return ros_io.pose_with_covariance(header, pose, covariance)
+
+    def _transform_message(self, header: Header, child_frame_id: str,
+                           pose: np.ndarray) -> TransformStamped:
+        """The transform of a planar pose of ``child_frame_id`` (``~/map_to_odom``)."""
+        return ros_io.transform(header, child_frame_id, pose)
 
     def _map_header(self, stamp: float) -> Header:
         """The map-frame header at ``stamp``: one object for every output of that stamp (the
@@ -488,10 +466,13 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         map_to_odom = compose(compose(pose, relative_pose(self._odometry.anchor_pose,
                                                           np.zeros(3))),
                               self._odometry_gate.correction)
-        build = ros_io.transform_view if self._lean() else ros_io.transform
-        transform = build(header, self.settings["odom_frame"], map_to_odom)
+        transform = self._transform_message(header, self.settings["odom_frame"], map_to_odom)
         self._publish(self._map_to_odom_pub, transform)
-        if self.publish_to_dds and self.settings["publish_tf"] and self._tf_broadcaster:
+        self._broadcast_tf(transform)
+
+    def _broadcast_tf(self, transform: TransformStamped) -> None:
+        """map -> odom on /tf, when publish_tf and tf2_ros is installed."""
+        if self.settings["publish_tf"] and self._tf_broadcaster:
             self._tf_broadcaster.sendTransform(transform)
 
     def _on_timer(self) -> None:
@@ -505,12 +486,12 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             self._drop("internal_error", f"timer callback failed: {error!r}")
 
     def _check_tf_once(self) -> None:
-        """At the first tick of a live node: say once that ``publish_tf`` cannot be honoured
-        without tf2_ros (a replay, which never spins, records /tf itself)."""
+        """At the first tick: say once that ``publish_tf`` cannot be honoured without
+        tf2_ros."""
         if self._tf_checked:
             return
         self._tf_checked = True
-        if self.settings.get("publish_tf") and self.publish_to_dds and TransformBroadcaster is None:
+        if self.settings.get("publish_tf") and TransformBroadcaster is None:
             self.get_logger().warning(
                 "publish_tf is true but tf2_ros is not installed: map -> odom is published on "
                 "~/map_to_odom only, not on /tf (install ROS 2's tf2_ros, or set publish_tf "

@@ -102,7 +102,7 @@ class DiagnosticsReporting:
         (a bag played without --clock) the node's time stands still, its timer never runs and
         it would say nothing at all."""
         self._clock_check.cancel()
-        if (self._node_time_ns is None and self.get_parameter("use_sim_time").value
+        if (self.get_parameter("use_sim_time").value
                 and self.get_clock().now().nanoseconds == 0):
             self.get_logger().warning(
                 f"use_sim_time is true but no /clock came in {NO_CLOCK_WARNING:g} s: the node's "

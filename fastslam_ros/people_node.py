@@ -369,8 +369,7 @@ class PeopleTrackerNode(FilterNode):
         header = self._scan_header()
         mean, covariance = self.tracker.mean_pose_and_covariance()
         pose = mean if self.settings["pose_estimate"] == "mean" else self.tracker.best_pose()
-        build = ros_io.pose_with_covariance_view if self._lean() else ros_io.pose_with_covariance
-        self._publish(self._pose_pub, build(header, pose, covariance))
+        self._publish(self._pose_pub, self._pose_message(header, pose, covariance))
         self._publish(self._people_pub,
                       people_io.people_cloud(header, self.tracker.published_people()))
         self._publish_map_to_odom(header, pose)

@@ -200,7 +200,7 @@ def test_pose_and_transform_written_directly_are_the_serializers(stamp, frame, c
        st.lists(FLOATS, min_size=9, max_size=9))
 def test_pose_and_transform_views_written_directly_are_the_rclpy_messages(stamp, frame, child,
                                                                            pose, covariance):
-    """A replay's node hands ~/pose and ~/map_to_odom over as views (``lean_outputs``)."""
+    """A replay's node hands ~/pose and ~/map_to_odom over as views (``in_process``, lean)."""
     covariance = np.array(covariance).reshape(3, 3)
     view = ros_io.pose_with_covariance_view(header(stamp, frame), pose, covariance)
     assert isinstance(view, ros_io.PoseWithCovarianceStampedView)

@@ -29,6 +29,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
+from fastslam_ros.tools.bags.in_process import in_process
 from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 DOMAIN_ID = 100 + os.getpid() % 100
@@ -80,10 +81,9 @@ def context():
 def run(context, events: list[Event], **changes) -> tuple[FastSLAMNode, dict]:
     """Feed the events; return the node's counters and its estimate (the node is destroyed)."""
     params = dict(PARAMS, **changes)
-    node = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+    node = in_process(FastSLAMNode)(context=context, enable_rosout=False, parameter_overrides=[
         Parameter(name, value=value) for name, value in params.items()])
     try:
-        node.publish_to_dds = False
         clock = node.get_clock()
         for event in events:
             clock.set_ros_time_override(Time(nanoseconds=round(event.arrival * 1e9)))
@@ -400,9 +400,8 @@ def test_read_landmark_cloud_reads_or_rejects_any_layout(msg):
 
 @pytest.fixture(scope="module")
 def running_node(context):
-    node = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+    node = in_process(FastSLAMNode)(context=context, enable_rosout=False, parameter_overrides=[
         Parameter(name, value=value) for name, value in PARAMS.items()])
-    node.publish_to_dds = False
     clock = node.get_clock()
     for event in STREAM[:INJECT_AT]:
         clock.set_ros_time_override(Time(nanoseconds=round(event.arrival * 1e9)))
@@ -454,12 +453,11 @@ def test_lost_odometry_shows_in_diagnostics_with_the_gap(context):
     """Ten odometry messages missing at 5 s: counted, and the next report WARNs naming the gap."""
     odometry_indices = [i for i, e in enumerate(STREAM) if isinstance(e.msg, Odometry)]
     lost = set(odometry_indices[200:210])
-    node = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+    node = in_process(FastSLAMNode)(context=context, enable_rosout=False, parameter_overrides=[
         Parameter(name, value=value) for name, value in PARAMS.items()])
     reports = []
     node.output_listeners.append(lambda topic, msg: reports.append(msg)
                                  if topic == "/diagnostics" else None)
-    node.publish_to_dds = False
     try:
         clock = node.get_clock()
         for index, event in enumerate(STREAM):

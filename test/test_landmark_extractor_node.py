@@ -30,6 +30,7 @@ from fastslam_ros.landmark_extractor_node import LandmarkExtractorNode, paramete
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.node_parameters import ParameterError
 from fastslam_ros.tools.bags.bag_schema import cloud_to_arrays
+from fastslam_ros.tools.bags.in_process import in_process
 from test_extractor import ANGLE_MIN, INCREMENT, cast
 from test_launch import launch_stand_ins  # noqa: F401 - a fixture
 
@@ -48,9 +49,8 @@ def context():
 
 def make_node(context, **params) -> LandmarkExtractorNode:
     overrides = [Parameter(k, value=v) for k, v in {"use_sim_time": True, **params}.items()]
-    node = LandmarkExtractorNode(context=context, parameter_overrides=overrides,
-                                 enable_rosout=False)
-    node.publish_to_dds = False
+    node = in_process(LandmarkExtractorNode)(context=context, parameter_overrides=overrides,
+                                             enable_rosout=False)
     return node
 
 
@@ -117,10 +117,9 @@ def test_cloud_has_the_scans_exact_header_and_the_extractors_landmarks(context):
 
 def test_fastslam_node_uses_the_clouds_unchanged(context):
     extractor = make_node(context)
-    slam = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+    slam = in_process(FastSLAMNode)(context=context, enable_rosout=False, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("seed", value=1),
         Parameter("num_particles", value=20), Parameter("sensor_frame", value="laser")])
-    slam.publish_to_dds = False
     extractor.output_listeners.append(
         lambda topic, msg: deliver(slam, msg, START + 0.5) if topic == "/landmarks" else None)
     try:

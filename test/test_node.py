@@ -38,6 +38,7 @@ from fastslam_ros import ros_io, ros_markers
 from fastslam_ros.node_support.timing import OdometryHistory, interpolate_pose
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError
 from fastslam_ros.tools.bags import cdr
+from fastslam_ros.tools.bags.in_process import in_process
 
 REPO = Path(__file__).resolve().parents[1]
 DOMAIN_ID = 100 + os.getpid() % 100
@@ -162,9 +163,13 @@ def context():
         rclpy.shutdown(context=ctx)
 
 
-def make_node(context: Context, **parameters) -> FastSLAMNode:
+def make_node(context: Context, live: bool = False, lean: bool = False,
+              **parameters) -> FastSLAMNode:
+    """The node driven in-process (outputs to listeners; ``lean``: look-alikes, as a replay's),
+    or a ``live`` one, publishing over DDS."""
     values = {**BASE_PARAMETERS, **parameters}
-    node = FastSLAMNode(context=context, parameter_overrides=[
+    node_class = FastSLAMNode if live else in_process(FastSLAMNode, lean)
+    node = node_class(context=context, parameter_overrides=[
         Parameter(name, value=value) for name, value in values.items()])
     CREATED_NODES.append(node)
     return node
@@ -206,14 +211,13 @@ def test_odometry_history_gives_consecutive_steps_ending_at_the_stamp():
 
 # --- scripted runs through the callbacks --------------------------------------------------------
 
-def test_lean_outputs_go_to_listeners_only_without_dds(context):
-    """A replay's node (lean_outputs, no DDS) hands ~/particles over as the array of the
-    PoseArray a live node publishes, ~/landmarks, ~/pose, ~/map_to_odom and ~/path as
-    look-alikes of its messages; with DDS the flag changes nothing."""
+def test_lean_outputs_are_look_alikes_of_the_live_messages(context):
+    """A replay's node (``in_process(..., lean=True)``) hands ~/particles over as the array of
+    the PoseArray a live node publishes, ~/landmarks, ~/pose, ~/map_to_odom and ~/path as
+    look-alikes of its messages."""
     runs = {}
-    for dds in (True, False):
-        node = make_node(context)
-        node.lean_outputs, node.publish_to_dds = True, dds
+    for dds in (True, False):  # True: the messages of the live node
+        node = make_node(context, lean=not dds)
         outputs = Recorder(node)
         replay(node, scripted_run(3.0))
         runs[dds] = outputs.messages
@@ -688,7 +692,8 @@ def spin_until(executor: SingleThreadedExecutor, done, what: str) -> None:
 
 def test_dds_run_reliable_inputs_late_map_subscriber_save_and_reset(context, tmp_path):
     yaml = pytest.importorskip("yaml")
-    node = make_node(context, use_sim_time=False, save_map_file=str(tmp_path / "map.yaml"))
+    node = make_node(context, live=True, use_sim_time=False,
+                     save_map_file=str(tmp_path / "map.yaml"))
     driver = Node("driver", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)

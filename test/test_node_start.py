@@ -24,6 +24,7 @@ from fastslam_ros import node_base, node_diagnostics
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.people_node import PeopleTrackerNode
+from fastslam_ros.tools.bags.in_process import in_process
 from test_node import START, odometry, truth_cloud, truth_pose
 
 DOMAIN_ID = 100 + os.getpid() % 100
@@ -41,17 +42,21 @@ def context():
     rclpy.shutdown(context=ctx)
 
 
-def start(context, node_class=FastSLAMNode, arguments=(), namespace: str = "", **parameters):
+def start(context, node_class=FastSLAMNode, arguments=(), namespace: str = "", live=False,
+          **parameters):
+    """The node driven in-process (its /diagnostics statuses collected) or a ``live`` one."""
     ctx, nodes = context
     values = {**BASE, **parameters}
     if node_class is PeopleTrackerNode:
         values.pop("backend")
-    node = node_class(context=ctx, namespace=namespace, enable_rosout=False,
-                      cli_args=["--ros-args", *arguments] if arguments else None,
-                      parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+    node = (node_class if live else in_process(node_class))(
+        context=ctx, namespace=namespace, enable_rosout=False,
+        cli_args=["--ros-args", *arguments] if arguments else None,
+        parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
     nodes.append(node)
-    node.publish_to_dds = False
     statuses = []
+    if live:
+        return node, statuses
     node.output_listeners.append(
         lambda topic, msg: statuses.append(msg.status[0]) if topic == "/diagnostics" else None)
     return node, statuses
@@ -97,8 +102,7 @@ def test_the_people_tracker_names_its_missing_inputs_too(context):
 def test_publish_tf_without_tf2_ros_warns_once(context, capfd, monkeypatch, publish_tf,
                                                warnings):
     monkeypatch.setattr(node_base, "TransformBroadcaster", None)
-    node, _ = start(context, publish_tf=publish_tf)
-    node.publish_to_dds = True  # a live node
+    node, _ = start(context, publish_tf=publish_tf, live=True)
     for second in range(3):
         tick(node, START + second)
     assert capfd.readouterr().err.count("tf2_ros is not installed") == warnings
@@ -143,7 +147,7 @@ def test_simulated_time_without_clock_warns_once(context, capfd, monkeypatch, cl
     """A bag played without --clock: the node's time stands still; it says so (wall time)."""
     monkeypatch.setattr(node_base, "NO_CLOCK_WARNING", 0.2)  # the timer
     monkeypatch.setattr(node_diagnostics, "NO_CLOCK_WARNING", 0.2)  # its message
-    node, _ = start(context)
+    node, _ = start(context, live=True)
     if clock:
         node.get_clock().set_ros_time_override(Time(nanoseconds=round(START * 1e9)))
     executor = SingleThreadedExecutor(context=context[0])

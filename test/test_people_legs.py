@@ -13,7 +13,8 @@ from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
-from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, build_map, simulate_people
+from fastslam_ros.tools.simulation.crowd import build_map
+from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, simulate_people
 
 
 def test_circle_ranges_match_the_closed_form():

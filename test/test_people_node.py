@@ -20,6 +20,7 @@ from std_msgs.msg import Header
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.node import ParameterError
 from fastslam_ros.people_node import PeopleTrackerNode
+from fastslam_ros.tools.bags.in_process import in_process
 from fastslam_ros.tools.bags.bag_schema import cloud_to_arrays
 from fastslam_ros.tools.simulation.people_sim import cast_scan
 from test_people_core import ANGLES, room
@@ -41,8 +42,8 @@ def context():
 
 def make_node(context, **params) -> PeopleTrackerNode:
     overrides = [Parameter(k, value=v) for k, v in {**BASE, **params}.items()]
-    node = PeopleTrackerNode(context=context, parameter_overrides=overrides, enable_rosout=False)
-    node.publish_to_dds = False
+    node = in_process(PeopleTrackerNode)(context=context, parameter_overrides=overrides,
+                                         enable_rosout=False)
     return node
 
 

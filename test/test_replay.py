@@ -12,8 +12,8 @@ import pytest
 from fastslam_ros.tools.bags.bag_schema import (REPLAY_INFO_TOPIC, LandmarkScans, PoseSeries,
                                            SchemaBag, SchemaError, read_last, read_topic,
                                            read_topics, write_schema_bag)
-from fastslam_ros.tools.bags.replay import (load_params_file, node_parameters, parse_assignment,
-                                       replay_bag)
+from fastslam_ros.tools.bags.in_process import node_parameters
+from fastslam_ros.tools.bags.replay import load_params_file, parse_assignment, replay_bag
 from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 PARAMS = dict(recommended_params(SimConfig()), num_particles=20)

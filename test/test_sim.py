@@ -15,7 +15,7 @@ import pytest
 from fastslam_ros.core import FastSLAMConfig
 from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.core.observation import inverse_observe
-from fastslam_ros.tools.simulation import people_sim
+from fastslam_ros.tools.simulation import crowd as crowd_model
 from fastslam_ros.tools.simulation.sim import SimConfig, build_world, recommended_params, simulate
 from fastslam_ros.tools.simulation.synthetic import make_world
 from fastslam_ros.tools.simulation.world import (RangeBearingSensor, circle_path,
@@ -275,7 +275,7 @@ def test_written_parameter_file_applies_under_any_namespace(tmp_path):
 
 def _distance_to_walls(points: np.ndarray) -> np.ndarray:
     """(K,) distance (m) of points (K, 2) to the nearest wall or furniture rectangle."""
-    walls = np.array(people_sim.WALLS)
+    walls = np.array(crowd_model.WALLS)
     dx = np.maximum(np.maximum(walls[None, :, 0] - points[:, None, 0],
                                points[:, None, 0] - walls[None, :, 1]), 0.0)
     dy = np.maximum(np.maximum(walls[None, :, 2] - points[:, None, 1],
@@ -294,7 +294,7 @@ def _walk_crowd(crowd, duration: float, robot=(9.0, 10.5, 0.0)):
 
 @pytest.mark.parametrize("seed,people", [(1, 5), (2, 5), (3, 8)])
 def test_simulated_people_keep_apart_stay_off_walls_and_keep_walking(seed, people):
-    crowd = people_sim.Crowd(people, np.random.default_rng([seed, 0]))
+    crowd = crowd_model.Crowd(people, np.random.default_rng([seed, 0]))
     closest, off_walls = np.inf, np.inf
     last_change, stuck = {}, 0.0
     state = {}
@@ -311,8 +311,8 @@ def test_simulated_people_keep_apart_stay_off_walls_and_keep_walking(seed, peopl
             elif person.pause <= 0.0:
                 stuck = max(stuck, t - last_change[person.ident])
     # solid bodies, from the first step on (newcomers enter only where the way is clear)
-    assert closest >= people_sim.PERSONAL_DISTANCE - 1e-9
-    assert off_walls >= people_sim.PERSON_RADIUS
+    assert closest >= crowd_model.PERSONAL_DISTANCE - 1e-9
+    assert off_walls >= crowd_model.PERSON_RADIUS
     # no deadlock: the longest edge (5.4 m) takes 11 s at the slowest 0.5 m/s; passing,
     # waiting and yielding may add some seconds, never minutes
     assert stuck < 30.0
@@ -321,10 +321,10 @@ def test_simulated_people_keep_apart_stay_off_walls_and_keep_walking(seed, peopl
 
 def _two_walkers(first: tuple, second: tuple):
     """A crowd of two people walking given (start node, path) at 0.8 m/s, no pause."""
-    crowd = people_sim.Crowd(0, np.random.default_rng(0))
+    crowd = crowd_model.Crowd(0, np.random.default_rng(0))
     for ident, (start, path) in enumerate((first, second)):
-        crowd.people.append(people_sim.Person(
-            ident, np.array(people_sim.NODES[start], dtype=float), start,
+        crowd.people.append(crowd_model.Person(
+            ident, np.array(crowd_model.NODES[start], dtype=float), start,
             path=deque(path), speed=0.8))
     crowd.next_id = 2
     return crowd
@@ -345,8 +345,8 @@ def test_two_people_meeting_head_on_pass_each_other(first, second, goals):
         for person in crowd.people:
             if person.node == goals[person.ident] and reached[person.ident] == math.inf:
                 reached[person.ident] = t
-    assert closest >= people_sim.PERSONAL_DISTANCE - 1e-9
-    walk = [np.linalg.norm(np.subtract(people_sim.NODES[goals[i]], people_sim.NODES[start]))
+    assert closest >= crowd_model.PERSONAL_DISTANCE - 1e-9
+    walk = [np.linalg.norm(np.subtract(crowd_model.NODES[goals[i]], crowd_model.NODES[start]))
             for i, (start, _) in enumerate((first, second))]
     # both arrive, within the walk at 0.8 m/s plus a bounded wait
     assert max(r - w / 0.8 for r, w in zip(reached, walk)) < 12.0
@@ -354,7 +354,7 @@ def test_two_people_meeting_head_on_pass_each_other(first, second, goals):
 
 def test_simulated_crowd_is_deterministic_by_seed():
     def track(seed):
-        crowd = people_sim.Crowd(5, np.random.default_rng([seed, 0]))
+        crowd = crowd_model.Crowd(5, np.random.default_rng([seed, 0]))
         return [positions.copy() for _, _, positions in _walk_crowd(crowd, 20.0)][-1]
     np.testing.assert_array_equal(track(4), track(4))
     assert track(4).shape != track(5).shape or not np.array_equal(track(4), track(5))

@@ -23,14 +23,16 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from fastslam_ros.landmark_extractor_node import NODE_NAME as EXTRACTOR_NAME
 from fastslam_ros.landmark_extractor_node import LandmarkExtractorNode, parameter_specs
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, read_params_file
+from fastslam_ros.tools.bags.in_process import in_process
 
 SCAN_TOPIC = "/scan"
 EXTRACTOR_PARAMETERS = parameter_specs()
 SLAM_PARAMETERS = {**CORE_PARAMETERS, **NODE_PARAMETERS}
 
 
-class LaserSLAMNode(FastSLAMNode):
-    """fastslam_node with the landmark extractor ahead of it (``extractor``), for a replay."""
+class LaserSLAMNode(in_process(FastSLAMNode, lean=True)):
+    """fastslam_node with the landmark extractor ahead of it (``extractor``), both in-process,
+    for a replay."""
 
     def __init__(self, *, parameter_overrides=(), **node_kwargs) -> None:
         """Both nodes; each gets the overrides it declares (``use_sim_time`` both, a name
@@ -41,11 +43,11 @@ class LaserSLAMNode(FastSLAMNode):
                      if p.name in EXTRACTOR_PARAMETERS or p.name == "use_sim_time"]
         super().__init__(parameter_overrides=slam, **node_kwargs)
         try:
-            self.extractor = LandmarkExtractorNode(parameter_overrides=extractor, **node_kwargs)
+            self.extractor = in_process(LandmarkExtractorNode)(parameter_overrides=extractor,
+                                                               **node_kwargs)
         except BaseException:
             FastSLAMNode.destroy_node(self)
             raise
-        self.extractor.publish_to_dds = False
         self.extractor.output_listeners.append(self._extracted)
 
     def _extracted(self, topic: str, msg: Any) -> None:

@@ -45,7 +45,7 @@ LOOK_ALIKES = (PlanarPoseArray, MarkerArrayView, PoseWithCovarianceStampedView,
                TransformStampedView, PathView)
 
 
-"""The node's lean outputs (``lean_outputs``), each naming its type (``MSGTYPE``)."""
+"""A replay node's look-alike outputs (``in_process``, lean), each naming its type (``MSGTYPE``)."""
 
 
 TRANSFORMS = (TransformStamped, TransformStampedView)

@@ -9,8 +9,9 @@ Every ``/odom`` and ``/landmarks`` message of the bag is read straight from its 
 a look-alike object (``tools/bags/cdr.py``: the attributes the node's readers use), any other input
 (``/initialpose``) into its rclpy message class, and handed, in bag-time order, to the node's
 subscription callbacks; before each one the node's time is set to the message's bag time
-(``set_node_time``, as ``use_sim_time`` with a clock would). Nothing goes through
-DDS (the node's context has discovery off: no other process sees it) and nothing waits, so
+(``set_node_time``, as ``use_sim_time`` with a clock would; ``tools/bags/in_process.py``).
+Nothing goes through DDS (the node's context has discovery off: no other process sees it) and
+nothing waits, so
 a replay runs as fast as the filter allows and gives the same outputs as a live run at the
 same times. Every message the node publishes is recorded into
 OUT (MCAP) at the bag time of the input being processed, together with copies of the bag's
@@ -26,10 +27,8 @@ rosbags writes them.
 from __future__ import annotations
 
 import argparse
-import gc
 import json
 import math
-import os
 import sys
 import time
 from contextlib import ExitStack, contextmanager
@@ -39,8 +38,6 @@ from typing import Any, Callable, Iterator, TextIO
 
 import rclpy
 import yaml
-from rclpy.context import Context
-from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader, AnyReaderError
 from std_msgs.msg import String
@@ -50,6 +47,8 @@ from fastslam_ros.node_console import ParamsFileError
 from fastslam_ros.node_start import warn_line
 from fastslam_ros.node import (CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, ParameterError,
                                read_params_file)
+from fastslam_ros.tools.bags.in_process import (create_node, existing_objects_frozen, in_process,
+                                                isolated_context)
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.bags.cdr import (read_odometry,
                                     read_point_cloud)
@@ -99,9 +98,6 @@ class ReplayResult:
         return self.bag_duration / self.wall_time if self.wall_time > 0 else math.inf
 
 
-# ---------------------------------------------------------------- message types
-
-
 # ---------------------------------------------------------------- parameters
 
 
@@ -145,21 +141,6 @@ def _absolute(topic: str) -> str:
     return topic if topic.startswith("/") else "/" + topic
 
 
-def node_parameters(params: dict[str, Any], specs: dict[str, tuple[Any, Any]] | None = None
-                    ) -> list[Parameter]:
-    """rclpy ``Parameter`` overrides for a node (use_sim_time on; an integer given for a
-    parameter whose spec default is a float is widened). ``specs``: {name: (default, spec)},
-    by default the SLAM node's."""
-    specs = {**CORE_PARAMETERS, **NODE_PARAMETERS} if specs is None else specs
-    floats = {name for name, (default, _) in specs.items() if isinstance(default, float)}
-    overrides = [Parameter("use_sim_time", value=True)]
-    for name, value in params.items():
-        if name in floats and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        overrides.append(Parameter(name, value=value))
-    return overrides
-
-
 # ---------------------------------------------------------------- progress
 
 
@@ -191,9 +172,6 @@ class ProgressBar:
         self.stream.flush()
 
 
-# ---------------------------------------------------------------- recording
-
-
 # ---------------------------------------------------------------- replay
 
 
@@ -204,7 +182,8 @@ class ReplayTarget:
     node_name: str
     """The node's name: the sections of a parameter file that apply."""
     make_node: Callable[..., Any]
-    """The node class (keyword arguments of ``rclpy.node.Node``)."""
+    """The in-process node class (``in_process.in_process``; keyword arguments of
+    ``rclpy.node.Node``)."""
     specs: dict[str, tuple[Any, Any]]
     """{name: (default, spec)} of the node's parameters."""
     callbacks: Callable[[Any], dict[str, Callable[[Any], None]]]
@@ -223,7 +202,7 @@ class ReplayTarget:
 
 
 SLAM_TARGET = ReplayTarget(
-    "fastslam", FastSLAMNode, {**CORE_PARAMETERS, **NODE_PARAMETERS},
+    "fastslam", in_process(FastSLAMNode, lean=True), {**CORE_PARAMETERS, **NODE_PARAMETERS},
     lambda node: {ODOM_TOPIC: node.on_odometry, LANDMARKS_TOPIC: node.on_landmarks,
                   INITIAL_POSE_TOPIC: node.on_initial_pose},
     INPUT_TOPICS, COPIED_TOPICS, LANDMARKS_TOPIC, "sensor_frame",
@@ -236,7 +215,7 @@ def people_target() -> ReplayTarget:
     from fastslam_ros.people_node import NODE_NAME, PeopleTrackerNode, parameter_specs
     from fastslam_ros.tools.simulation.people_sim import MAP_TOPIC, PEOPLE_TRUTH_TOPIC, SCAN_TOPIC
     return ReplayTarget(
-        NODE_NAME, PeopleTrackerNode, parameter_specs(),
+        NODE_NAME, in_process(PeopleTrackerNode, lean=True), parameter_specs(),
         lambda node: {MAP_TOPIC: node.on_map, INITIAL_POSE_TOPIC: node.on_initial_pose,
                       ODOM_TOPIC: node.on_odometry, SCAN_TOPIC: node.on_scan},
         (ODOM_TOPIC, SCAN_TOPIC),
@@ -303,7 +282,7 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
         read = (*target.callbacks(target.make_node), TF_STATIC_TOPIC)
         reader = cleanup.enter_context(_open_input(bag_path, topics, target.required_topics,
                                                    read))
-        node = _create_node(target, context, merged)
+        node = create_node(target.make_node, context, merged, target.specs)
         cleanup.callback(node.destroy_node)
         used_params = {name: node.get_parameter(name).value
                        for name in sorted(set(merged) | set(target.recorded_params))}
@@ -315,7 +294,7 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
             node.output_listeners.append(recorder.record)
             _record_static_transforms(node, reader, recorder, topics, target)
         start, start_cpu = time.perf_counter(), time.process_time()
-        with _existing_objects_frozen():
+        with existing_objects_frozen():
             done, duration = _feed(node, reader, recorder, progress, topics, target)
         result = ReplayResult(dict(node.stats), time.perf_counter() - start, duration,
                               Path(out_path) if out_path is not None else None, used_params,
@@ -329,45 +308,6 @@ def replay_through(target: ReplayTarget, bag_path: str | Path,
                     "messages": done, "stats": result.stats, "params": used_params}
             recorder.record(REPLAY_INFO_TOPIC, String(data=json.dumps(info)))
         return result
-
-
-@contextmanager
-def _existing_objects_frozen() -> Iterator[None]:
-    """Keep the objects that exist now (modules, compiled kernels, the node) out of the garbage
-    collector's scans for the block (``gc.freeze``): a replay allocates enough to trigger full
-    collections, and each would scan them all again. Nothing if the caller froze some itself."""
-    if gc.get_freeze_count():
-        yield
-        return
-    gc.freeze()
-    try:
-        yield
-    finally:
-        gc.unfreeze()
-
-
-ISOLATION_ENVIRONMENT = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF", "ROS_STATIC_PEERS": ""}
-"""rcl discovery settings of the replay's context: no discovery at all (REP 2009), so its node
-never appears on the robot's ROS graph, whatever ROS_DOMAIN_ID says."""
-
-
-def isolated_context() -> Context:
-    """An initialised rclpy Context that discovers nobody and that nobody discovers.
-
-    rcl reads the discovery settings from the environment when the context is initialised;
-    they are set for that call only and restored at once."""
-    saved = {name: os.environ.get(name) for name in ISOLATION_ENVIRONMENT}
-    os.environ.update(ISOLATION_ENVIRONMENT)
-    try:
-        context = Context()
-        rclpy.init(args=[], context=context)  # not sys.argv: its FROM:=TO would be a remap
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
-    return context
 
 
 TopicOf = Callable[[Any], str]
@@ -415,19 +355,6 @@ def _open_input(bag_path: Path, topic_of: TopicOf, required: tuple[str, ...],
         yield reader
     finally:
         reader.close()
-
-
-def _create_node(target: ReplayTarget, context: Context, params: dict[str, Any]) -> Any:
-    """The node with these parameters on simulated time; ValueError names a bad parameter."""
-    try:
-        node = target.make_node(context=context, enable_rosout=False,
-                                parameter_overrides=node_parameters(params, target.specs))
-    except ParameterError as error:
-        raise ValueError(str(error)) from None
-    # Nobody listens over DDS in a replay: outputs go only to the recorder.
-    node.publish_to_dds = False
-    node.lean_outputs = True
-    return node
 
 
 def _record_static_transforms(node: Any, reader: AnyReader, recorder: OutputRecorder,

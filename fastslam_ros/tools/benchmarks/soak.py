@@ -28,7 +28,7 @@ from fastslam_ros import ros_io
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.tools import cli
 from fastslam_ros.output import check_output, write_text
-from fastslam_ros.tools.bags.replay import isolated_context
+from fastslam_ros.tools.bags.in_process import in_process, isolated_context
 from fastslam_ros.tools.simulation.sim import SimConfig, recommended_params, simulate
 
 OUTPUTS = ("pose", "path", "particles", "map", "diagnostics")
@@ -79,9 +79,8 @@ def soak(hours: float = 10.0, particles: int = 10, seed: int = 1,
     odometry = bag.odometry
     scans = bag.scans
     context = isolated_context()
-    node = FastSLAMNode(context=context, enable_rosout=False, parameter_overrides=[
+    node = in_process(FastSLAMNode)(context=context, enable_rosout=False, parameter_overrides=[
         Parameter(name, value=value) for name, value in params.items()])
-    node.publish_to_dds = False
     clock = node.get_clock()
     rows, costs = [], {}
     next_hour, scan = 1, 0
