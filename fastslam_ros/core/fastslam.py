@@ -378,9 +378,10 @@ class FastSLAM(NumpyReading, Relocalizing):
         normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
         (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
          finite, ws) = self.kernels.update_reading(
-            ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
-            self.log_weights, self._settings, reach, self.landmarks.next_key, propose,
-            self.history.next_generation(), self.working.pending, motion)
+            ws, self.kernels.Particles(self.poses, self.log_weights, mean, cov),
+            (ranges, bearings, labels), self.kernels.Draws(draws, normals), self._settings,
+            reach, self.landmarks.next_key, propose, self.history.next_generation(),
+            self.working.pending, motion)
         self.working.took(ws)
         if propose:
             self._set_prior(None)
