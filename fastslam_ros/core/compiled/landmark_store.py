@@ -6,7 +6,6 @@ placing of new landmarks."""
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -15,27 +14,15 @@ from . import crew
 from ..landmark_store import LandmarkStore, STATE_WIDTH, WorkingSet
 from .crew import _chunk_bounds, _run_chunks
 from .jit import _JIT
-from .records import _empty_entries, entries_of
-
-
-class Pool(NamedTuple):
-    """The landmark store's block pool as the kernels read it."""
-
-    table: np.ndarray
-    """(M, blocks) each particle's pool row of each block (-1: none)."""
-    occupied: np.ndarray
-    """(rows, slots) the slot holds a landmark."""
-    state: np.ndarray
-    """(rows, slots, 6) the landmarks' floats."""
-    ident: np.ndarray
-    """(rows, slots, 2) their label and key."""
+from .records import Entries, entries_of
 
 
 @njit(**_JIT)
 def _gather_layout(pool, columns, num_new_slots):
-    """The working set's ``Entries`` (unfilled) for the cell ``columns`` and its width: the
+    """The working set's ``Entries`` (unfilled, as a plain tuple: ``records``) for the cell
+    ``columns`` of the store's ``pool`` (table, occupied, state, ident) and its width: the
     most landmarks any particle has there."""
-    table, occupied = pool.table, pool.occupied
+    table, occupied = pool[0], pool[1]
     num_particles, num_columns = columns.shape
     width = 0
     for m in range(num_particles):
@@ -45,7 +32,11 @@ def _gather_layout(pool, columns, num_new_slots):
                 for s in range(occupied.shape[1]):
                     count += occupied[table[m, columns[m, c]], s]
         width = max(width, count)
-    return _empty_entries(num_particles, width + num_new_slots), width
+    shape = (num_particles, width + num_new_slots)
+    return (np.empty(shape, np.int64), np.empty(shape, np.int64), np.empty(shape, np.int64),
+            np.empty(shape + (STATE_WIDTH,)), np.empty(shape + (2,), np.int64),
+            np.empty(shape, np.bool_), np.empty(shape, np.bool_),
+            np.empty(shape, np.bool_)), width
 
 
 @njit(**_JIT)
@@ -100,7 +91,7 @@ def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> Wor
 def _gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int,
             threads: int) -> WorkingSet:
     """``gather`` on ``threads`` threads."""
-    pool = Pool(store.table, store.occupied, store.state, store.ident)
+    pool = (store.table, store.occupied, store.state, store.ident)
     cells = np.require(columns, np.int64, ("C", "W"))
     if threads == 1:
         entries, width = _gather_kernel(pool, cells, num_new_slots)
@@ -241,7 +232,8 @@ def dirty_pairs(ws, origin):
 @njit(**_JIT)
 def _write_back_kernel(entries, pairs, num_blocks, pool_state, occupied, origin):
     """``write_back`` of the working set's ``entries`` through the (particle, block, row)
-    ``pairs``."""
+    ``pairs`` (``entries`` a plain tuple from Python, ``records``)."""
+    entries = Entries(*entries)
     dirty, row, block, slot, valid, ws_state = (entries.dirty, entries.row, entries.block,
                                                 entries.slot, entries.valid, entries.state)
     pair_particles, pair_blocks, pair_rows = pairs
@@ -262,7 +254,7 @@ def write_back(ws, pair_particles, pair_blocks, pair_rows, pool_state, occupied,
                origin) -> None:
     """Every changed gathered entry into its (now private) block row and slot; particle m's
     entries are ``ws``'s particle ``origin[m]``'s."""
-    _write_back_kernel(entries_of(ws), (pair_particles, pair_blocks, pair_rows),
+    _write_back_kernel(tuple(entries_of(ws)), (pair_particles, pair_blocks, pair_rows),
                        ws.columns.shape[1], pool_state, occupied, origin)
 
 

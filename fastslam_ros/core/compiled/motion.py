@@ -111,6 +111,7 @@ def _widest_kernel(cov, has_cov, count, v_rot1, v_rot2):
 
 @njit(**_JIT)
 def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, settings):
+    settings = ReadingSettings(*settings)  # a plain tuple from Python (``records``)
     motion = np.array(_motion_of(dx, dy, dtheta, settings))
     count = mean.shape[0]
     moved = np.empty((count, 3))
@@ -140,7 +141,8 @@ def advance_mean(prior, poses: np.ndarray, delta, settings: ReadingSettings):
     ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the covariance: the
     next reading does it in its blocks of particles."""
     mean, cov = prior if prior is not None else (poses, _NO_COV)
-    return _advance_mean_kernel(mean, cov, prior is not None, *delta, settings)
+    return _advance_mean_kernel(mean, cov, prior is not None, *delta,
+                                tuple(settings))
 
 
 def propagate_cov(turn: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:

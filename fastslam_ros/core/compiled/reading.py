@@ -20,9 +20,9 @@ from .jit import _JIT, _wrap
 from .landmark_ekf import _map_particle, _place_new
 from .motion import _NO_COV, _propagate_cov
 from .proposal import _propose_and_draw
-from .records import (DeferredMotion, Draws, NewLandmarks, Observations, Particles,
+from .records import (DeferredMotion, Draws, Entries, NewLandmarks, Observations, Particles,
                       PendingResampling, ReadingOutputs, entries_of, scratch)
-from .settings import ReadingSettings, reading_plan
+from .settings import ReadingPlan, ReadingSettings, reading_plan
 
 
 @njit(**_JIT)
@@ -75,7 +75,13 @@ def _reading_chunk(counter, block, table, pending, particles, motion, obs, draws
     normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``),
     all into ``out`` (``ReadingOutputs``); ``out.finite[m]`` False for a non-finite update;
     the new pose also into ``out.recorded[m]`` (the path history's next generation);
-    ``counter[1]`` counts the particles finished (``_Crew.run`` waits for it)."""
+    ``counter[1]`` counts the particles finished (``_Crew.run`` waits for it). Called from
+    Python (``_reading_threaded``), it takes its records as plain tuples (``records``)."""
+    table, particles, obs, draws = (Entries(*table), Particles(*particles),
+                                    Observations(*obs), Draws(*draws))
+    pending = PendingResampling(pending[0], Entries(*pending[1]))
+    motion, settings = DeferredMotion(*motion), ReadingSettings(*settings)
+    plan, out = ReadingPlan(*plan), ReadingOutputs(*out)
     count = obs.ranges.shape[0]
     existing = plan.existing
     work = scratch(count, max(existing, 1))
@@ -257,7 +263,9 @@ def _range_variances(ranges, settings):
 def _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded):
     """The reading's ``Observations`` (with their range variances and the observation whose
     landmark each one creates: itself; with known ids the first of its id) and the
-    ``ReadingOutputs`` the chunks write (the new poses also into ``recorded``)."""
+    ``ReadingOutputs`` the chunks write (the new poses also into ``recorded``), as plain
+    tuples (``records``; so are the ``settings`` it takes)."""
+    settings = ReadingSettings(*settings)
     count = ranges.shape[0]
     creator = np.arange(count)
     if settings.association == 0:
@@ -266,18 +274,20 @@ def _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded
                 if labels[other] == labels[k]:
                     creator[k] = other
                     break
-    obs = Observations(ranges, bearings, labels, _range_variances(ranges, settings), creator)
-    out = ReadingOutputs(np.empty((count, num_particles), np.int64),
-                         np.empty((count, num_particles)), np.empty((num_particles, 3)),
-                         np.empty(num_particles), np.empty((count, num_particles, 5)),
-                         np.ones(num_particles, np.bool_), recorded)
+    obs = (ranges, bearings, labels, _range_variances(ranges, settings), creator)
+    out = (np.empty((count, num_particles), np.int64), np.empty((count, num_particles)),
+           np.empty((num_particles, 3)), np.empty(num_particles),
+           np.empty((count, num_particles, 5)), np.ones(num_particles, np.bool_), recorded)
     return obs, out
 
 
 @njit(**_JIT)
 def _settle(table, obs, settings, plan, out):
     """After every chunk: the columns and keys of the new landmarks, which are put in place,
-    the weights normalised, N_eff, the reported particle and its report."""
+    the weights normalised, N_eff, the reported particle and its report (the records as plain
+    tuples, ``records``)."""
+    table, obs, settings = Entries(*table), Observations(*obs), ReadingSettings(*settings)
+    plan, out = ReadingPlan(*plan), ReadingOutputs(*out)
     count, num_particles = out.choice.shape
     new = NewLandmarks(np.empty((count, num_particles), np.bool_), np.empty(count, np.int64),
                        np.empty((count, num_particles), np.int64))
@@ -297,8 +307,9 @@ def _settle(table, obs, settings, plan, out):
 @njit(**_JIT)
 def _reading_serial(table, pending, particles, motion, ranges, bearings, labels, draws,
                     settings, plan, recorded):
-    """The whole reading on the calling thread (``update_reading``)."""
-    num_particles = particles.poses.shape[0]
+    """The whole reading on the calling thread (``update_reading``; the records as plain
+    tuples, ``records``)."""
+    num_particles = recorded.shape[0]
     obs, out = _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded)
     _reading_chunk(np.zeros(2, np.int64), num_particles, table, pending, particles, motion, obs,
                    draws, settings, plan, out)
@@ -312,7 +323,7 @@ def _reading_threaded(table, pending, particles, motion, ranges, bearings, label
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
     that starts late or runs slower takes fewer). Blocks write disjoint particles, so the
     results are those of the serial reading."""
-    num_particles = particles.poses.shape[0]
+    num_particles = recorded.shape[0]
     obs, out = _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded)
     _run_shared(_reading_chunk, chunks, (
         np.zeros(2, np.int64), READING_BLOCK, table, pending, particles, motion, obs, draws,
@@ -415,9 +426,9 @@ def _update(ws, particles: Particles, observations, draws: Draws, settings: Read
     plan = reading_plan(settings, reach, first_key, ws.first_new_slot, cov is not None,
                         propose, from_cov)
     ranges, bearings, labels = (np.ascontiguousarray(values) for values in observations)
-    args = (entries_of(ws), PendingResampling(order, source),
-            particles._replace(cov=_NO_COV if cov is None else cov), deferred, ranges,
-            bearings, labels, draws, settings, plan, recorded)
+    args = (tuple(entries_of(ws)), (order, tuple(source)),
+            tuple(particles._replace(cov=_NO_COV if cov is None else cov)), tuple(deferred),
+            ranges, bearings, labels, tuple(draws), tuple(settings), tuple(plan), recorded)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)

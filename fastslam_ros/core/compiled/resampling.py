@@ -10,7 +10,7 @@ from numba import njit
 from ..landmark_store import WorkingSet
 from .jit import _JIT
 from .reading import _copy_entries
-from .records import entries_of
+from .records import Entries, entries_of
 
 
 @njit(**_JIT)
@@ -69,6 +69,7 @@ def _reindex_kernel(indices, existing, table):
     it is overwritten; rows that keep their place are not touched, nor are the columns from
     ``existing`` on (empty in every particle). False, and nothing changed, for other
     indices."""
+    table = Entries(*table)  # a plain tuple from Python (``records``)
     count = indices.shape[0]
     for m in range(1, count):
         if indices[m] < indices[m - 1]:
@@ -85,7 +86,7 @@ def _reindex_kernel(indices, existing, table):
 def reindex(ws, indices: np.ndarray):
     """``take`` for a working set no longer needed as it was: in place when ``indices`` are
     non-decreasing (``_reindex_kernel``), else a copy."""
-    if not _reindex_kernel(indices, ws.first_new_slot, entries_of(ws)):
+    if not _reindex_kernel(indices, ws.first_new_slot, tuple(entries_of(ws))):
         return take(ws, indices)
     ws.columns = ws.columns[indices]
     return ws
