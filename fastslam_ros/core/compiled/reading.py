@@ -409,26 +409,28 @@ def _update(ws, particles: Particles, observations, draws: Draws, settings: Read
             reach: float, first_key: int, propose: bool, recorded, order, threads: int,
             motion=None):
     """``update_reading`` on ``threads`` threads."""
-    cov = particles.cov
+    poses, log_weights, mean, cov = particles
     if motion is None:
         deferred, from_cov = _NO_MOTION, None
     else:
         turn, prior_cov, terms = motion
         from_cov = prior_cov is not None
         deferred = DeferredMotion(turn, prior_cov if from_cov else _NO_COV, terms)
-        cov = np.empty((particles.poses.shape[0], 3, 3))
-    source = entries_of(ws)
+        cov = np.empty((poses.shape[0], 3, 3))
+    source = table = tuple(entries_of(ws))
     if order is None:
         order = _NO_ORDER
     else:
         ws = WorkingSet(*(np.empty_like(array) for array in source[:3]), ws.columns[order],
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
+        table = tuple(entries_of(ws))
     plan = reading_plan(settings, reach, first_key, ws.first_new_slot, cov is not None,
                         propose, from_cov)
     ranges, bearings, labels = (np.ascontiguousarray(values) for values in observations)
-    args = (tuple(entries_of(ws)), (order, tuple(source)),
-            tuple(particles._replace(cov=_NO_COV if cov is None else cov)), tuple(deferred),
-            ranges, bearings, labels, tuple(draws), tuple(settings), tuple(plan), recorded)
+    # Plain tuples across the boundary (``records``).
+    args = (table, (order, source), (poses, log_weights, mean, _NO_COV if cov is None else cov),
+            tuple(deferred), ranges, bearings, labels, tuple(draws), tuple(settings),
+            tuple(plan), recorded)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
