@@ -40,7 +40,8 @@ from .motion import OdometryControl, control_variances, propagate_gaussian, samp
 from .observation import SensorOffset
 from .path_history import PathHistory
 from .proposal import sample_pose
-from .reading import CompiledReading, NumpyReading, UpdateReport
+from .reading import (COMPILED_READING, NUMPY_READING, CompiledReading, NumpyReading,
+                      UpdateReport)
 from .relocalization import Relocalizing
 from .resampling import RESAMPLERS
 
@@ -123,11 +124,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         self.kernels = self._load_kernels()
         """The compiled backend (``core.compiled``) when it runs, else None (numpy)."""
         self.backend = "numpy" if self.kernels is None else "numba"
-        # The one place the backend is chosen for a reading: its gating and its math.
-        if self.kernels is None:
-            self._usable, self._read = self._usable_numpy, self._read_numpy
-        else:
-            self._usable, self._read = self._usable_compiled, self._read_compiled
+        self._reading = NUMPY_READING if self.kernels is None else COMPILED_READING
+        """The one place the backend is chosen for a reading: its gating and its math."""
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
         self._resample_compiled = self.kernels is not None and config.resampling == "systematic"
@@ -333,8 +331,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
             raise ValueError("ranges, bearings and ids must have the same length")
         if not self._localization:  # a fixed map is saved as it is
             self.readings.record(stamp, ranges, bearings, labels)
-        usable_ranges, usable_bearings, usable_labels, farthest = self._usable(ranges, bearings,
-                                                                               labels)
+        usable_ranges, usable_bearings, usable_labels, farthest = self._reading.usable(
+            self, ranges, bearings, labels)
         self._advance_motion()                                                  # 1. motion
         # FastSLAM 2.0 scores the observations at its prior (whose covariance the compiled
         # reading may propagate in its blocks: ``_deferred``), FastSLAM 1.0 at the poses.
@@ -348,8 +346,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
                                       usable_labels if known else None, lazy=lazy)
         if self.loop is not None:
             self.loop.before_reading(ws, self.working.pending)
-        outcome = self._read(ws, mean, cov, usable_ranges, usable_bearings,     # 2. to 5.
-                             usable_labels, reach, stamp)
+        outcome = self._reading.read(self, ws, mean, cov, usable_ranges,        # 2. to 5.
+                                     usable_bearings, usable_labels, reach, stamp)
         self.num_updates += 1
         self.working.created(outcome.columns)
         self._best = outcome.best

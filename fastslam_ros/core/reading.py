@@ -8,6 +8,7 @@ one call of ``compiled.update_reading`` on the same random draws."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, NamedTuple
 import numpy as np
 
 from . import association as assoc
@@ -371,3 +372,17 @@ class NumpyReading:
         logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
+
+
+class ReadingBackend(NamedTuple):
+    """A backend's reading, its functions called with the filter (``FastSLAM.update``)."""
+
+    usable: Callable
+    """(filter, ranges, bearings, labels) -> the usable observations and the largest range."""
+    read: Callable
+    """(filter, ws, mean, cov, ranges, bearings, labels, reach, stamp) -> ``ReadingOutcome``."""
+
+
+NUMPY_READING = ReadingBackend(NumpyReading._usable_numpy, NumpyReading._read_numpy)
+COMPILED_READING = ReadingBackend(CompiledReading._usable_compiled,
+                                  CompiledReading._read_compiled)
