@@ -12,7 +12,7 @@ from numba import njit
 
 from ..association import IGNORE, NEW
 from ..geometry import LOG_TWO_PI
-from .jit import _JIT, _lever, _logaddexp, _wrap
+from .jit import _INLINED, _JIT, _lever, _logaddexp, _wrap
 
 
 @njit(**_JIT)
@@ -187,7 +187,7 @@ def _two_gates(log_lik, mahalanobis, width, log_p0, gate, new_gate, choice, fact
             choice[k, m], factor[k, m] = IGNORE, 0.0
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _associate_particle(m, table, particles, obs, uniforms, settings, plan, out, work):
     """``FastSLAM._associate`` for particle m before the outlier test: its choices (working-set
     columns or ``NEW`` / ``IGNORE``) and log factors into column m of ``out.choice`` and

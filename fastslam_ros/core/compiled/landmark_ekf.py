@@ -11,10 +11,10 @@ from numba import njit
 
 from ..association import IGNORE, NEW
 from ..geometry import TWO_PI
-from .jit import _JIT, _lever, _wrap
+from .jit import _INLINED, _JIT, _lever, _wrap
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _joseph(m, slot, k, state, sensor, obs, settings):
     """Joseph-form EKF update (``update_landmarks``) of particle m's landmark ``slot`` by
     observation k (``Observations``) seen from ``sensor`` (x, y, heading), its log-odds raised
@@ -63,7 +63,7 @@ def _joseph(m, slot, k, state, sensor, obs, settings):
     return finite
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _map_particle(m, table, existing, choice, poses, obs, settings, observed, fresh):
     """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m, but for placing
     its new landmarks: the mean and packed covariance of each landmark it creates into

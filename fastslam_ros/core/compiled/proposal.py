@@ -12,10 +12,10 @@ from numba import njit
 
 from ..geometry import LOG_TWO_PI
 from ..proposal import _COF_P, _COF_Q, _COF_R, _COF_S, POSE_JITTER
-from .jit import _JIT, _lever, _wrap
+from .jit import _INLINED, _JIT, _lever, _wrap
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _propose_and_draw(m, state, particles, obs, choice, settings, normals, poses_out, work,
                       scored):
     """``proposal.observation_proposal`` (linearised once) from particle m's associated

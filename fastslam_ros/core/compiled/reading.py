@@ -16,7 +16,7 @@ from ..association import IGNORE, NEW
 from ..landmark_store import STATE_WIDTH, WorkingSet
 from .association import _associate_particle, _reject_outliers
 from .crew import _claim, _run_shared, READING_BLOCK
-from .jit import _JIT, _wrap
+from .jit import _INLINED, _JIT, _wrap
 from .landmark_ekf import _map_particle, _place_new
 from .motion import _NO_COV, _propagate_cov
 from .proposal import _propose_and_draw
@@ -25,7 +25,7 @@ from .records import (DeferredMotion, Draws, Entries, NewLandmarks, Observations
 from .settings import ReadingPlan, ReadingSettings, reading_plan
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _clear_entry(table, m, j):
     """Entry (m, j) of ``table`` (``Entries``) empty, as a gathered working set leaves its
     free columns (a unit covariance, so that scoring it stays finite)."""
@@ -53,7 +53,7 @@ def _copy_entries(source, origin, table, m, count):
         table.is_new[m, j] = source.is_new[origin, j]
 
 
-@njit(**_JIT)
+@njit(**_INLINED)
 def _take_particle(m, origin, existing, source, table):
     """Particle m's working-set entries become particle ``origin``'s of ``source``
     (``WorkingSet.take``). The columns from ``existing`` on are empty in every particle (new
