@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
+
 import numpy as np
 
 from . import association as assoc
