@@ -32,17 +32,18 @@ from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
 from .landmark_ekf import pack, unpack
-from .landmark_store import LandmarkStore, WorkingSet
+from .landmark_store import LandmarkStore
 from .loop_closure import LoopClosure
 from .map_refinement import ReadingLog
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
-from .observation import MIN_OBSERVATION_RANGE, SensorOffset
+from .observation import SensorOffset
 from .path_history import PathHistory
 from .proposal import sample_pose
-from .reading import NumpyReading
+from .reading import (COMPILED_READING, NUMPY_READING, CompiledReading, NumpyReading,
+                      UpdateReport)
 from .relocalization import Relocalizing
-from .resampling import RESAMPLERS, effective_sample_size, normalize_log_weights
+from .resampling import RESAMPLERS
 
 REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
@@ -54,8 +55,6 @@ proposal sees all of its uncertainty; once its heading standard deviation exceed
 the particles are sampled from it, before the proposal's linearisation fails."""
 NO_MOTION = (0.0, 0.0, 0.0)
 """The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
-_NO_DRAWS = np.zeros(0)
-_NO_NORMALS = np.zeros((0, 3))
 
 
 def kernels_pending(backend: str) -> bool:
@@ -92,21 +91,7 @@ class LandmarkMap:
                            self.ids[keep], self.keys[keep])
 
 
-@dataclass
-class UpdateReport:
-    """What one ``update`` did, seen from the best particle (``best_index``)."""
-
-    num_observations: int
-    associated_ids: np.ndarray
-    """(K,) label of the landmark each observation was associated to; -1: new or unlabelled."""
-    is_new: np.ndarray
-    """(K,) the observation created a landmark."""
-    resampled: bool
-    n_eff: float
-    weights_underflow: bool
-
-
-class FastSLAM(NumpyReading, Relocalizing):
+class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
     """The particle filter; public arrays ``poses`` (M, 3) and ``log_weights`` (M,)."""
 
     def __init__(self, config: FastSLAMConfig, rng: np.random.Generator | None = None,
@@ -139,6 +124,8 @@ class FastSLAM(NumpyReading, Relocalizing):
         self.kernels = self._load_kernels()
         """The compiled backend (``core.compiled``) when it runs, else None (numpy)."""
         self.backend = "numpy" if self.kernels is None else "numba"
+        self._reading = NUMPY_READING if self.kernels is None else COMPILED_READING
+        """The one place the backend is chosen for a reading: its gating and its math."""
         self._settings = None if self.kernels is None else self.kernels.reading_settings(
             self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
         self._resample_compiled = self.kernels is not None and config.resampling == "systematic"
@@ -342,63 +329,35 @@ class FastSLAM(NumpyReading, Relocalizing):
                   else np.asarray(ids, dtype=np.int64).reshape(-1))
         if not len(ranges) == len(bearings) == len(labels):
             raise ValueError("ranges, bearings and ids must have the same length")
-        known = self.config.association == "known"
         if not self._localization:  # a fixed map is saved as it is
             self.readings.record(stamp, ranges, bearings, labels)
-        if self.kernels is not None:
-            report = self._update_compiled(*self.kernels.usable_observations(
-                ranges, bearings, labels, known, MIN_OBSERVATION_RANGE), stamp)
-        else:
-            report = self._update_numpy(ranges, bearings, labels, stamp)
-        if self._localization and self.config.relocalization_fraction > 0.0:
-            self._relocalize(ranges, bearings, stamp)
-        return report
-
-    def _update_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                         farthest: float, stamp: float) -> UpdateReport:
-        """``update`` on the compiled backend: the reading's math in one call
-        (``compiled.update_reading``), on the numpy path's random draws in its order;
-        ``farthest``: the largest of ``ranges`` (0 when empty)."""
-        config, count = self.config, self.num_particles
-        known = config.association == "known"
-        self._advance_motion()
-        # A deferred prior (``motion``) has no covariance yet: the reading's blocks propagate it.
+        usable_ranges, usable_bearings, usable_labels, farthest = self._reading.usable(
+            self, ranges, bearings, labels)
+        self._advance_motion()                                                  # 1. motion
+        # FastSLAM 2.0 scores the observations at its prior (whose covariance the compiled
+        # reading may propagate in its blocks: ``_deferred``), FastSLAM 1.0 at the poses.
         mean, cov = self._prior if self._prior is not None else (self.poses, None)
-        motion = self._deferred
         reach = self._reach_of(farthest)
-        # Split over threads, the reading's chunks make a pending resampling's working-set copy
-        # as they go; on one thread the copy in one call is the cheaper.
-        ws = self.working.for_reading(mean, reach, len(ranges), labels if known else None,
-                                      lazy=self.kernels.splits(count))
+        # Split over threads, the compiled reading's chunks make a pending resampling's
+        # working-set copy as they go; on one thread the copy in one call is the cheaper.
+        lazy = self.kernels is not None and self.kernels.splits(self.num_particles)
+        known = self.config.association == "known"
+        ws = self.working.for_reading(mean, reach, len(usable_ranges),
+                                      usable_labels if known else None, lazy=lazy)
         if self.loop is not None:
             self.loop.before_reading(ws, self.working.pending)
-        draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
-                 else _NO_DRAWS)
-        propose = (cov is not None or motion is not None) and config.algorithm == "fastslam2"
-        normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
-        (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
-         finite, ws) = self.kernels.update_reading(
-            ws, mean, cov, self.poses, ranges, bearings, labels, draws, normals,
-            self.log_weights, self._settings, reach, self.landmarks.next_key, propose,
-            self.history.next_generation(), self.working.pending, motion)
-        self.working.took(ws)
-        if propose:
-            self._set_prior(None)
-        self.poses = poses
-        self.landmarks.next_key += keys
-        self.history.record(stamp, written=True)
+        outcome = self._reading.read(self, ws, mean, cov, usable_ranges,        # 2. to 5.
+                                     usable_bearings, usable_labels, reach, stamp)
         self.num_updates += 1
-        self.num_underflows += int(underflow)
-        report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),
-                              bool(underflow))
-        self._best = int(best)
-        # This reading's new-landmark columns now hold landmarks (in some particles).
-        self.working.created(int(columns))
+        self.working.created(outcome.columns)
+        self._best = outcome.best
         self._close_loops()
-        self._resample_if_degenerate(report)
-        if not finite:
+        self._resample_if_degenerate(outcome.report)
+        if not outcome.checked:
             self.check_state()
-        return report
+        if self._localization and self.config.relocalization_fraction > 0.0:
+            self._relocalize(ranges, bearings, stamp)
+        return outcome.report
 
     def _noise(self, ranges):
         """(range variance, bearing variance) of observations with these ranges: the range
@@ -423,22 +382,6 @@ class FastSLAM(NumpyReading, Relocalizing):
     def _reach_of(self, farthest: float) -> float:
         """``_reach`` of a reading whose largest range is ``farthest`` (0 when empty)."""
         return max(self.config.max_range, farthest) + REACH_MARGIN + self._lever_length
-
-    def _finish_update(self, ws: WorkingSet, choices: np.ndarray,
-                       creating: np.ndarray) -> UpdateReport:
-        """Normalise weights, report from the best particle, resample if N_eff is low."""
-        self.log_weights, underflow = normalize_log_weights(self.log_weights)
-        self.num_underflows += int(underflow)
-        weights = np.exp(self.log_weights)
-        best = self._select_best()
-        best_choice, is_new = choices[:, best], creating[:, best]
-        labels = np.where(best_choice >= 0, ws.label[best, np.maximum(best_choice, 0)], -1)
-        report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
-                              effective_sample_size(weights), underflow)
-        self._best = best
-        self._close_loops()
-        self._resample_if_degenerate(report)
-        return report
 
     def _close_loops(self) -> None:
         """``loop_closure_matches``: the reading's new landmarks against old ones

@@ -1,12 +1,14 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""One reading on the numpy path, the reference the compiled reading (``compiled/reading.py``)
-matches: association of every observation in every particle (step 2 of ``fastslam.py``), the
-FastSLAM 2.0 proposal and its draw (3), the landmark EKF updates, new landmarks and existence
-evidence (4), the weights (5)."""
+"""The math of one reading on each backend, behind one interface ``FastSLAM.update`` calls:
+association of every observation in every particle (step 2 of ``fastslam.py``), the FastSLAM
+2.0 proposal and its draw (3), the landmark EKF updates, new landmarks and existence evidence
+(4), the weights (5). ``NumpyReading`` is the reference; ``CompiledReading`` does the same in
+one call of ``compiled.update_reading`` on the same random draws."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -18,37 +20,103 @@ from .landmark_ekf import initialize_landmarks, update_landmarks
 from .landmark_store import COV, LOGODDS, MEAN, WorkingSet
 from .observation import MIN_OBSERVATION_RANGE, observation_terms
 from .proposal import observation_proposal
+from .resampling import effective_sample_size, normalize_log_weights
+
+_NO_DRAWS = np.zeros(0)
+_NO_NORMALS = np.zeros((0, 3))
 
 
-if TYPE_CHECKING:
-    from .fastslam import UpdateReport
+@dataclass
+class UpdateReport:
+    """What one ``update`` did, seen from the best particle (``best_index``)."""
+
+    num_observations: int
+    associated_ids: np.ndarray
+    """(K,) label of the landmark each observation was associated to; -1: new or unlabelled."""
+    is_new: np.ndarray
+    """(K,) the observation created a landmark."""
+    resampled: bool
+    n_eff: float
+    weights_underflow: bool
+
+
+@dataclass
+class ReadingOutcome:
+    """What a backend's reading leaves to the steps ``FastSLAM.update`` shares."""
+
+    report: UpdateReport
+    """Seen from the reported particle, before any resampling."""
+    best: int
+    """The reported particle."""
+    columns: int
+    """The reading's new-landmark columns that now hold landmarks (in some particles)."""
+    checked: bool
+    """The reading found every particle's state finite (else ``check_state`` looks)."""
+
+
+class CompiledReading:
+    """The compiled reading of ``FastSLAM`` (``compiled.update_reading``)."""
+
+    def _usable_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray):
+        """``_usable_numpy`` in one compiled pass."""
+        return self.kernels.usable_observations(ranges, bearings, labels,
+                                                self.config.association == "known",
+                                                MIN_OBSERVATION_RANGE)
+
+    def _read_compiled(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray | None,
+                       ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
+                       reach: float, stamp: float) -> ReadingOutcome:
+        """``_read_numpy`` in one call, on the numpy path's random draws in its order; a
+        covariance left to this reading (``_deferred``) is propagated in its blocks."""
+        config, count = self.config, self.num_particles
+        motion = self._deferred
+        draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
+                 else _NO_DRAWS)
+        propose = (cov is not None or motion is not None) and config.algorithm == "fastslam2"
+        normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
+        kernels = self.kernels
+        (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
+         finite, ws) = kernels.update_reading(
+            ws, kernels.Particles(self.poses, self.log_weights, mean, cov),
+            (ranges, bearings, labels), kernels.Draws(draws, normals), self._settings,
+            reach, self.landmarks.next_key, propose,
+            self.history.next_generation(), self.working.pending, motion)
+        self.working.took(ws)
+        if propose:
+            self._set_prior(None)
+        self.poses = poses
+        self.landmarks.next_key += keys
+        self.history.record(stamp, written=True)
+        self.num_underflows += int(underflow)
+        report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),
+                              bool(underflow))
+        return ReadingOutcome(report, int(best), int(columns), bool(finite))
 
 
 class NumpyReading:
-    """The numpy reading of ``FastSLAM``: ``_update_numpy`` and the steps it calls."""
+    """The numpy reading of ``FastSLAM`` (the reference): ``_read_numpy`` and its steps."""
 
-    def _update_numpy(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                      stamp: float) -> UpdateReport:
-        """``update`` on the numpy path (the reference)."""
-        known = self.config.association == "known"
+    def _usable_numpy(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray):
+        """The observations ``update`` uses: a finite range of at least
+        ``MIN_OBSERVATION_RANGE``, a finite bearing (wrapped) and, with known ids, an id >= 0;
+        with the largest range kept (0 when none is)."""
         usable = np.isfinite(ranges) & np.isfinite(bearings) & (ranges >= MIN_OBSERVATION_RANGE)
-        if known:
+        if self.config.association == "known":
             usable &= labels >= 0
         if not usable.all():
             ranges, bearings, labels = ranges[usable], bearings[usable], labels[usable]
-        bearings = wrap_angle(bearings)
+        return ranges, wrap_angle(bearings), labels, float(ranges.max(initial=0.0))
 
+    def _read_numpy(self, ws: WorkingSet, proposal_mean: np.ndarray,
+                    proposal_cov: np.ndarray | None, ranges: np.ndarray, bearings: np.ndarray,
+                    labels: np.ndarray, reach: float, stamp: float) -> ReadingOutcome:
+        """Steps 2 to 5 of a reading on the working set ``ws``, the observations scored at
+        ``proposal_mean`` (with its covariance, FastSLAM 2.0's prior, or None) against the
+        landmarks within ``reach`` of it; the weights normalised and the path history given
+        the new poses."""
         fastslam2 = self.config.algorithm == "fastslam2"
-        self._advance_motion()
-        prior = self._settled_prior()
-        proposal_mean, proposal_cov = prior if prior is not None else (self.poses, None)
-
-        ws = self.working.for_reading(proposal_mean, self._reach(ranges), len(ranges),
-                                      labels if known else None)
-        if self.loop is not None:
-            self.loop.before_reading(ws, None)
         choices, log_factors, robust, inverse_q = self._associate(
-            ws, proposal_mean, proposal_cov, ranges, bearings, labels)
+            ws, proposal_mean, proposal_cov, ranges, bearings, labels, reach)
         observed = np.zeros(ws.valid.shape, dtype=bool)
         if self._localization:
             # A fixed map takes no new landmark: an unexplained observation weighs p0 only.
@@ -65,12 +133,14 @@ class NumpyReading:
             self._missed_evidence(ws, observed, creating | (choices == assoc.IGNORE), ranges,
                                   bearings)
         self.history.record(stamp, self.poses)
-        self.num_updates += 1
-        # This reading's new-landmark columns now hold landmarks (in some particles).
-        self.working.created(int(creating.any(axis=1).sum()))
-        report = self._finish_update(ws, choices, creating)
-        self.check_state()
-        return report
+        self.log_weights, underflow = normalize_log_weights(self.log_weights)
+        self.num_underflows += int(underflow)
+        best = self._select_best()
+        best_choice, is_new = choices[:, best], creating[:, best]
+        labels = np.where(best_choice >= 0, ws.label[best, np.maximum(best_choice, 0)], -1)
+        report = UpdateReport(len(best_choice), np.where(is_new, -1, labels), is_new, False,
+                              effective_sample_size(np.exp(self.log_weights)), underflow)
+        return ReadingOutcome(report, best, int(creating.any(axis=1).sum()), False)
 
     def _known_candidates(self, ws: WorkingSet, labels: np.ndarray) -> np.ndarray:
         """(K, M, 1) working-set column of the landmark carrying each observation's id (-1:
@@ -83,7 +153,7 @@ class NumpyReading:
         return np.where(match.any(axis=2), match.argmax(axis=2), -1)[:, :, None]
 
     def _associate(self, ws: WorkingSet, mean: np.ndarray, cov, ranges: np.ndarray,
-                   bearings: np.ndarray, labels: np.ndarray):
+                   bearings: np.ndarray, labels: np.ndarray, reach: float):
         """Choose every particle's landmark for every observation of the reading at once.
 
         Scored at the pose before this reading's observations are used: the sampled pose
@@ -113,7 +183,7 @@ class NumpyReading:
             landmark = ws.records_at(candidates[..., 0])[:, :, None]         # (K, M, 1, 6)
             valid = candidates >= 0
         else:
-            kept, near = self._columns_in_reach(ws, mean, ranges)
+            kept, near = self._columns_in_reach(ws, mean, reach)
             landmark = ws.state[:, kept][None]                               # (1, M, E, 6)
             valid = near[:, kept][None]
         # Empty entries are scored against a point 1 m ahead (finite terms), then dropped.
@@ -153,13 +223,12 @@ class NumpyReading:
                                      config.outlier_probability,
                                      self._log_outlier) + (inverse_q.reshape(grid),)
 
-    def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, ranges: np.ndarray):
+    def _columns_in_reach(self, ws: WorkingSet, poses: np.ndarray, reach: float):
         """Working-set columns (of the landmarks that existed before this reading) holding a
-        landmark within the sensor's reach plus ``REACH_MARGIN`` of its particle's pose (the
+        landmark within ``reach`` (``FastSLAM._reach_of``) of its particle's pose (the
         working set holds whole cells of a box around all particles, about twice the area),
         and which particle's entries are in reach (M, existing): only those are candidates."""
         existing = ws.first_new_slot
-        reach = self._reach(ranges)
         dx = ws.mean[:, :existing, 0] - poses[:, 0, None]
         dy = ws.mean[:, :existing, 1] - poses[:, 1, None]
         near = dx * dx
@@ -304,3 +373,17 @@ class NumpyReading:
         logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
+
+
+class ReadingBackend(NamedTuple):
+    """A backend's reading, its functions called with the filter (``FastSLAM.update``)."""
+
+    usable: Callable
+    """(filter, ranges, bearings, labels) -> the usable observations and the largest range."""
+    read: Callable
+    """(filter, ws, mean, cov, ranges, bearings, labels, reach, stamp) -> ``ReadingOutcome``."""
+
+
+NUMPY_READING = ReadingBackend(NumpyReading._usable_numpy, NumpyReading._read_numpy)
+COMPILED_READING = ReadingBackend(CompiledReading._usable_compiled,
+                                  CompiledReading._read_compiled)

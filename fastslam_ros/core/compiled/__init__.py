@@ -7,7 +7,8 @@ operations whatever M is). Here one compiled call, ``update_reading``, does the 
 for every particle. Each module twins the numpy module of the same name (``association``,
 ``proposal``, ``landmark_ekf``, ``motion``, ``resampling``, ``landmark_store``,
 ``path_history``) and imports its constants from it; ``reading`` drives a reading, ``crew``
-holds its threads, ``settings`` packs the configuration, ``warm_up`` compiles everything once.
+holds its threads, ``settings`` holds the configuration as typed records, ``records`` the named
+tuples of arrays the kernels pass, ``warm_up`` compiles everything once.
 The results are those of the numpy modules: the same discrete choices and floats equal to
 round-off, on the same random draws (drawn by the caller from its ``numpy.random.Generator``
 in the numpy path's order); ``test/test_backends.py`` runs each pair on the same draws.
@@ -31,6 +32,7 @@ from .motion import advance_mean, propagate_cov, sample_motion
 from .path_history import prune
 from .proposal import sample_pose
 from .reading import pose_box, update_reading, usable_observations
+from .records import Draws, Particles
 from .resampling import reindex, resample_poses, take
 from .settings import MODE_CODES, ReadingSettings, reading_settings
 from .warm_up import warm_up
@@ -38,5 +40,6 @@ from .warm_up import warm_up
 __all__ = ["PARALLEL_MIN_PARTICLES", "set_threads", "splits", "block_records", "claim",
            "claim_plan", "dirty_pairs", "gather", "insertion_pairs", "new_entries", "place",
            "write_back", "advance_mean", "propagate_cov", "sample_motion", "prune", "sample_pose",
-           "pose_box", "update_reading", "usable_observations", "reindex", "resample_poses",
-           "take", "MODE_CODES", "ReadingSettings", "reading_settings", "warm_up"]
+           "pose_box", "update_reading", "usable_observations", "Draws", "Particles", "reindex",
+           "resample_poses", "take", "MODE_CODES", "ReadingSettings", "reading_settings",
+           "warm_up"]

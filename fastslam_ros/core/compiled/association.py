@@ -12,19 +12,20 @@ from numba import njit
 
 from ..association import IGNORE, NEW
 from ..geometry import LOG_TWO_PI
-from .jit import _JIT, _lever, _logaddexp, _wrap
-from .settings import (F_EPS, F_GATE, F_LOG_OUTLIER, F_LOG_P0, F_NEW_GATE, F_NOISE_B, F_OX, F_OY,
-                       F_OYAW, F_REACH, I_HAS_COV, I_MODE, I_SCORE_KNOWN)
+from .jit import _INLINED, _JIT, _lever, _logaddexp, _wrap
 
 
 @njit(**_JIT)
-def _score_pair(m, j, k_lo, k_hi, state, mean, cov, has_cov, fp, ranges, bearings, noise_r,
-                log_lik, mahalanobis, column, terms):
+def _score_pair(m, j, k_lo, k_hi, column, state, particles, has_cov, settings, obs, work):
     """log N and Mahalanobis distance of observations [k_lo, k_hi) against landmark j of
-    particle m (``association.score``), into column ``column`` of the (K, C) buffers; the
-    pair's (dx, dy, q, r, predicted bearing) into ``terms[column]`` (the proposal reuses
-    them)."""
-    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    particle m (``association.score``), into column ``column`` of the (K, C) buffers of
+    ``work`` (``Scratch``); the pair's (dx, dy, q, r, predicted bearing) into
+    ``work.terms[column]`` (the proposal reuses them)."""
+    ox, oy, oyaw = settings.sensor_x, settings.sensor_y, settings.sensor_yaw
+    noise_b = settings.bearing_variance
+    mean, cov = particles.mean, particles.cov
+    ranges, bearings, noise_r = obs.ranges, obs.bearings, obs.range_variance
+    log_lik, mahalanobis, terms = work.log_lik, work.mahalanobis, work.terms
     px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
     lx, ly = _lever(pth, ox, oy)
     dx = state[m, j, 0] - (px + lx)
@@ -186,39 +187,42 @@ def _two_gates(log_lik, mahalanobis, width, log_p0, gate, new_gate, choice, fact
             choice[k, m], factor[k, m] = IGNORE, 0.0
 
 
-@njit(**_JIT)
-def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bearings, labels,
-                        noise_r, draws, fp, ip, choice, factor, inverse_q, local, log_lik,
-                        mahalanobis, pick, value, order, cumulative, terms, picked):
+@njit(**_INLINED)
+def _associate_particle(m, table, particles, obs, uniforms, settings, plan, out, work):
     """``FastSLAM._associate`` for particle m before the outlier test: its choices (working-set
-    columns or ``NEW`` / ``IGNORE``) and log factors into column m of ``choice`` and
-    ``factor``, log(1 / q) of its associations into ``inverse_q`` (K,); ``picked[k]``: the row
-    of ``terms`` of the chosen candidate (but with known ids)."""
-    count = ranges.shape[0]
-    has_cov = ip[I_HAS_COV] != 0
-    log_p0 = fp[F_LOG_P0]
+    columns or ``NEW`` / ``IGNORE``) and log factors into column m of ``out.choice`` and
+    ``out.factor``, log(1 / q) of its associations into ``work.inverse_q`` (K,);
+    ``work.picked[k]``: the row of ``work.terms`` of the chosen candidate (but with known
+    ids)."""
+    count = obs.ranges.shape[0]
+    state, valid, ident = table.state, table.valid, table.ident
+    choice, factor = out.choice, out.factor
+    existing, has_cov = plan.existing, plan.has_cov
+    log_p0 = settings.log_p0
     for k in range(count):
-        inverse_q[k] = 0.0
-    if ip[I_MODE] == 0:
+        work.inverse_q[k] = 0.0
+    mode = settings.association
+    if mode == 0:
         for k in range(count):
             candidate = -1
             for j in range(existing):
-                if valid[m, j] and label[m, j] == labels[k]:
+                if valid[m, j] and ident[m, j, 0] == obs.labels[k]:
                     candidate = j
                     break
             choice[k, m] = candidate
             if candidate < 0:
                 factor[k, m] = log_p0
-            elif ip[I_SCORE_KNOWN] != 0:
-                _score_pair(m, candidate, k, k + 1, state, mean, cov, has_cov, fp, ranges,
-                            bearings, noise_r, log_lik, mahalanobis, 0, terms)
-                factor[k, m] = log_lik[k, 0]
+            elif plan.score_known:
+                _score_pair(m, candidate, k, k + 1, 0, state, particles, has_cov, settings, obs,
+                            work)
+                factor[k, m] = work.log_lik[k, 0]
             else:
                 factor[k, m] = 0.0
         return
     # This particle's candidates within reach, in column order: the rules see the same
     # choices as on the numpy path's full row, where the others are -inf / +inf.
-    limit = fp[F_REACH] * fp[F_REACH]
+    mean, local = particles.mean, work.local
+    limit = plan.reach * plan.reach
     found = 0
     for j in range(existing):
         if valid[m, j]:
@@ -228,28 +232,26 @@ def _associate_particle(m, state, valid, label, existing, mean, cov, ranges, bea
                 local[found] = j
                 found += 1
     for c in range(found):
-        _score_pair(m, local[c], 0, count, state, mean, cov, has_cov, fp, ranges, bearings,
-                    noise_r, log_lik, mahalanobis, c, terms)
-    mode = ip[I_MODE]
+        _score_pair(m, local[c], 0, count, c, state, particles, has_cov, settings, obs, work)
     if mode == 1:
-        _exclusive_ml(log_lik, found, log_p0, choice, factor, m, pick, value)
+        _exclusive_ml(work.log_lik, found, log_p0, choice, factor, m, work.pick, work.value)
     elif mode == 2:
-        _monte_carlo(log_lik, found, log_p0, draws, choice, factor, inverse_q, m, order,
-                     cumulative)
+        _monte_carlo(work.log_lik, found, log_p0, uniforms, choice, factor, work.inverse_q, m,
+                     work.order, work.cumulative)
     else:
-        _two_gates(log_lik, mahalanobis, found, log_p0, fp[F_GATE], fp[F_NEW_GATE], choice,
-                   factor, m)
+        _two_gates(work.log_lik, work.mahalanobis, found, log_p0, settings.association_gate,
+                   settings.new_landmark_gate, choice, factor, m)
     for k in range(count):
-        picked[k] = choice[k, m]
+        work.picked[k] = choice[k, m]
         if choice[k, m] >= 0:
             choice[k, m] = local[choice[k, m]]
 
 
 @njit(**_JIT)
-def _reject_outliers(m, choice, factor, robust, fp):
+def _reject_outliers(m, choice, factor, robust, settings):
     """``association.reject_outliers`` for particle m: outliers become ``IGNORE`` with the
     robust factor; ``robust`` (K,) gets the inliers' correction."""
-    eps, log_outlier = fp[F_EPS], fp[F_LOG_OUTLIER]
+    eps, log_outlier = settings.outlier_probability, settings.log_outlier
     for k in range(choice.shape[0]):
         robust[k] = 0.0
         if eps <= 0.0 or choice[k, m] < 0:

@@ -15,6 +15,9 @@ from ..geometry import TWO_PI
 
 LOG2 = math.log(2.0)
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+_INLINED = dict(_JIT, inline="always")
+"""A kernel called per particle (or per entry) with records: inlined into its caller, since a
+call copies every field of its records (hundreds of words) and costs more than its work."""
 
 
 def drop_stale_cache(folder: Path = Path(__file__).parent) -> bool:

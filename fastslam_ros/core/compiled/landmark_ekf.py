@@ -11,25 +11,24 @@ from numba import njit
 
 from ..association import IGNORE, NEW
 from ..geometry import TWO_PI
-from .jit import _JIT, _lever, _wrap
-from .settings import (F_CONFIRMED, F_CONFIRMED_MISSED, F_EXPLAINED_GATE, F_FOV, F_LOGODDS_MAX,
-                       F_LOGODDS_MISSED, F_LOGODDS_OBSERVED, F_LOGODDS_REMOVE, F_MAX_RANGE,
-                       F_MIN_RANGE, F_NOISE_B, F_OX, F_OY, F_OYAW)
+from .jit import _INLINED, _JIT, _lever, _wrap
 
 
-@njit(**_JIT)
-def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r, noise_b,
-            logodds_observed, logodds_max, confirmed):
+@njit(**_INLINED)
+def _joseph(m, slot, k, state, sensor, obs, settings):
     """Joseph-form EKF update (``update_landmarks``) of particle m's landmark ``slot`` by
-    observation k, its log-odds raised (``existence.observed_logodds``: to ``logodds_max``
-    from ``confirmed`` on); False if the result is not finite."""
+    observation k (``Observations``) seen from ``sensor`` (x, y, heading), its log-odds raised
+    (``existence.observed_logodds``: to ``logodds_max`` from ``confirmed`` on); False if the
+    result is not finite."""
+    sensor_x, sensor_y, heading = sensor
+    ranges, bearings = obs.ranges, obs.bearings
     mx, my = state[m, slot, 0], state[m, slot, 1]
     sxx, sxy, syy = state[m, slot, 2], state[m, slot, 3], state[m, slot, 4]
-    dx = mx - (px + lx)
-    dy = my - (py + ly)
+    dx = mx - sensor_x
+    dy = my - sensor_y
     q = dx * dx + dy * dy
     r = math.sqrt(q)
-    r0, r1 = noise_r[k], noise_b
+    r0, r1 = obs.range_variance[k], settings.bearing_variance
     g00, g01 = dx / r, dy / r
     g10, g11 = -dy / q, dx / q
     a0, a1 = sxx * g00 + sxy * g01, sxy * g00 + syy * g01
@@ -52,10 +51,11 @@ def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_
     state[m, slot, 2] = m00 * a00 + m01 * a01 + k00 * k00 * r0 + k01 * k01 * r1
     state[m, slot, 3] = m00 * a10 + m01 * a11 + k00 * k10 * r0 + k01 * k11 * r1
     state[m, slot, 4] = m10 * a10 + m11 * a11 + k10 * k10 * r0 + k11 * k11 * r1
-    if state[m, slot, 5] >= confirmed:
+    logodds_max = settings.logodds_max
+    if state[m, slot, 5] >= settings.confirmed:
         state[m, slot, 5] = logodds_max
     else:
-        state[m, slot, 5] = min(state[m, slot, 5] + logodds_observed, logodds_max)
+        state[m, slot, 5] = min(state[m, slot, 5] + settings.logodds_observed, logodds_max)
     finite = True
     for i in range(6):
         if not math.isfinite(state[m, slot, i]):
@@ -63,9 +63,8 @@ def _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_
     return finite
 
 
-@njit(**_JIT)
-def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, ranges, bearings,
-                  noise_r, fp, observed, fresh):
+@njit(**_INLINED)
+def _map_particle(m, table, existing, choice, poses, obs, settings, observed, fresh):
     """``FastSLAM._apply_to_map`` and ``_missed_evidence`` for particle m, but for placing
     its new landmarks: the mean and packed covariance of each landmark it creates into
     ``fresh[k, m]`` (``_place_new`` puts them in their columns, known once every particle
@@ -74,11 +73,14 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
     observation it rejected explains (``existence``). False if an updated landmark is not
     finite (``FastSLAM.check_state`` then repairs)."""
     count = choice.shape[0]
-    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
-    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    state, valid, dirty = table.state, table.valid, table.dirty
+    ranges, bearings, noise_r, creator = obs.ranges, obs.bearings, obs.range_variance, obs.creator
+    ox, oy, oyaw = settings.sensor_x, settings.sensor_y, settings.sensor_yaw
+    noise_b = settings.bearing_variance
     px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
     lx, ly = _lever(pth, ox, oy)
     heading = pth + oyaw
+    sensor = (px + lx, py + ly, heading)
     finite = True
     for j in range(existing):
         observed[j] = False
@@ -108,20 +110,20 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
         slot = choice[k, m]
         if slot < 0:
             continue
-        if not _joseph(m, slot, k, state, px, py, lx, ly, heading, ranges, bearings, noise_r,
-                       noise_b, logodds_observed, logodds_max, fp[F_CONFIRMED]):
+        if not _joseph(m, slot, k, state, sensor, obs, settings):
             finite = False
         dirty[m, slot] = True
         observed[slot] = True
-    logodds_missed = fp[F_LOGODDS_MISSED]
+    logodds_missed = settings.logodds_missed
     if logodds_missed == 0.0:
         return finite
     # Negative evidence on the landmarks that existed before this reading (the new ones were
     # all observed).
-    min_range, max_range, field_of_view = fp[F_MIN_RANGE], fp[F_MAX_RANGE], fp[F_FOV]
-    logodds_remove = fp[F_LOGODDS_REMOVE]
-    confirmed, confirmed_missed = fp[F_CONFIRMED], fp[F_CONFIRMED_MISSED]
-    gate = fp[F_EXPLAINED_GATE]
+    min_range, max_range = settings.min_range, settings.max_range
+    field_of_view = settings.field_of_view
+    logodds_remove = settings.logodds_remove
+    confirmed, confirmed_missed = settings.confirmed, settings.confirmed_missed
+    gate = settings.explained_gate
     limited = field_of_view < TWO_PI
     cos_half = math.cos(0.5 * field_of_view)
     cos_h, sin_h = math.cos(heading), math.sin(heading)
@@ -163,13 +165,16 @@ def _map_particle(m, state, valid, dirty, existing, choice, creator, poses, rang
 
 
 @njit(**_JIT)
-def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, creating, column,
-               keys, fresh, poses, ranges, bearings, labels, noise_r, fp, finite):
-    """The new landmarks into their columns (``fresh``, from ``_map_particle``), then, with
-    known ids, the updates of each by the later observations of its id in this reading
-    (``choice`` points them at its column); ``finite[m]`` False for a non-finite update."""
+def _place_new(table, existing, choice, new, fresh, poses, obs, settings, finite):
+    """The new landmarks (``NewLandmarks``) into their columns (``fresh``, from
+    ``_map_particle``), then, with known ids, the updates of each by the later observations of
+    its id in this reading (``choice`` points them at its column); ``finite[m]`` False for a
+    non-finite update."""
     count, num_particles = choice.shape
-    logodds_observed, logodds_max = fp[F_LOGODDS_OBSERVED], fp[F_LOGODDS_MAX]
+    state, ident, valid, dirty, is_new = (table.state, table.ident, table.valid, table.dirty,
+                                          table.is_new)
+    creator, labels = obs.creator, obs.labels
+    creating, column, keys = new.creating, new.column, new.keys
     repeated = False
     for k in range(count):
         repeated = repeated or creator[k] != k
@@ -181,7 +186,7 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
                 continue
             for i in range(5):
                 state[m, slot, i] = fresh[k, m, i]
-            state[m, slot, 5] = logodds_observed
+            state[m, slot, 5] = settings.logodds_observed
             ident[m, slot, 0] = labels[k]
             ident[m, slot, 1] = keys[k, m]
             valid[m, slot] = True
@@ -189,7 +194,7 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
             choice[k, m] = slot
     if not repeated:
         return
-    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    ox, oy, oyaw = settings.sensor_x, settings.sensor_y, settings.sensor_yaw
     for m in range(num_particles):
         for k in range(count):
             slot = choice[k, m]
@@ -197,7 +202,6 @@ def _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, cr
                 continue
             px, py, pth = poses[m, 0], poses[m, 1], poses[m, 2]
             lx, ly = _lever(pth, ox, oy)
-            if not _joseph(m, slot, k, state, px, py, lx, ly, pth + oyaw, ranges, bearings,
-                           noise_r, noise_b, logodds_observed, logodds_max, fp[F_CONFIRMED]):
+            if not _joseph(m, slot, k, state, (px + lx, py + ly, pth + oyaw), obs, settings):
                 finite[m] = False
             dirty[m, slot] = True

@@ -14,12 +14,15 @@ from . import crew
 from ..landmark_store import LandmarkStore, STATE_WIDTH, WorkingSet
 from .crew import _chunk_bounds, _run_chunks
 from .jit import _JIT
+from .records import Entries, entries_of
 
 
 @njit(**_JIT)
-def _gather_layout(table, columns, occupied, num_new_slots):
-    """The working set's arrays (unfilled) for the cell ``columns`` and its width: the most
-    landmarks any particle has there."""
+def _gather_layout(pool, columns, num_new_slots):
+    """The working set's ``Entries`` (unfilled, as a plain tuple: ``records``) for the cell
+    ``columns`` of the store's ``pool`` (table, occupied, state, ident) and its width: the
+    most landmarks any particle has there."""
+    table, occupied = pool[0], pool[1]
     num_particles, num_columns = columns.shape
     width = 0
     for m in range(num_particles):
@@ -32,16 +35,17 @@ def _gather_layout(table, columns, occupied, num_new_slots):
     shape = (num_particles, width + num_new_slots)
     return (np.empty(shape, np.int64), np.empty(shape, np.int64), np.empty(shape, np.int64),
             np.empty(shape + (STATE_WIDTH,)), np.empty(shape + (2,), np.int64),
-            np.empty(shape, np.bool_), np.empty(shape, np.bool_), np.empty(shape, np.bool_),
-            width)
+            np.empty(shape, np.bool_), np.empty(shape, np.bool_),
+            np.empty(shape, np.bool_)), width
 
 
 @njit(**_JIT)
-def _gather_chunk(lo, hi, table, columns, occupied, pool_state, pool_ident, row, slot, block,
-                  state, ident, valid, dirty, is_new):
-    """Particles [lo, hi) of the working set (``_gather_layout``'s arrays): their landmarks
-    of the cell ``columns`` in column then slot order, then empty entries (a unit covariance,
-    so that scoring them stays finite)."""
+def _gather_chunk(lo, hi, pool, columns, entries):
+    """Particles [lo, hi) of the working set's ``entries`` (``_gather_layout``'s): their
+    landmarks of the cell ``columns`` in column then slot order, then empty entries (a unit
+    covariance, so that scoring them stays finite)."""
+    table, occupied, pool_state, pool_ident = pool
+    row, slot, block, state, ident, valid, dirty, is_new = entries
     total = valid.shape[1]
     for m in range(lo, hi):
         rank = 0
@@ -71,12 +75,10 @@ def _gather_chunk(lo, hi, table, columns, occupied, pool_state, pool_ident, row,
 
 
 @njit(**_JIT)
-def _gather_kernel(table, columns, occupied, pool_state, pool_ident, num_new_slots):
-    row, slot, block, state, ident, valid, dirty, is_new, width = _gather_layout(
-        table, columns, occupied, num_new_slots)
-    _gather_chunk(0, columns.shape[0], table, columns, occupied, pool_state, pool_ident, row,
-                  slot, block, state, ident, valid, dirty, is_new)
-    return row, slot, block, state, ident, valid, dirty, is_new, width
+def _gather_kernel(pool, columns, num_new_slots):
+    entries, width = _gather_layout(pool, columns, num_new_slots)
+    _gather_chunk(0, columns.shape[0], pool, columns, entries)
+    return entries, width
 
 
 def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> WorkingSet:
@@ -89,15 +91,15 @@ def gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int) -> Wor
 def _gather(store: LandmarkStore, columns: np.ndarray, num_new_slots: int,
             threads: int) -> WorkingSet:
     """``gather`` on ``threads`` threads."""
-    tables = (store.table, np.require(columns, np.int64, ("C", "W")), store.occupied)
-    pool = (store.state, store.ident)
+    pool = (store.table, store.occupied, store.state, store.ident)
+    cells = np.require(columns, np.int64, ("C", "W"))
     if threads == 1:
-        arrays = _gather_kernel(*tables, *pool, num_new_slots)
+        entries, width = _gather_kernel(pool, cells, num_new_slots)
     else:
-        arrays = _gather_layout(*tables, num_new_slots)
+        entries, width = _gather_layout(pool, cells, num_new_slots)
         _run_chunks(_gather_chunk, _chunk_bounds(store.num_particles, threads),
-                    tables + pool + arrays[:8])
-    row, slot, block, state, ident, valid, dirty, is_new, width = arrays
+                    (pool, cells, entries))
+    row, slot, block, state, ident, valid, dirty, is_new = entries
     return WorkingSet(row=row, slot=slot, block=block, columns=columns, state=state,
                       ident=ident, valid=valid, dirty=dirty, is_new=is_new,
                       first_new_slot=int(width))
@@ -228,8 +230,13 @@ def dirty_pairs(ws, origin):
 
 
 @njit(**_JIT)
-def _write_back_kernel(dirty, row, block, slot, valid, ws_state, pair_particles, pair_blocks,
-                       pair_rows, num_blocks, pool_state, occupied, origin):
+def _write_back_kernel(entries, pairs, num_blocks, pool_state, occupied, origin):
+    """``write_back`` of the working set's ``entries`` through the (particle, block, row)
+    ``pairs`` (``entries`` a plain tuple from Python, ``records``)."""
+    entries = Entries(*entries)
+    dirty, row, block, slot, valid, ws_state = (entries.dirty, entries.row, entries.block,
+                                                entries.slot, entries.valid, entries.state)
+    pair_particles, pair_blocks, pair_rows = pairs
     target = np.full((origin.shape[0], num_blocks), -1, np.int64)
     for i in range(pair_particles.shape[0]):
         target[pair_particles[i], pair_blocks[i]] = pair_rows[i]
@@ -247,9 +254,8 @@ def write_back(ws, pair_particles, pair_blocks, pair_rows, pool_state, occupied,
                origin) -> None:
     """Every changed gathered entry into its (now private) block row and slot; particle m's
     entries are ``ws``'s particle ``origin[m]``'s."""
-    _write_back_kernel(ws.dirty, ws.row, ws.block, ws.slot, ws.valid, ws.state,
-                       pair_particles, pair_blocks, pair_rows, ws.columns.shape[1], pool_state,
-                       occupied, origin)
+    _write_back_kernel(tuple(entries_of(ws)), (pair_particles, pair_blocks, pair_rows),
+                       ws.columns.shape[1], pool_state, occupied, origin)
 
 
 @njit(**_JIT)
@@ -322,8 +328,10 @@ def insertion_pairs(owner, columns, pending, width: int):
 
 
 @njit(**_JIT)
-def _place_kernel(ws_state, ws_ident, owner, entry, keys, origin, pending, rows, inverse, rank,
-                  state, ident, occupied):
+def _place_kernel(ws_state, ws_ident, new, origin, pending, rows, inverse, rank, state, ident,
+                  occupied):
+    """``place`` of the ``new`` entries (owner, entry, keys: ``new_entries``')."""
+    owner, entry, keys = new
     count = pending.shape[0]
     slots = np.full(count, -1, np.int64)
     for i in range(count):
@@ -353,7 +361,7 @@ def place(ws, owner, entry, keys, origin, pending, rows, inverse, rank, state, i
     """``LandmarkStore._place_numpy``'s placing: each ``pending`` entry (``new_entries``')
     with its key into the ``rank``-th free slot of its pair's (private) row
     ``rows[inverse]``; which fitted."""
-    return _place_kernel(ws.state, ws.ident, owner, entry, keys, origin,
+    return _place_kernel(ws.state, ws.ident, (owner, entry, keys), origin,
                          np.ascontiguousarray(pending, np.int64),
                          np.ascontiguousarray(rows, np.int64), inverse, rank, state, ident,
                          occupied)

@@ -10,8 +10,7 @@ import numpy as np
 from numba import njit
 
 from .jit import _JIT, _wrap
-from .settings import (F_ALPHAS, F_LINEAR_NOISE, F_MIN_ROTATION_SIGMA, F_MIN_TRANSLATION_SIGMA,
-                       ReadingSettings)
+from .settings import ReadingSettings
 
 
 _NO_COV = np.zeros((1, 3, 3))
@@ -73,7 +72,7 @@ def _propagate_cov(m, turn, cov, has_cov, trans, v_rot1, v_trans, v_rot2, predic
 
 
 @njit(**_JIT)
-def _motion_of(dx, dy, dtheta, fp):
+def _motion_of(dx, dy, dtheta, settings):
     """The odometry delta's (rot1, trans, rot2) (``OdometryControl.from_delta``) and their
     variances (``motion.control_variances``)."""
     trans = math.hypot(dx, dy)
@@ -82,14 +81,15 @@ def _motion_of(dx, dy, dtheta, fp):
         rot1 = _wrap(rot1 - math.pi)
         trans = -trans
     rot2 = _wrap(dtheta - rot1)
-    a1, a2, a3, a4 = fp[F_ALPHAS], fp[F_ALPHAS + 1], fp[F_ALPHAS + 2], fp[F_ALPHAS + 3]
-    min_t, min_r = fp[F_MIN_TRANSLATION_SIGMA], fp[F_MIN_ROTATION_SIGMA]
+    a1, a2, a3, a4 = settings.alpha1, settings.alpha2, settings.alpha3, settings.alpha4
+    min_t, min_r = settings.min_translation_sigma, settings.min_rotation_sigma
     rot1_sq, trans_sq, rot2_sq = rot1 ** 2, trans ** 2, rot2 ** 2
     v_rot1 = a1 * rot1_sq + a2 * trans_sq + min_r ** 2
     v_trans = a3 * trans_sq + a4 * (rot1_sq + rot2_sq) + min_t ** 2
     v_rot2 = a1 * rot2_sq + a2 * trans_sq + min_r ** 2
-    k_rr, k_rt = fp[F_LINEAR_NOISE], fp[F_LINEAR_NOISE + 1]
-    k_tt, k_tr = fp[F_LINEAR_NOISE + 2], fp[F_LINEAR_NOISE + 3]
+    k_rr, k_rt = settings.rotation_variance_per_radian, settings.rotation_variance_per_meter
+    k_tt = settings.translation_variance_per_meter
+    k_tr = settings.translation_variance_per_radian
     if k_rr != 0.0 or k_rt != 0.0 or k_tt != 0.0 or k_tr != 0.0:
         v_rot1 += k_rr * abs(rot1) + 0.5 * k_rt * abs(trans)
         v_trans += k_tt * abs(trans) + k_tr * (abs(rot1) + abs(rot2))
@@ -110,8 +110,9 @@ def _widest_kernel(cov, has_cov, count, v_rot1, v_rot2):
 
 
 @njit(**_JIT)
-def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, fp):
-    motion = np.array(_motion_of(dx, dy, dtheta, fp))
+def _advance_mean_kernel(mean, cov, has_cov, dx, dy, dtheta, settings):
+    settings = ReadingSettings(*settings)  # a plain tuple from Python (``records``)
+    motion = np.array(_motion_of(dx, dy, dtheta, settings))
     count = mean.shape[0]
     moved = np.empty((count, 3))
     turn = np.empty((count, 2))
@@ -140,7 +141,8 @@ def advance_mean(prior, poses: np.ndarray, delta, settings: ReadingSettings):
     ``propagate_cov`` or ``update_reading``'s ``motion``, which propagate the covariance: the
     next reading does it in its blocks of particles."""
     mean, cov = prior if prior is not None else (poses, _NO_COV)
-    return _advance_mean_kernel(mean, cov, prior is not None, *delta, settings.floats)
+    return _advance_mean_kernel(mean, cov, prior is not None, *delta,
+                                tuple(settings))
 
 
 def propagate_cov(turn: np.ndarray, cov: np.ndarray | None, motion: np.ndarray) -> np.ndarray:

@@ -12,18 +12,23 @@ from numba import njit
 
 from ..geometry import LOG_TWO_PI
 from ..proposal import _COF_P, _COF_Q, _COF_R, _COF_S, POSE_JITTER
-from .jit import _JIT, _lever, _wrap
-from .settings import F_NOISE_B, F_OX, F_OY, F_OYAW
+from .jit import _INLINED, _JIT, _lever, _wrap
 
 
-@njit(**_JIT)
-def _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r, choice, fp, normals,
-                      poses_out, info, b, a, cof, full, sigma, terms, picked, scored):
+@njit(**_INLINED)
+def _propose_and_draw(m, state, particles, obs, choice, settings, normals, poses_out, work,
+                      scored):
     """``proposal.observation_proposal`` (linearised once) from particle m's associated
     observations, then ``sample_pose`` from it into ``poses_out[m]`` (heading wrapped);
     returns the joint log likelihood of those observations. ``scored``: the pairs' terms,
-    taken at the same mean, are in ``terms[picked[k]]`` (the same numbers, not recomputed)."""
-    ox, oy, oyaw, noise_b = fp[F_OX], fp[F_OY], fp[F_OYAW], fp[F_NOISE_B]
+    taken at the same mean, are in ``work.terms[work.picked[k]]`` (the same numbers, not
+    recomputed); ``work``'s (``Scratch``) info, b, a, cof, full and sigma are its buffers."""
+    ox, oy, oyaw = settings.sensor_x, settings.sensor_y, settings.sensor_yaw
+    noise_b = settings.bearing_variance
+    mean, cov = particles.mean, particles.cov
+    ranges, bearings, noise_r = obs.ranges, obs.bearings, obs.range_variance
+    info, b, a, cof, full, sigma = work.info, work.b, work.a, work.cof, work.full, work.sigma
+    terms, picked = work.terms, work.picked
     px, py, pth = mean[m, 0], mean[m, 1], mean[m, 2]
     lx, ly = _lever(pth, ox, oy)
     lever_free = lx == 0.0 and ly == 0.0 and ox == 0.0 and oy == 0.0

@@ -16,99 +16,82 @@ from ..association import IGNORE, NEW
 from ..landmark_store import STATE_WIDTH, WorkingSet
 from .association import _associate_particle, _reject_outliers
 from .crew import _claim, _run_shared, READING_BLOCK
-from .jit import _JIT, _wrap
+from .jit import _INLINED, _JIT, _wrap
 from .landmark_ekf import _map_particle, _place_new
 from .motion import _NO_COV, _propagate_cov
 from .proposal import _propose_and_draw
-from .settings import (F_EPS, F_MOTION, F_NOISE_R, F_NOISE_R_PER_M, F_REACH, I_CENTRAL, I_FIRST_KEY,
-                       I_HAS_COV, I_LOCALIZATION, I_MODE, I_MOTION, I_PRIOR_COV, I_PROPOSE,
-                       I_SCORE_KNOWN, ReadingSettings)
+from .records import (DeferredMotion, Draws, Entries, NewLandmarks, Observations, Particles,
+                      PendingResampling, ReadingOutputs, entries_of, scratch)
+from .settings import ReadingPlan, ReadingSettings, reading_plan
 
 
-@njit(**_JIT)
-def _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new):
-    """Entry (m, j) empty, as a gathered working set leaves its free columns (a unit
-    covariance, so that scoring it stays finite)."""
+@njit(**_INLINED)
+def _clear_entry(table, m, j):
+    """Entry (m, j) of ``table`` (``Entries``) empty, as a gathered working set leaves its
+    free columns (a unit covariance, so that scoring it stays finite)."""
     for i in range(STATE_WIDTH):
-        state[m, j, i] = 0.0
-    state[m, j, 2] = state[m, j, 4] = 1.0
-    ident[m, j, 0] = ident[m, j, 1] = -1
-    row[m, j], slot[m, j], block[m, j] = -1, 0, -1
-    valid[m, j] = dirty[m, j] = is_new[m, j] = False
+        table.state[m, j, i] = 0.0
+    table.state[m, j, 2] = table.state[m, j, 4] = 1.0
+    table.ident[m, j, 0] = table.ident[m, j, 1] = -1
+    table.row[m, j], table.slot[m, j], table.block[m, j] = -1, 0, -1
+    table.valid[m, j] = table.dirty[m, j] = table.is_new[m, j] = False
 
 
 @njit(**_JIT)
-def _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
-                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
-                  dirty, is_new):
-    """Particle m's entries of the columns before ``existing`` become particle ``origin``'s
-    of the source arrays."""
-    for j in range(existing):
-        row[m, j], slot[m, j], block[m, j] = (src_row[origin, j], src_slot[origin, j],
-                                              src_block[origin, j])
+def _copy_entries(source, origin, table, m, count):
+    """Particle m's entries of the first ``count`` columns of ``table`` become particle
+    ``origin``'s of ``source`` (both ``Entries``)."""
+    for j in range(count):
+        table.row[m, j] = source.row[origin, j]
+        table.slot[m, j] = source.slot[origin, j]
+        table.block[m, j] = source.block[origin, j]
         for i in range(STATE_WIDTH):
-            state[m, j, i] = src_state[origin, j, i]
-        ident[m, j, 0], ident[m, j, 1] = src_ident[origin, j, 0], src_ident[origin, j, 1]
-        valid[m, j], dirty[m, j] = src_valid[origin, j], src_dirty[origin, j]
-        is_new[m, j] = src_is_new[origin, j]
+            table.state[m, j, i] = source.state[origin, j, i]
+        table.ident[m, j, 0] = source.ident[origin, j, 0]
+        table.ident[m, j, 1] = source.ident[origin, j, 1]
+        table.valid[m, j], table.dirty[m, j] = source.valid[origin, j], source.dirty[origin, j]
+        table.is_new[m, j] = source.is_new[origin, j]
+
+
+@njit(**_INLINED)
+def _take_particle(m, origin, existing, source, table):
+    """Particle m's working-set entries become particle ``origin``'s of ``source``
+    (``WorkingSet.take``). The columns from ``existing`` on are empty in every particle (new
+    landmarks fill them in order, and ``first_new_slot`` follows), so they are written empty,
+    not copied."""
+    _copy_entries(source, origin, table, m, existing)
+    for j in range(existing, table.valid.shape[1]):
+        _clear_entry(table, m, j)
 
 
 @njit(**_JIT)
-def _take_particle(m, origin, existing, source, moved, state, ident, valid, dirty, is_new):
-    """Particle m's working-set entries become particle ``origin``'s of ``source`` (row,
-    slot, block, state, ident, valid, dirty, is_new; ``WorkingSet.take``); ``moved``: the
-    row, slot and block arrays taking them. The columns from ``existing`` on are empty in
-    every particle (new landmarks fill them in order, and ``first_new_slot`` follows), so they
-    are written empty, not copied."""
-    src_row, src_slot, src_block, src_state, src_ident, src_valid, src_dirty, src_is_new = \
-        source
-    row, slot, block = moved
-    _copy_entries(origin, m, existing, src_row, src_slot, src_block, src_state, src_ident,
-                  src_valid, src_dirty, src_is_new, row, slot, block, state, ident, valid,
-                  dirty, is_new)
-    for j in range(existing, valid.shape[1]):
-        _clear_entry(m, j, row, slot, block, state, ident, valid, dirty, is_new)
-
-
-@njit(**_JIT)
-def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing, mean, cov,
-                   poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip,
-                   resampled, source, moved, creator, choice, factor, poses_out, weights_out,
-                   fresh, finite, recorded, turn, prior_cov):
+def _reading_chunk(counter, block, table, pending, particles, motion, obs, draws, settings,
+                   plan, out):
     """Blocks of ``block`` particles taken from ``counter`` (``_claim``) until none is left,
-    each particle in turn: its working-set entries taken from row ``resampled[m]`` of
-    ``source`` (a resampling since the last reading; none when ``resampled`` is empty), with
-    ``ip[I_MOTION]`` its prior covariance ``cov[m]`` propagated from ``prior_cov`` by the
-    motion's ``turn`` (``advance_mean``), then association, outlier test, (FastSLAM 2.0)
-    proposal and draw, the new log weight (before normalisation) and its map
-    (``_map_particle``, the new landmarks left to ``_place_new``); ``finite[m]`` False for a
-    non-finite update; the new pose also into ``recorded[m]`` (the path history's next
-    generation); ``counter[1]`` counts the particles finished (``_Crew.run`` waits for
-    it)."""
-    count = ranges.shape[0]
-    width = max(existing, 1)
-    label = ident[:, :, 0]
-    local = np.empty(width, np.int64)
-    log_lik = np.empty((count, width))
-    mahalanobis = np.empty((count, width))
-    pick = np.empty(count, np.int64)
-    value = np.empty(count)
-    order = np.empty(width, np.int64)
-    cumulative = np.empty(width + 1)
-    inverse_q = np.empty(count)
-    robust = np.empty(count)
-    info, b, a = np.empty(9), np.empty(3), np.empty(9)
-    cof, full, sigma = np.empty(9), np.empty(9), np.empty(9)
-    terms = np.empty((width, 5))
-    picked = np.empty(count, np.int64)
-    observed = np.empty(width, np.bool_)
-    scored = ip[I_MODE] != 0
-    propose = ip[I_PROPOSE] != 0
-    localization = ip[I_LOCALIZATION] != 0
-    ordered = resampled.shape[0] > 0
-    motion = ip[I_MOTION] != 0
-    has_prior_cov = ip[I_PRIOR_COV] != 0
+    each particle in turn: its working-set entries (``table``) taken from ``pending`` (a
+    resampling since the last reading), with ``plan.propagate`` its prior covariance
+    ``particles.cov[m]`` propagated by ``motion`` (``advance_mean``), then association,
+    outlier test, (FastSLAM 2.0) proposal and draw, the new log weight (before
+    normalisation) and its map (``_map_particle``, the new landmarks left to ``_place_new``),
+    all into ``out`` (``ReadingOutputs``); ``out.finite[m]`` False for a non-finite update;
+    the new pose also into ``out.recorded[m]`` (the path history's next generation);
+    ``counter[1]`` counts the particles finished (``_Crew.run`` waits for it). Called from
+    Python (``_reading_threaded``), it takes its records as plain tuples (``records``)."""
+    table, particles, obs, draws = (Entries(*table), Particles(*particles),
+                                    Observations(*obs), Draws(*draws))
+    pending = PendingResampling(pending[0], Entries(*pending[1]))
+    motion, settings = DeferredMotion(*motion), ReadingSettings(*settings)
+    plan, out = ReadingPlan(*plan), ReadingOutputs(*out)
+    count = obs.ranges.shape[0]
+    existing = plan.existing
+    work = scratch(count, max(existing, 1))
+    choice, factor, poses_out = out.choice, out.factor, out.poses
+    scored = settings.association != 0
+    localization = settings.localization
+    ordered = pending.order.shape[0] > 0
+    poses = particles.poses
     num_particles = poses.shape[0]
+    motion_terms = motion.terms
     while True:
         lo = _claim(counter, 0, block)
         if lo >= num_particles:
@@ -116,30 +99,26 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
         hi = min(lo + block, num_particles)
         for m in range(lo, hi):
             if ordered:
-                _take_particle(m, resampled[m], existing, source, moved, state, ident, valid,
-                               dirty, is_new)
-            if motion:
-                _propagate_cov(m, turn, prior_cov, has_prior_cov, fp[F_MOTION + 1],
-                               fp[F_MOTION + 3], fp[F_MOTION + 4], fp[F_MOTION + 5], cov)
-            _associate_particle(m, state, valid, label, existing, mean, cov, ranges,
-                                bearings, labels, noise_r, draws, fp, ip, choice, factor,
-                                inverse_q, local, log_lik, mahalanobis, pick, value, order,
-                                cumulative, terms, picked)
-            _reject_outliers(m, choice, factor, robust, fp)
+                _take_particle(m, pending.order[m], existing, pending.source, table)
+            if plan.propagate:
+                _propagate_cov(m, motion.turn, motion.cov, plan.prior_has_cov, motion_terms[1],
+                               motion_terms[3], motion_terms[4], motion_terms[5], particles.cov)
+            _associate_particle(m, table, particles, obs, draws.uniforms, settings, plan, out,
+                                work)
+            _reject_outliers(m, choice, factor, work.robust, settings)
             if localization:
                 # A fixed map takes no new landmark: an unexplained observation weighs p0.
                 for k in range(count):
                     if choice[k, m] == NEW:
                         choice[k, m] = IGNORE
-            if propose:
-                joint = _propose_and_draw(m, state, mean, cov, ranges, bearings, noise_r,
-                                          choice, fp, normals, poses_out, info, b, a, cof,
-                                          full, sigma, terms, picked, scored)
+            if plan.propose:
+                joint = _propose_and_draw(m, table.state, particles, obs, choice, settings,
+                                          draws.normals, poses_out, work, scored)
                 # The associated observations weigh their joint likelihood (on the first row)
                 # times 1 / q (``FastSLAM._sample_proposal``).
                 for k in range(count):
                     if choice[k, m] >= 0:
-                        factor[k, m] = inverse_q[k]
+                        factor[k, m] = work.inverse_q[k]
                 if count:
                     factor[0, m] += joint
             else:
@@ -147,13 +126,13 @@ def _reading_chunk(counter, block, state, ident, valid, dirty, is_new, existing,
                     poses[m, 0], poses[m, 1], poses[m, 2])
             total = 0.0
             for k in range(count):
-                factor[k, m] = factor[k, m] + robust[k]
+                factor[k, m] = factor[k, m] + work.robust[k]
                 total += factor[k, m]
-            weights_out[m] = log_weights[m] + total
-            finite[m] = localization or _map_particle(m, state, valid, dirty, existing,
-                                                      choice, creator, poses_out, ranges,
-                                                      bearings, noise_r, fp, observed, fresh)
-            recorded[m, 0], recorded[m, 1], recorded[m, 2] = (
+            out.log_weights[m] = particles.log_weights[m] + total
+            out.finite[m] = localization or _map_particle(m, table, existing, choice, poses_out,
+                                                          obs, settings, work.observed,
+                                                          out.fresh)
+            out.recorded[m, 0], out.recorded[m, 1], out.recorded[m, 2] = (
                 poses_out[m, 0], poses_out[m, 1], poses_out[m, 2])
         _claim(counter, 1, hi - lo)
 
@@ -269,90 +248,87 @@ def _report(choice, creating, ident, best):
 
 
 @njit(**_JIT)
-def _noise_ranges(ranges, fp):
+def _range_variances(ranges, settings):
     """Range variance of every observation (``FastSLAM._noise``)."""
     noise_r = np.empty(ranges.shape[0])
-    per_meter = fp[F_NOISE_R_PER_M]
+    per_meter = settings.sigma_range_per_meter
     for k in range(ranges.shape[0]):
-        noise_r[k] = fp[F_NOISE_R]
+        noise_r[k] = settings.range_variance
         if per_meter != 0.0:
-            noise_r[k] = fp[F_NOISE_R] + (per_meter * ranges[k]) ** 2
+            noise_r[k] = settings.range_variance + (per_meter * ranges[k]) ** 2
     return noise_r
 
 
 @njit(**_JIT)
-def _reading_buffers(ranges, labels, num_particles, fp, ip):
-    """Range variances, the observation whose landmark each observation creates (itself; with
-    known ids the first of its id) and the per-reading outputs of the chunks."""
+def _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded):
+    """The reading's ``Observations`` (with their range variances and the observation whose
+    landmark each one creates: itself; with known ids the first of its id) and the
+    ``ReadingOutputs`` the chunks write (the new poses also into ``recorded``), as plain
+    tuples (``records``; so are the ``settings`` it takes)."""
+    settings = ReadingSettings(*settings)
     count = ranges.shape[0]
     creator = np.arange(count)
-    if ip[I_MODE] == 0:
+    if settings.association == 0:
         for k in range(count):
             for other in range(k):
                 if labels[other] == labels[k]:
                     creator[k] = other
                     break
-    return (_noise_ranges(ranges, fp), creator, np.empty((count, num_particles), np.int64),
-            np.empty((count, num_particles)), np.empty((num_particles, 3)),
-            np.empty(num_particles), np.empty((count, num_particles, 5)),
-            np.ones(num_particles, np.bool_))
+    obs = (ranges, bearings, labels, _range_variances(ranges, settings), creator)
+    out = (np.empty((count, num_particles), np.int64), np.empty((count, num_particles)),
+           np.empty((num_particles, 3)), np.empty(num_particles),
+           np.empty((count, num_particles, 5)), np.ones(num_particles, np.bool_), recorded)
+    return obs, out
 
 
 @njit(**_JIT)
-def _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh, poses_out,
-            weights_out, ranges, bearings, labels, noise_r, fp, ip, finite):
+def _settle(table, obs, settings, plan, out):
     """After every chunk: the columns and keys of the new landmarks, which are put in place,
-    the weights normalised, N_eff, the reported particle and its report."""
-    count, num_particles = choice.shape
-    creating = np.empty((count, num_particles), np.bool_)
-    column = np.empty(count, np.int64)
-    keys = np.empty((count, num_particles), np.int64)
-    taken, new_keys = _assign_columns(choice, labels, ip[I_MODE] == 0, existing,
-                                      ip[I_FIRST_KEY], creating, column, keys)
-    if ip[I_LOCALIZATION] == 0:
-        _place_new(state, ident, valid, dirty, is_new, existing, choice, creator, creating,
-                   column, keys, fresh, poses_out, ranges, bearings, labels, noise_r, fp, finite)
-    n_eff, underflow, best, all_finite = _finish(poses_out, weights_out, ip[I_CENTRAL] != 0,
-                                                 finite)
-    report_ids, report_new = _report(choice, creating, ident, best)
-    return (report_ids, report_new, poses_out, weights_out, n_eff, underflow, best, taken,
+    the weights normalised, N_eff, the reported particle and its report (the records as plain
+    tuples, ``records``)."""
+    table, obs, settings = Entries(*table), Observations(*obs), ReadingSettings(*settings)
+    plan, out = ReadingPlan(*plan), ReadingOutputs(*out)
+    count, num_particles = out.choice.shape
+    new = NewLandmarks(np.empty((count, num_particles), np.bool_), np.empty(count, np.int64),
+                       np.empty((count, num_particles), np.int64))
+    taken, new_keys = _assign_columns(out.choice, obs.labels, settings.association == 0,
+                                      plan.existing, plan.first_key, new.creating, new.column,
+                                      new.keys)
+    if not settings.localization:
+        _place_new(table, plan.existing, out.choice, new, out.fresh, out.poses, obs, settings,
+                   out.finite)
+    n_eff, underflow, best, all_finite = _finish(out.poses, out.log_weights, settings.central,
+                                                 out.finite)
+    report_ids, report_new = _report(out.choice, new.creating, table.ident, best)
+    return (report_ids, report_new, out.poses, out.log_weights, n_eff, underflow, best, taken,
             new_keys, all_finite)
 
 
 @njit(**_JIT)
-def _reading_serial(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                    bearings, labels, draws, normals, log_weights, fp, ip, order, source, moved,
-                    recorded, turn, prior_cov):
-    """The whole reading on the calling thread (``update_reading``)."""
-    num_particles = poses.shape[0]
-    noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
-        ranges, labels, num_particles, fp, ip)
-    _reading_chunk(np.zeros(2, np.int64), num_particles, state, ident, valid, dirty, is_new,
-                   existing, mean, cov, poses, ranges, bearings, labels, noise_r, draws,
-                   normals, log_weights, fp, ip, order, source, moved, creator, choice, factor,
-                   poses_out, weights_out, fresh, finite, recorded, turn, prior_cov)
-    return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
-                   poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
+def _reading_serial(table, pending, particles, motion, ranges, bearings, labels, draws,
+                    settings, plan, recorded):
+    """The whole reading on the calling thread (``update_reading``; the records as plain
+    tuples, ``records``)."""
+    num_particles = recorded.shape[0]
+    obs, out = _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded)
+    _reading_chunk(np.zeros(2, np.int64), num_particles, table, pending, particles, motion, obs,
+                   draws, settings, plan, out)
+    return _settle(table, obs, settings, plan, out)
 
 
-def _reading_threaded(state, ident, valid, dirty, is_new, existing, mean, cov, poses, ranges,
-                      bearings, labels, draws, normals, log_weights, fp, ip, order, source,
-                      moved, recorded, turn, prior_cov, chunks):
+def _reading_threaded(table, pending, particles, motion, ranges, bearings, labels, draws,
+                      settings, plan, recorded, chunks):
     """``_reading_serial`` with its per-particle work shared by ``chunks`` threads: the
     calling thread and the crew's (``_Crew``), one hand-off per reading, each taking
     blocks of ``READING_BLOCK`` particles from one counter until none is left (so a thread
     that starts late or runs slower takes fewer). Blocks write disjoint particles, so the
     results are those of the serial reading."""
-    num_particles = poses.shape[0]
-    noise_r, creator, choice, factor, poses_out, weights_out, fresh, finite = _reading_buffers(
-        ranges, labels, num_particles, fp, ip)
+    num_particles = recorded.shape[0]
+    obs, out = _reading_buffers(ranges, bearings, labels, num_particles, settings, recorded)
     _run_shared(_reading_chunk, chunks, (
-        np.zeros(2, np.int64), READING_BLOCK, state, ident, valid, dirty, is_new, existing, mean,
-        cov, poses, ranges, bearings, labels, noise_r, draws, normals, log_weights, fp, ip, order,
-        source, moved, creator, choice, factor, poses_out, weights_out, fresh, finite,
-        recorded, turn, prior_cov), num_particles)
-    return _settle(state, ident, valid, dirty, is_new, existing, choice, creator, fresh,
-                   poses_out, weights_out, ranges, bearings, labels, noise_r, fp, ip, finite)
+        np.zeros(2, np.int64), READING_BLOCK, table, pending, particles, motion, obs, draws,
+        settings, plan, out), num_particles)
+    return _settle(table, obs, settings, plan, out)
 
 
 @njit(**_JIT)
@@ -399,80 +375,62 @@ def pose_box(poses: np.ndarray) -> tuple[float, float, float, float]:
     return _box_kernel(poses)
 
 
-_NO_TURN = np.zeros((0, 2))
+_NO_MOTION = DeferredMotion(np.zeros((0, 2)), _NO_COV, np.zeros(6))
+"""``DeferredMotion`` of a reading that propagates no covariance."""
 
 
 _NO_ORDER = np.zeros(0, np.int64)
 
 
-def update_reading(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
-                   log_weights, settings: ReadingSettings, reach: float, first_key: int,
-                   propose: bool, recorded: np.ndarray, order: np.ndarray | None = None,
-                   motion=None):
+def update_reading(ws, particles: Particles, observations, draws: Draws,
+                   settings: ReadingSettings, reach: float, first_key: int, propose: bool,
+                   recorded: np.ndarray, order: np.ndarray | None = None, motion=None):
     """One reading for every particle, on the working set ``ws`` (updated in place), or, with
     ``order`` (a resampling not yet applied to ``ws``), on a new one whose particle m takes the
     entries of ``ws``'s particle ``order[m]`` (``WorkingSet.take``, in the reading's chunks).
 
-    ``mean`` (M, 3) and ``cov`` (M, 3, 3) or None: the pose the observations are scored at and
-    its covariance (the FastSLAM 2.0 prior; None: the particles' poses ``poses``, which
-    ``mean`` then is); ``draws``: the (K * M) uniforms of ``monte_carlo``; ``normals``: the
-    (M, 3) standard normals of the proposal's draw when ``propose``; ``first_key``: the
+    ``particles``: ``Particles`` whose ``cov`` is None when the observations are scored at the
+    particles' poses (``mean`` is then ``poses``); ``observations``: the usable (ranges,
+    bearings, labels) (``usable_observations``); ``draws``: the uniforms of ``monte_carlo``
+    and the standard normals of the proposal's draw when ``propose``; ``first_key``: the
     store's next landmark key; ``recorded`` (M, 3): also given the new poses (the path
-    history's next generation, ``PathHistory.next_generation``); ``motion``: the prior's
-    turn, cov (or None) ``mean`` was moved from and the motion (``advance_mean``): the
-    reading propagates the covariance in its blocks (then ``cov`` is None). Returns (the reported
-    particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3), normalised
-    log weights (M,), N_eff, underflow, the reported particle, working-set columns taken, keys
-    taken, all finite, the working set read).
+    history's next generation, ``PathHistory.next_generation``); ``motion``: the prior's turn,
+    cov (or None) ``mean`` was moved from and the motion (``advance_mean``): the reading
+    propagates the covariance in its blocks (then ``particles.cov`` is None). Returns (the
+    reported particle's ``UpdateReport`` associated_ids (K,) and is_new (K,), poses (M, 3),
+    normalised log weights (M,), N_eff, underflow, the reported particle, working-set columns
+    taken, keys taken, all finite, the working set read).
     """
-    return _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-                   settings, reach, first_key, propose, recorded, order,
-                   crew.threads_for(poses.shape[0]), motion)
+    return _update(ws, particles, observations, draws, settings, reach, first_key, propose,
+                   recorded, order, crew.threads_for(particles.poses.shape[0]), motion)
 
 
-def _update(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-            settings: ReadingSettings, reach: float, first_key: int, propose: bool, recorded,
-            order, threads: int, motion=None):
+def _update(ws, particles: Particles, observations, draws: Draws, settings: ReadingSettings,
+            reach: float, first_key: int, propose: bool, recorded, order, threads: int,
+            motion=None):
     """``update_reading`` on ``threads`` threads."""
-    ip = settings.integers
-    ip[I_MOTION] = motion is not None
+    poses, log_weights, mean, cov = particles
     if motion is None:
-        turn, prior_cov = _NO_TURN, _NO_COV
+        deferred, from_cov = _NO_MOTION, None
     else:
-        turn, prior_cov, values = motion
-        settings.floats[F_MOTION:F_MOTION + 6] = values
-        ip[I_PRIOR_COV] = prior_cov is not None
-        if prior_cov is None:
-            prior_cov = _NO_COV
+        turn, prior_cov, terms = motion
+        from_cov = prior_cov is not None
+        deferred = DeferredMotion(turn, prior_cov if from_cov else _NO_COV, terms)
         cov = np.empty((poses.shape[0], 3, 3))
-    source = (ws.row, ws.slot, ws.block, ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new)
+    source = table = tuple(entries_of(ws))
     if order is None:
         order = _NO_ORDER
     else:
         ws = WorkingSet(*(np.empty_like(array) for array in source[:3]), ws.columns[order],
                         *(np.empty_like(array) for array in source[3:]), ws.first_new_slot)
-    args = _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals,
-                         log_weights, settings, reach, first_key, propose) + (
-        order, source, (ws.row, ws.slot, ws.block), recorded, turn, prior_cov)
+        table = tuple(entries_of(ws))
+    plan = reading_plan(settings, reach, first_key, ws.first_new_slot, cov is not None,
+                        propose, from_cov)
+    ranges, bearings, labels = (np.ascontiguousarray(values) for values in observations)
+    # Plain tuples across the boundary (``records``).
+    args = (table, (order, source), (poses, log_weights, mean, _NO_COV if cov is None else cov),
+            tuple(deferred), ranges, bearings, labels, tuple(draws), tuple(settings),
+            tuple(plan), recorded)
     if threads == 1:
         return _reading_serial(*args) + (ws,)
     return _reading_threaded(*args, threads) + (ws,)
-
-
-def _reading_args(ws, mean, cov, poses, ranges, bearings, labels, draws, normals, log_weights,
-                  settings: ReadingSettings, reach: float, first_key: int, propose: bool):
-    """The arguments of ``_reading_serial`` / ``_reading_threaded`` (the reading's entries
-    of the settings filled in)."""
-    fp, ip = settings
-    has_cov = cov is not None
-    fp[F_REACH] = reach
-    ip[I_FIRST_KEY] = first_key
-    ip[I_HAS_COV] = has_cov
-    ip[I_PROPOSE] = propose
-    # FastSLAM 2.0 weighs the associated observations by the proposal's joint likelihood,
-    # and without an outlier test nothing needs the likelihood of a known id's landmark.
-    ip[I_SCORE_KNOWN] = not (has_cov and fp[F_EPS] == 0.0)
-    return (ws.state, ws.ident, ws.valid, ws.dirty, ws.is_new, ws.first_new_slot, mean,
-            cov if has_cov else _NO_COV, poses, np.ascontiguousarray(ranges),
-            np.ascontiguousarray(bearings), np.ascontiguousarray(labels), draws, normals,
-            log_weights, fp, ip)

@@ -10,6 +10,7 @@ from numba import njit
 from ..landmark_store import WorkingSet
 from .jit import _JIT
 from .reading import _copy_entries
+from .records import Entries, entries_of
 
 
 @njit(**_JIT)
@@ -61,32 +62,31 @@ def take(ws, indices: np.ndarray):
 
 
 @njit(**_JIT)
-def _reindex_kernel(indices, existing, row, slot, block, state, ident, valid, dirty, is_new):
-    """``_take_kernel`` in place for non-decreasing ``indices`` (systematic resampling's, and
-    their compositions): rows that move up are copied in ascending order, rows that move down
-    in descending order, so every source is read before it is overwritten; rows that keep
-    their place are not touched, nor are the columns from ``existing`` on (empty in every
-    particle). False, and nothing changed, for other indices."""
+def _reindex_kernel(indices, existing, table):
+    """``_take_kernel`` in place on ``table`` (``Entries``) for non-decreasing ``indices``
+    (systematic resampling's, and their compositions): rows that move up are copied in
+    ascending order, rows that move down in descending order, so every source is read before
+    it is overwritten; rows that keep their place are not touched, nor are the columns from
+    ``existing`` on (empty in every particle). False, and nothing changed, for other
+    indices."""
+    table = Entries(*table)  # a plain tuple from Python (``records``)
     count = indices.shape[0]
     for m in range(1, count):
         if indices[m] < indices[m - 1]:
             return False
     for m in range(count):
         if indices[m] > m:
-            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
-                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+            _copy_entries(table, indices[m], table, m, existing)
     for m in range(count - 1, -1, -1):
         if indices[m] < m:
-            _copy_entries(indices[m], m, existing, row, slot, block, state, ident, valid,
-                          dirty, is_new, row, slot, block, state, ident, valid, dirty, is_new)
+            _copy_entries(table, indices[m], table, m, existing)
     return True
 
 
 def reindex(ws, indices: np.ndarray):
     """``take`` for a working set no longer needed as it was: in place when ``indices`` are
     non-decreasing (``_reindex_kernel``), else a copy."""
-    if not _reindex_kernel(indices, ws.first_new_slot, ws.row, ws.slot, ws.block, ws.state,
-                           ws.ident, ws.valid, ws.dirty, ws.is_new):
+    if not _reindex_kernel(indices, ws.first_new_slot, tuple(entries_of(ws))):
         return take(ws, indices)
     ws.columns = ws.columns[indices]
     return ws

@@ -15,6 +15,7 @@ from .motion import advance_mean, propagate_cov, sample_motion
 from .path_history import prune
 from .proposal import sample_pose
 from .reading import _update, pose_box, usable_observations
+from .records import Draws, Particles
 from .resampling import reindex, resample_poses, take
 from .settings import MODE_CODES, reading_settings
 
@@ -59,9 +60,9 @@ def warm_up() -> float:
             # On the calling thread and split over threads (M >= PARALLEL_MIN_PARTICLES; its
             # chunk kernel is called by Python), with and without a pending resampling.
             for threads, order in ((1, None), (2, np.array([1, 0]))):
-                _update(ws, poses, pose_cov, poses, ranges, bearings, labels,
-                        np.full(2 * m, 0.5), np.zeros((m, 3)), np.zeros(m), settings, 5.0, 0,
-                        pose_cov is not None, np.empty((m, 3)), order, threads)
+                _update(ws, Particles(poses, np.zeros(m), poses, pose_cov),
+                        (ranges, bearings, labels), Draws(np.full(2 * m, 0.5), np.zeros((m, 3))),
+                        settings, 5.0, 0, pose_cov is not None, np.empty((m, 3)), order, threads)
     sample_pose(poses, cov, np.zeros((m, 3)))
     usable_observations(ranges, bearings, labels, True, 1e-3)
     pose_box(poses)
