@@ -12,7 +12,8 @@ both on the same draws:
   ``test_loop_closure_shifts_the_same_particles_on_both_backends``,
   ``test_existence_from_a_detection_probability_is_the_same_on_both_backends``;
 - ``motion`` vs ``core.motion``: ``test_prior_moved_in_the_reading_matches_numpy``,
-  ``test_compiled_odometry_prior_matches_the_numpy_steps``;
+  ``test_compiled_odometry_prior_matches_the_numpy_steps``,
+  ``test_turn_faults_are_the_same_on_both_backends``;
 - ``resampling`` vs ``core.resampling``:
   ``test_compiled_systematic_resampling_draws_the_numpy_indices``,
   ``test_compiled_take_matches_the_working_set_take``,
@@ -54,6 +55,13 @@ needs_numba = pytest.mark.skipif(not numba_available(),
 def test_compiled_backend_makes_the_same_choices_as_numpy(algorithm, association):
     """Same draws: identical associations, creations, removals and resampling; floats 1e-9."""
     assert_same_run(algorithm, association)
+
+
+@needs_numba
+@pytest.mark.parametrize("algorithm", ["fastslam1", "fastslam2"])
+def test_turn_faults_are_the_same_on_both_backends(algorithm):
+    """``turn_fault_probability``: the same particles take the same turn errors."""
+    assert_same_run(algorithm, "ml", turn_fault_probability=0.2)
 
 
 @needs_numba

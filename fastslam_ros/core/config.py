@@ -108,6 +108,12 @@ class FastSLAMConfig:
     min_rotation_sigma: float = parameter(
         0.001, "Noise floor of every motion step's rotations (rad).",
         low=0.0, low_exclusive=True, high=math.pi)
+    turn_fault_probability: float = parameter(
+        0.0, "Share of the particles that, at each motion step, take the odometry's turn as "
+        "not executed as reported: their two rotations get an extra N(0, rotation^2) error (a "
+        "commanded turn the robot did not make, a skid-steer slipping in a turn), which the "
+        "observations then confirm or not. For odometry that integrates commanded velocities "
+        "(MRCLAM) or slips when turning; 0: off.", low=0.0, high=1.0, high_exclusive=True)
     max_pending_translation: float = parameter(
         1.0, "Odometry accumulated beyond this distance (m) is applied without waiting for an "
         "observation, so one (rot1, trans, rot2) step never spans a long curve.",

@@ -36,7 +36,8 @@ from .landmark_store import LandmarkStore
 from .loop_closure import LoopClosure
 from .map_refinement import ReadingLog
 from .working_cache import WorkingSetCache
-from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
+from .motion import (OdometryControl, control_variances, propagate_gaussian, sample_motion,
+                     turn_fault_shift)
 from .observation import SensorOffset
 from .path_history import PathHistory
 from .proposal import sample_pose
@@ -256,9 +257,33 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
             self._advance_motion()
 
     def _advance_motion(self) -> None:
-        """Apply the accumulated odometry: sampled (1.0) or into the Gaussian prior (2.0)."""
+        """Apply the accumulated odometry: sampled (1.0) or into the Gaussian prior (2.0), a
+        share of the particles with a turn fault (``turn_fault_probability``)."""
         if not self._has_pending:
             return
+        faults = self._draw_turn_faults()
+        self._move()
+        if faults is not None:
+            faulty, before, control, errors = faults
+            moved = self._prior[0] if self._prior is not None else self.poses
+            moved[faulty] += turn_fault_shift(before, control, errors)
+            moved[faulty, 2] = wrap_angle(moved[faulty, 2])
+
+    def _draw_turn_faults(self):
+        """(particles, their poses before the motion, the motion, their rotation errors) of
+        the particles that take this motion's turn as not executed as reported, each error
+        N(0, rot^2) on rot1 and rot2; None when ``turn_fault_probability`` is 0."""
+        fraction = self.config.turn_fault_probability
+        if fraction == 0.0:
+            return None
+        control = OdometryControl.from_delta(self._pending)
+        faulty = np.flatnonzero(self.rng.random(self.num_particles) < fraction)
+        errors = self.rng.standard_normal((len(faulty), 2)) * np.abs([control.rot1, control.rot2])
+        prior = self._settled_prior()
+        return faulty, (self.poses if prior is None else prior[0])[faulty], control, errors
+
+    def _move(self) -> None:
+        """``_advance_motion`` without the turn faults."""
         if self.kernels is not None and self.config.algorithm == "fastslam2":
             # The same steps as below, the covariance left to the next reading's blocks of
             # particles (or to the first other use of the prior, ``_settled_prior``).

@@ -104,3 +104,12 @@ def propagate_gaussian(mean: np.ndarray, cov: np.ndarray, u: OdometryControl,
     moved = np.array([mean[:, 0] + u.trans * cos_h, mean[:, 1] + u.trans * sin_h,
                       wrap_angle(heading + u.rot2)]).T
     return moved, predicted
+
+
+def turn_fault_shift(poses: np.ndarray, u: OdometryControl, errors: np.ndarray) -> np.ndarray:
+    """h(s, u + e) - h(s, u) (heading wrapped) of poses (n, 3) whose rotations rot1 and rot2
+    are off by ``errors`` (n, 2) rad: how far a turn fault moves each pose's motion."""
+    shifted = apply_control(poses, u.rot1 + errors[:, 0], u.trans, u.rot2 + errors[:, 1])
+    shift = shifted - apply_control(poses, u.rot1, u.trans, u.rot2)
+    shift[:, 2] = wrap_angle(shift[:, 2])
+    return shift

@@ -128,7 +128,7 @@ class SimConfig:
         "Episodes per minute in which the differential drive does not execute its commanded "
         "turn while its odometry reports it (room and faults scenarios).")
     slip_faults: float = setting(0.0,
-        "Episodes per minute in which the differential drive's wheels slip: it covers 30 % of "
+        "Episodes per minute in which the differential drive's wheels slip: it covers 0.3 of "
         "the distance its odometry reports (room and faults scenarios).")
     fault_duration: float = setting(1.0, "Length of a turn or slip episode (s).")
     sensor_frame: str = setting("base_link",
