@@ -14,7 +14,7 @@ from fastslam_ros.tools.evaluation.evaluate import (LandmarkEstimate, RunData, e
 from fastslam_ros.tools.evaluation.metrics import (Transform2D, align_se2, error_stats,
                                                    evaluate_trajectory, interpolate_positions,
                                                    json_ready, landmark_metrics, match_landmarks,
-                                                   ospa, truth_covers)
+                                                   nees_summary, ospa, truth_covers)
 
 RNG = np.random.default_rng(7)
 
@@ -179,3 +179,48 @@ def test_markdown_table_lists_every_trajectory():
 def test_json_ready_replaces_nan_and_infinity():
     assert json_ready({"a": [1.0, math.nan], "b": {"c": math.inf}, "d": "x"}) == \
         {"a": [1.0, None], "b": {"c": None}, "d": "x"}
+
+
+@pytest.mark.parametrize("overconfidence", [1.0, 25.0])
+def test_nees_of_errors_drawn_from_the_claimed_covariance_is_chi_square(overconfidence):
+    """Errors drawn from N(0, P) against P: NEES chi-square with 2 degrees of freedom (mean 2,
+    median 2 ln 2, 95 % within 5.991); against P / 25 (sigmas claimed 5x too small) every figure
+    grows 25x and few samples stay within."""
+    count = 20000
+    rng = np.random.default_rng(11)
+    angles = rng.uniform(0.0, np.pi, count)
+    rotations = np.stack([np.stack([np.cos(angles), -np.sin(angles)], -1),
+                          np.stack([np.sin(angles), np.cos(angles)], -1)], -2)
+    sigmas = rng.uniform(0.01, 2.0, (count, 2))
+    covariances = rotations @ (sigmas[:, :, None] ** 2 * np.eye(2)) @ rotations.transpose(0, 2, 1)
+    errors = np.einsum("nij,nj->ni", rotations, sigmas * rng.standard_normal((count, 2)))
+    summary = nees_summary(errors, covariances / overconfidence)
+    spread = 4.0 * 2.0 / math.sqrt(count)  # 4 standard errors of the mean of chi2(2)
+    assert summary["samples"] == count
+    assert summary["mean"] == pytest.approx(2.0 * overconfidence, abs=spread * overconfidence)
+    assert summary["median"] == pytest.approx(2.0 * math.log(2.0) * overconfidence,
+                                              rel=0.05)
+    within = 1.0 - math.exp(-5.991 / (2.0 * overconfidence))
+    assert summary["within_95"] == pytest.approx(within, abs=0.01)
+    assert nees_summary(errors[:3], np.zeros((3, 2, 2)))["samples"] == 0
+
+
+def test_evaluation_reports_the_consistency_of_the_pose_and_the_map():
+    """A run whose estimate is shifted by (0.3, 0.4) (which the alignment removes: NEES 0)
+    and whose landmarks are shifted by that and 0.1 m more while claiming 0.01 m (NEES 100):
+    both in the metrics and the table."""
+    stamps = np.arange(20.0)
+    truth_poses = np.column_stack([stamps, np.sin(stamps), np.zeros(20)])
+    truth = PoseSeries(stamps, truth_poses)
+    estimate = PoseSeries(stamps, truth_poses + [0.3, 0.4, 0.0])
+    landmarks_truth = LandmarkSet(np.array([[0.0, 5.0], [10.0, -5.0]]), np.array([0, 1]))
+    estimated = LandmarkEstimate(landmarks_truth.positions + [0.4, 0.4],
+                                 np.tile(np.eye(2) * 1e-4, (2, 1, 1)), np.array([0, 1]),
+                                 np.ones(2))
+    run = RunData(estimate, None, None, truth, estimated, landmarks_truth, {}, {},
+                  estimate_covariances=np.tile(np.eye(2) * 0.25, (20, 1, 1)))
+    metrics = evaluate_run(run).metrics
+    assert metrics["estimate"]["nees"]["samples"] == 20
+    assert metrics["estimate"]["nees"]["median"] == pytest.approx(0.0, abs=1e-9)
+    assert metrics["landmarks"]["nees"]["median"] == pytest.approx(100.0, rel=1e-6)
+    assert "landmarks median 100.0, 0 % within 5.99" in markdown_table(metrics)

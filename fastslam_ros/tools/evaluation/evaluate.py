@@ -50,7 +50,8 @@ from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
 from fastslam_ros.tools.evaluation.metrics import (DEFAULT_MAX_GAP, JUMP_THRESHOLD, OSPA_CUTOFF,
                                                    OSPA_ORDER, TrajectoryResult, Transform2D,
                                                    evaluate_trajectory, json_ready,
-                                                   landmark_metrics, pose_stamped_series,
+                                                   landmark_metrics, nees_summary,
+                                                   planar_covariances, pose_stamped_series,
                                                    reference_positions)
 from fastslam_ros.output import staged_output, write_text
 
@@ -90,6 +91,8 @@ class RunData:
     observed_ids: np.ndarray | None = None
     """Labels (>= 0) that appear in the input clouds: the landmarks the robot saw; None when the
     clouds carry no labels."""
+    estimate_covariances: np.ndarray | None = None
+    """(N, 2, 2) position covariances the estimate claimed, one per ``estimate`` sample."""
 
 
 def _landmark_estimate(msg: Any) -> LandmarkEstimate:
@@ -153,7 +156,8 @@ def load_run(out_path: str | Path, ground_truth_path: str | Path | None = None) 
                      if REPLAY_INFO_TOPIC in last else {}),
         diagnostics=(_diagnostic_values(last[DIAGNOSTICS_TOPIC][1])
                      if DIAGNOSTICS_TOPIC in last else {}),
-        observed_ids=observed_ids if len(observed_ids) else None)
+        observed_ids=observed_ids if len(observed_ids) else None,
+        estimate_covariances=planar_covariances(pose_messages))
 
 
 # ---------------------------------------------------------------- evaluation
@@ -205,6 +209,8 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
                 if result is not None:
                     trajectories[name] = result
                     metrics[name] = result.metrics()
+        if "estimate" in trajectories and run.estimate_covariances is not None:
+            metrics["estimate"]["nees"] = _estimate_nees(trajectories["estimate"], run)
     metrics["ground_truth_position_only"] = bool(run.ground_truth is not None
                                                  and run.ground_truth.position_only)
     landmark_alignment = None
@@ -221,8 +227,10 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
                 seen = np.isin(truth.ids, run.observed_ids)
                 metrics["landmarks_never_observed"] = int(np.count_nonzero(~seen))
                 truth = LandmarkSet(truth.positions[seen], truth.ids[seen])
+            rotation = landmark_alignment.rotation
+            covariances = rotation @ run.landmarks.covariances[keep] @ rotation.T
             metrics["landmarks"] = landmark_metrics(landmark_alignment.apply(positions), ids,
-                                                    truth, cutoff, by_id)
+                                                    truth, cutoff, by_id, covariances)
             metrics["landmarks_raw"] = landmark_metrics(positions, ids, truth, cutoff, by_id)
     checked = run.diagnostics.get("associations_checked")
     correct = run.diagnostics.get("associations_correct")
@@ -237,6 +245,15 @@ def evaluate_run(run: RunData, cutoff: float = OSPA_CUTOFF,
         metrics["stats"] = info.get("stats", {})
         metrics["params"] = info.get("params", {})
     return Evaluation(metrics, run, trajectories, landmark_alignment)
+
+
+def _estimate_nees(result: TrajectoryResult, run: RunData) -> dict[str, Any]:
+    """``nees_summary`` of the estimate's aligned errors against the covariances it claimed
+    (rotated by the alignment), at the samples the evaluation scored."""
+    samples = np.searchsorted(run.estimate.stamps, result.stamps)
+    rotation = result.alignment.rotation
+    covariances = rotation @ run.estimate_covariances[samples] @ rotation.T
+    return nees_summary(result.alignment.apply(result.estimate) - result.reference, covariances)
 
 
 def evaluate(out_path: str | Path, ground_truth_path: str | Path | None = None,
@@ -292,6 +309,13 @@ def markdown_table(metrics: dict[str, Any]) -> str:
     elif "landmarks_estimated" in metrics:
         summary.append(f"| landmarks | {metrics['landmarks_estimated']} in the final map "
                        "(no landmark ground truth) |")
+    consistency = [f"{label} median {_number(metrics[key]['nees']['median'], 1)}, "
+                   f"{_number(100.0 * metrics[key]['nees']['within_95'], 0)} % within 5.99"
+                   for key, label in (("estimate", "pose"), ("landmarks", "landmarks"))
+                   if key in metrics and "nees" in metrics[key]]
+    if consistency:
+        summary.append("| consistency (NEES; consistent: median 1.39, 95 % within 5.99) | "
+                       + "; ".join(consistency) + " |")
     if "association" in metrics:
         a = metrics["association"]
         summary.append(f"| association | {100.0 * a['accuracy']:.2f} % correct "

@@ -29,6 +29,10 @@ JUMP_THRESHOLD = 0.5
 """An estimate jumps (m) when its error changes by more than this from one sample to the next:
 it moved that much further than the truth did, e.g. when another particle became the best."""
 
+CHI2_95_2DOF = 5.991
+"""95 % quantile of the chi-square distribution with 2 degrees of freedom: a consistent
+estimate's planar error lies within it 95 % of the time (NEES, ``nees_summary``)."""
+
 
 @dataclass
 class Transform2D:
@@ -203,17 +207,51 @@ def match_landmarks(estimate: np.ndarray, estimate_ids: np.ndarray, truth: np.nd
 
 
 def landmark_metrics(estimate: np.ndarray, estimate_ids: np.ndarray, truth: LandmarkSet,
-                     cutoff: float = OSPA_CUTOFF, by_id: bool = True) -> dict[str, Any]:
-    """RMSE of matched landmarks, missed / spurious counts and OSPA (positions in map frame)."""
+                     cutoff: float = OSPA_CUTOFF, by_id: bool = True,
+                     covariances: np.ndarray | None = None) -> dict[str, Any]:
+    """RMSE of matched landmarks, missed / spurious counts and OSPA (positions in map frame);
+    with the landmarks' ``covariances`` (N, 2, 2, same frame) also their ``nees``."""
     rows, cols, method = match_landmarks(estimate, estimate_ids, truth.positions, truth.ids,
                                          cutoff, by_id)
-    errors = np.linalg.norm(np.asarray(estimate).reshape(-1, 2)[rows] - truth.positions[cols],
-                            axis=1)
-    return {"rmse": float(np.sqrt(np.mean(errors**2))) if len(errors) else math.nan,
+    offsets = np.asarray(estimate).reshape(-1, 2)[rows] - truth.positions[cols]
+    errors = np.linalg.norm(offsets, axis=1)
+    consistency = {} if covariances is None else {
+        "nees": nees_summary(offsets, np.asarray(covariances)[rows])}
+    return {**consistency, "rmse": float(np.sqrt(np.mean(errors**2))) if len(errors) else math.nan,
             "matched": int(len(rows)), "missed": int(len(truth.positions) - len(rows)),
             "spurious": int(len(estimate) - len(rows)), "estimated": int(len(estimate)),
             "truth": int(len(truth.positions)), "match_method": method, "cutoff": cutoff,
             "ospa": ospa(estimate, truth.positions, OSPA_CUTOFF, OSPA_ORDER)}
+
+
+def nees_summary(errors: np.ndarray, covariances: np.ndarray) -> dict[str, Any]:
+    """Consistency of planar errors (N, 2) against the covariances (N, 2, 2) the estimator
+    claimed: the normalized estimation error squared e^T P^-1 e (NEES), which averages 2 for a
+    consistent estimator (chi-square, 2 degrees of freedom; median 1.39): its ``mean`` and
+    ``median``, the share ``within_95``
+    of samples below ``CHI2_95_2DOF`` (0.95 expected) and ``samples`` (those with a positive
+    definite covariance)."""
+    errors = np.asarray(errors, dtype=float).reshape(-1, 2)
+    cov = np.asarray(covariances, dtype=float).reshape(-1, 2, 2)
+    det = cov[:, 0, 0] * cov[:, 1, 1] - cov[:, 0, 1] * cov[:, 1, 0]
+    usable = (det > 0.0) & (cov[:, 0, 0] > 0.0)
+    e, c, det = errors[usable], cov[usable], det[usable]
+    values = (e[:, 0] ** 2 * c[:, 1, 1] - e[:, 0] * e[:, 1] * (c[:, 0, 1] + c[:, 1, 0])
+              + e[:, 1] ** 2 * c[:, 0, 0]) / det
+    if not len(values):
+        return {"mean": math.nan, "median": math.nan, "within_95": math.nan, "samples": 0}
+    return {"mean": float(values.mean()), "median": float(np.median(values)),
+            "within_95": float(np.mean(values <= CHI2_95_2DOF)), "samples": int(len(values))}
+
+
+def planar_covariances(messages: list[Any]) -> np.ndarray | None:
+    """(N, 2, 2) position covariances of PoseWithCovarianceStamped messages (None for
+    PoseStamped ones, which claim none)."""
+    if not messages or not hasattr(messages[0].pose, "covariance"):
+        return None
+    rows = np.array([np.asarray(msg.pose.covariance, dtype=float)[[0, 1, 6, 7]]
+                     for msg in messages])
+    return rows.reshape(-1, 2, 2)
 
 
 def pose_stamped_series(messages: list[Any]) -> PoseSeries:

@@ -61,8 +61,9 @@ ROOM_DEFAULTS = {
     "landmark_radius": 0.1}
 """The room scenario's settings where the command line leaves a field at its default: a lab
 robot's laser ranging tubes (about 5 detections per reading at 10 Hz for 20 minutes)."""
-FAULTS_DEFAULTS = {"turn_faults": 2.0, "slip_faults": 2.0}
-"""The faults scenario: the room, with odometry faults (two episodes of each kind a minute)."""
+FAULTS_DEFAULTS = {"turn_faults": 2.0, "slip_faults": 2.0, "duration": 600.0}
+"""The faults scenario: the room for 10 minutes, with odometry faults (two episodes of each
+kind a minute)."""
 ROOM_SCENARIOS = ("room", "faults")
 """Scenarios of the lab robot in the room (a differential drive)."""
 HEADING_NOISE_INFLATION = 10.0
@@ -333,7 +334,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="world and route (room: flags left at their default take the "
                              "room's: 1 m/s, 10 Hz, 0.4-5.6 m, 4.2 rad, 0.03 m, 0.026 rad, "
                              "sensor 0.219 m ahead, 17 tubes of 0.1 m radius, P_D 0.6, 1200 s; "
-                             "faults: the room with 2 turn and 2 slip faults a minute)")
+                             "faults: the room with 2 turn and 2 slip faults a minute, 600 s)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output bag folder (default: sim_<scenario>)")
     parser.add_argument("--params-out", type=Path, default=None,
