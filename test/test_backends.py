@@ -282,7 +282,7 @@ def test_compiled_path_pruning_keeps_the_numpy_history():
     for particles in (1, 6, 50):
         rng = np.random.default_rng(particles)
         histories = [PathHistory(particles, prune_every=4, chain_capacity=64,
-                                 kernels=backend) for backend in (None, kernels)]
+                                 prune=backend) for backend in (None, kernels.prune)]
         for step in range(300):
             poses = rng.normal(size=(particles, 3))
             draw = rng.random()

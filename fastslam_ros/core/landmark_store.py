@@ -119,7 +119,8 @@ class LandmarkStore(RecordViews):
         self.num_particles = num_particles
         self.kernels = kernels
         """The compiled backend (``core.compiled``) that gathers working sets, writes them back
-        and reads one particle's map (the cache reindexes with it too), or None: numpy."""
+        and reads one particle's map (the cache reindexes with it too), or None: numpy. The
+        package, not its functions one by one: this class and ``WorkingSetCache`` call twelve."""
         self.cell_size = float(cell_size)
         self.capacity = capacity
         self.state = np.zeros((initial_rows, capacity, STATE_WIDTH))

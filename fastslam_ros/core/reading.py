@@ -4,11 +4,11 @@
 association of every observation in every particle (step 2 of ``fastslam.py``), the FastSLAM
 2.0 proposal and its draw (3), the landmark EKF updates, new landmarks and existence evidence
 (4), the weights (5). ``NumpyReading`` is the reference; ``CompiledReading`` does the same in
-one call of ``compiled.update_reading`` on the same random draws."""
+one call of ``compiled.update_reading`` on the same random draws. ``backend.choose_backend``
+picks one of them for the filter's ``Backend`` record."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -59,9 +59,10 @@ class CompiledReading:
 
     def _usable_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray):
         """``_usable_numpy`` in one compiled pass."""
-        return self.kernels.usable_observations(ranges, bearings, labels,
-                                                self.config.association == "known",
-                                                MIN_OBSERVATION_RANGE)
+        from . import compiled  # noqa: PLC0415 (optional dependency)
+        return compiled.usable_observations(ranges, bearings, labels,
+                                            self.config.association == "known",
+                                            MIN_OBSERVATION_RANGE)
 
     def _read_compiled(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray | None,
                        ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
@@ -74,11 +75,11 @@ class CompiledReading:
                  else _NO_DRAWS)
         propose = (cov is not None or motion is not None) and config.algorithm == "fastslam2"
         normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
-        kernels = self.kernels
+        from . import compiled  # noqa: PLC0415 (optional dependency)
         (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
-         finite, ws) = kernels.update_reading(
-            ws, kernels.Particles(self.poses, self.log_weights, mean, cov),
-            (ranges, bearings, labels), kernels.Draws(draws, normals), self._settings,
+         finite, ws) = compiled.update_reading(
+            ws, compiled.Particles(self.poses, self.log_weights, mean, cov),
+            (ranges, bearings, labels), compiled.Draws(draws, normals), self._backend.settings,
             reach, self.landmarks.next_key, propose,
             self.history.next_generation(), self.working.pending, motion)
         self.working.took(ws)
@@ -373,17 +374,3 @@ class NumpyReading:
         logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
-
-
-class ReadingBackend(NamedTuple):
-    """A backend's reading, its functions called with the filter (``FastSLAM.update``)."""
-
-    usable: Callable
-    """(filter, ranges, bearings, labels) -> the usable observations and the largest range."""
-    read: Callable
-    """(filter, ws, mean, cov, ranges, bearings, labels, reach, stamp) -> ``ReadingOutcome``."""
-
-
-NUMPY_READING = ReadingBackend(NumpyReading._usable_numpy, NumpyReading._read_numpy)
-COMPILED_READING = ReadingBackend(CompiledReading._usable_compiled,
-                                  CompiledReading._read_compiled)
