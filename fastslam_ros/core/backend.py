@@ -13,6 +13,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
+from .landmark_store import StoreKernels
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .proposal import sample_pose
 from .reading import CompiledReading, NumpyReading
@@ -47,9 +48,8 @@ class Backend(NamedTuple):
     pending resampling's working-set copy: ``WorkingSetCache.for_reading(lazy=)``)."""
     settings: object
     """The compiled reading's settings (``compiled.ReadingSettings``), None on numpy."""
-    store_kernels: object
-    """What ``LandmarkStore`` runs its gather and write-back on (``core.compiled``, None:
-    numpy)."""
+    store_kernels: StoreKernels | None
+    """The compiled twins ``LandmarkStore`` runs its gather and write-back on, None: numpy."""
     prune: Callable | None
     """``PathHistory``'s compiled pruning (``compiled.prune``), None: numpy."""
 
@@ -83,8 +83,8 @@ def choose_backend(config: FastSLAMConfig, offset, log_p0: float, log_outlier: f
     settings = compiled.reading_settings(config, offset, log_p0, log_outlier, LOGODDS_MAX)
     return Backend("numba", CompiledReading._usable_compiled, CompiledReading._read_compiled,
                    _advance_prior_compiled, compiled.propagate_cov, compiled.sample_motion,
-                   compiled.sample_pose, resample, compiled.splits, settings, compiled,
-                   compiled.prune)
+                   compiled.sample_pose, resample, compiled.splits, settings,
+                   StoreKernels.compiled(), compiled.prune)
 
 
 def _advance_prior_numpy(slam, delta) -> float:
