@@ -255,7 +255,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         return faulty, (self.poses if prior is None else prior[0])[faulty], control, errors
 
     def _move(self) -> None:
-        """``_advance_motion`` without the turn faults."""
+        """``_advance_motion`` without the turn faults: FastSLAM 1.0 samples the motion, 2.0
+        moves its Gaussian prior (sampled when too wide to linearise)."""
         delta = self._pending
         self._pending = NO_MOTION
         self._has_pending = False
