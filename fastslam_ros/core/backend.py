@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
 """The backends of ``FastSLAM``, each one record of the functions the filter calls, chosen once
-(``choose_backend``): numpy (the reference) or the compiled twins (``core.compiled``), which
-give the same results on the same random draws. ``FastSLAM`` calls ``self._backend.<function>``
-and never asks which backend runs."""
+(``choose_backend``): numpy (the reference, here) or the compiled twins (``core.compiled``,
+called by ``backend_compiled.py``), which give the same results on the same random draws.
+``FastSLAM`` calls ``self._backend.<function>`` and never asks which backend runs."""
 from __future__ import annotations
 
 import sys
@@ -12,11 +12,10 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
-from .landmark_store import StoreKernels
+from .config import FastSLAMConfig, numba_available
 from .motion import OdometryControl, control_variances, propagate_gaussian, sample_motion
 from .proposal import sample_pose
-from .reading import CompiledReading, NumpyReading
+from .reading import NumpyReading
 from .resampling import RESAMPLERS
 
 
@@ -48,8 +47,9 @@ class Backend(NamedTuple):
     pending resampling's working-set copy: ``WorkingSetCache.for_reading(lazy=)``)."""
     settings: object
     """The compiled reading's settings (``compiled.ReadingSettings``), None on numpy."""
-    store_kernels: StoreKernels | None
-    """The compiled twins ``LandmarkStore`` runs its gather and write-back on, None: numpy."""
+    store_kernels: object
+    """The compiled twins ``LandmarkStore`` runs its gather and write-back on
+    (``landmark_store.StoreKernels``), None: numpy."""
     prune: Callable | None
     """``PathHistory``'s compiled pruning (``compiled.prune``), None: numpy."""
 
@@ -71,23 +71,16 @@ def kernels_pending(backend: str) -> bool:
 def choose_backend(config: FastSLAMConfig, offset, log_p0: float, log_outlier: float) -> Backend:
     """The backend ``config.backend`` asks for; the compiled one compiled (or loaded from
     numba's cache) now."""
-    if not wants_compiled(config.backend):
-        return Backend("numpy", NumpyReading._usable_numpy, NumpyReading._read_numpy,
-                       _advance_prior_numpy, None, sample_motion, sample_pose,
-                       partial(_resample_numpy, RESAMPLERS[config.resampling]), _never_splits,
-                       None, None, None)
-    from . import compiled  # noqa: PLC0415 (optional dependency)
-    compiled.warm_up()
-    resample = (compiled.resample_poses if config.resampling == "systematic"
-                else partial(_resample_numpy, RESAMPLERS[config.resampling]))
-    settings = compiled.reading_settings(config, offset, log_p0, log_outlier, LOGODDS_MAX)
-    return Backend("numba", CompiledReading._usable_compiled, CompiledReading._read_compiled,
-                   _advance_prior_compiled, compiled.propagate_cov, compiled.sample_motion,
-                   compiled.sample_pose, resample, compiled.splits, settings,
-                   StoreKernels.compiled(), compiled.prune)
+    if wants_compiled(config.backend):
+        from .backend_compiled import compiled_backend  # noqa: PLC0415 (numba needed)
+        return compiled_backend(config, offset, log_p0, log_outlier)
+    return Backend("numpy", NumpyReading._usable_numpy, NumpyReading._read_numpy,
+                   advance_prior_numpy, None, sample_motion, sample_pose,
+                   resample_numpy(RESAMPLERS[config.resampling]), _never_splits, None, None,
+                   None)
 
 
-def _advance_prior_numpy(slam, delta) -> float:
+def advance_prior_numpy(slam, delta) -> float:
     """The prior's mean and covariance moved by the odometry (``motion.propagate_gaussian``)."""
     config = slam.config
     control = OdometryControl.from_delta(delta)
@@ -100,22 +93,14 @@ def _advance_prior_numpy(slam, delta) -> float:
     return slam._prior[1][:, 2, 2].max()
 
 
-def _advance_prior_compiled(slam, delta) -> float:
-    """``_advance_prior_numpy``'s mean (``compiled.advance_mean``), its covariance left to the
-    next reading's blocks of particles (or to the first other use of the prior,
-    ``FastSLAM._settled_prior``)."""
-    from . import compiled  # noqa: PLC0415 (optional dependency)
-    prior = slam._settled_prior()
-    moved, widest, turn, motion = compiled.advance_mean(prior, slam.poses, delta,
-                                                        slam._backend.settings)
-    slam._prior = (moved, None)
-    slam._deferred = (turn, None if prior is None else prior[1], motion)
-    return widest
-
-
-def _resample_numpy(resampler: Callable, weights: np.ndarray, rng: np.random.Generator,
-                    poses: np.ndarray, best: int):
+def resample_numpy(resampler: Callable) -> Callable:
     """``Backend.resample`` by ``resampler`` (``resampling.RESAMPLERS``)."""
+    return partial(_resample_with, resampler)
+
+
+def _resample_with(resampler: Callable, weights: np.ndarray, rng: np.random.Generator,
+                   poses: np.ndarray, best: int):
+    """(indices, resampled poses, first copy of ``best`` or -1) drawn by ``resampler``."""
     indices = resampler(weights, rng)
     copies = (indices == best).nonzero()[0]
     return indices, poses[indices], int(copies[0]) if len(copies) else -1

@@ -40,7 +40,7 @@ from .motion import OdometryControl, control_variances, turn_fault_shift
 from .observation import SensorOffset
 from .path_history import PathHistory
 from .proposal import sample_pose
-from .reading import CompiledReading, NumpyReading, UpdateReport
+from .reading import NumpyReading, UpdateReport
 from .relocalization import Relocalizing
 
 REACH_MARGIN = 2.0
@@ -80,7 +80,7 @@ class LandmarkMap:
                            self.ids[keep], self.keys[keep])
 
 
-class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
+class FastSLAM(NumpyReading, Relocalizing):
     """The particle filter; public arrays ``poses`` (M, 3) and ``log_weights`` (M,)."""
 
     def __init__(self, config: FastSLAMConfig, rng: np.random.Generator | None = None,
