@@ -30,7 +30,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import map_files, node_console, ros_io, ros_markers
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.association import association_score
-from fastslam_ros.core.fastslam import kernels_pending
+from fastslam_ros.core.backend import kernels_pending
 from fastslam_ros.core.map_refinement import refine_best_map
 from fastslam_ros.core.observation import MIN_OBSERVATION_RANGE
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs

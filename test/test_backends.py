@@ -38,7 +38,7 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import numba_available
-from fastslam_ros.core.landmark_store import LandmarkStore, WorkingSet
+from fastslam_ros.core.landmark_store import LandmarkStore, StoreKernels, WorkingSet
 from fastslam_ros.core.resampling import systematic_resample
 from fastslam_ros.tools.simulation.synthetic import make_world
 from model_helpers import edit_box
@@ -282,7 +282,7 @@ def test_compiled_path_pruning_keeps_the_numpy_history():
     for particles in (1, 6, 50):
         rng = np.random.default_rng(particles)
         histories = [PathHistory(particles, prune_every=4, chain_capacity=64,
-                                 kernels=backend) for backend in (None, kernels)]
+                                 prune=backend) for backend in (None, kernels.prune)]
         for step in range(300):
             poses = rng.normal(size=(particles, 3))
             draw = rng.random()
@@ -349,11 +349,10 @@ def test_compiled_gather_matches_the_store_gather():
 def test_compiled_write_back_leaves_the_store_of_the_numpy_one():
     """Random insertions (overflowing blocks), resamplings, updates and removals with known
     labels: the compiled write-back gives the numpy store's pool, tables and counts."""
-    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(8)
     count = 6
-    stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
-                                                                   kernels=kernels)]
+    stores = [LandmarkStore(count, 5.0, capacity=3),
+              LandmarkStore(count, 5.0, capacity=3, kernels=StoreKernels.compiled())]
     for step in range(80):
         points = rng.uniform(-25.0, 25.0, (3, 2))
         particle, labels = int(rng.integers(0, count)), 10 * step + np.arange(3)
@@ -381,11 +380,10 @@ def test_compiled_write_back_reads_through_a_pending_resampling():
     are particle ``order[m]``'s, some copied twice, none of some): the compiled write-back,
     which reads through ``order``, leaves the store of the numpy one, which applies it first;
     copies of a keyless new landmark get a key each."""
-    from fastslam_ros.core import compiled as kernels
     rng = np.random.default_rng(5)
     count = 8
-    stores = [LandmarkStore(count, 5.0, capacity=3), LandmarkStore(count, 5.0, capacity=3,
-                                                                   kernels=kernels)]
+    stores = [LandmarkStore(count, 5.0, capacity=3),
+              LandmarkStore(count, 5.0, capacity=3, kernels=StoreKernels.compiled())]
     keyless = 0
     for step in range(60):
         low = rng.uniform(-20.0, 10.0, 2)

@@ -22,13 +22,13 @@ once, with no Python loop over particles, landmarks or observations. Per step:
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import association as assoc
-from .config import LOGODDS_MAX, FastSLAMConfig, numba_available
+from .backend import choose_backend
+from .config import LOGODDS_MAX, FastSLAMConfig
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
 from .landmark_ekf import pack, unpack
@@ -36,15 +36,12 @@ from .landmark_store import LandmarkStore
 from .loop_closure import LoopClosure
 from .map_refinement import ReadingLog
 from .working_cache import WorkingSetCache
-from .motion import (OdometryControl, control_variances, propagate_gaussian, sample_motion,
-                     turn_fault_shift)
+from .motion import OdometryControl, control_variances, turn_fault_shift
 from .observation import SensorOffset
 from .path_history import PathHistory
 from .proposal import sample_pose
-from .reading import (COMPILED_READING, NUMPY_READING, CompiledReading, NumpyReading,
-                      UpdateReport)
+from .reading import NumpyReading, UpdateReport
 from .relocalization import Relocalizing
-from .resampling import RESAMPLERS
 
 REACH_MARGIN = 2.0
 """Metres beyond the sensor's reach (the larger of ``max_range`` and the farthest observation)
@@ -56,15 +53,6 @@ proposal sees all of its uncertainty; once its heading standard deviation exceed
 the particles are sampled from it, before the proposal's linearisation fails."""
 NO_MOTION = (0.0, 0.0, 0.0)
 """The accumulated odometry (dx, dy, dtheta) before any ``predict``."""
-
-
-def kernels_pending(backend: str) -> bool:
-    """Whether a filter built now with ``backend`` first compiles the kernels (or loads them from
-    numba's cache): about 45 s on a first start, so a node says so before."""
-    if backend == "numpy" or (backend == "auto" and not numba_available()):
-        return False
-    kernels = sys.modules.get(f"{__package__}.kernels")
-    return kernels is None or not getattr(kernels, "_warm", False)
 
 
 @dataclass
@@ -92,7 +80,7 @@ class LandmarkMap:
                            self.ids[keep], self.keys[keep])
 
 
-class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
+class FastSLAM(NumpyReading, Relocalizing):
     """The particle filter; public arrays ``poses`` (M, 3) and ``log_weights`` (M,)."""
 
     def __init__(self, config: FastSLAMConfig, rng: np.random.Generator | None = None,
@@ -122,29 +110,12 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         self.num_relocalizations = 0
         """Readings after which ``localization`` mode redrew particles at a pose found from
         the reading (``relocalization_fraction``)."""
-        self.kernels = self._load_kernels()
-        """The compiled backend (``core.compiled``) when it runs, else None (numpy)."""
-        self.backend = "numpy" if self.kernels is None else "numba"
-        self._reading = NUMPY_READING if self.kernels is None else COMPILED_READING
-        """The one place the backend is chosen for a reading: its gating and its math."""
-        self._settings = None if self.kernels is None else self.kernels.reading_settings(
-            self.config, self.offset, self._log_p0, self._log_outlier, LOGODDS_MAX)
-        self._resample_compiled = self.kernels is not None and config.resampling == "systematic"
-        """Systematic resampling, the poses' and the working set's in compiled calls."""
-        self._resample = RESAMPLERS[config.resampling]
+        self._backend = choose_backend(self.config, self.offset, self._log_p0, self._log_outlier)
+        """The one place the backend is chosen: the functions every step below calls."""
+        self.backend = self._backend.name
         self._log_uniform = -np.log(config.num_particles)
         """The log weight of every particle after resampling."""
         self.reset(initial_pose)
-
-    def _load_kernels(self):
-        """``core.compiled``, compiled (or loaded from cache) now, when ``backend`` asks for it
-        and the configuration is one it covers; None: the numpy path."""
-        config = self.config
-        if config.backend == "numpy" or (config.backend == "auto" and not numba_available()):
-            return None
-        from . import compiled as kernels  # noqa: PLC0415 (optional dependency)
-        kernels.warm_up()
-        return kernels
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, initial_pose=(0.0, 0.0, 0.0)) -> None:
@@ -153,7 +124,7 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         self.poses = np.tile(np.asarray(initial_pose, dtype=float), (count, 1))
         self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
-        self.history = PathHistory(count, kernels=self.kernels)
+        self.history = PathHistory(count, prune=self._backend.prune)
         self.readings = ReadingLog()
         """The readings processed since the start, for ``map_refinement.refine``."""
         self._pending = NO_MOTION
@@ -198,7 +169,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
         in every particle."""
         count = self.num_particles
-        self.landmarks = LandmarkStore(count, self.config.cell_size, kernels=self.kernels)
+        self.landmarks = LandmarkStore(count, self.config.cell_size,
+                                       kernels=self._backend.store_kernels)
         self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
         """The landmarks near the robot that readings work on (kept across readings)."""
         config = self.config
@@ -283,35 +255,20 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         return faulty, (self.poses if prior is None else prior[0])[faulty], control, errors
 
     def _move(self) -> None:
-        """``_advance_motion`` without the turn faults."""
-        if self.kernels is not None and self.config.algorithm == "fastslam2":
-            # The same steps as below, the covariance left to the next reading's blocks of
-            # particles (or to the first other use of the prior, ``_settled_prior``).
-            prior = self._settled_prior()
-            moved, widest, turn, motion = self.kernels.advance_mean(
-                prior, self.poses, self._pending, self._settings)
-            self._prior = (moved, None)
-            self._deferred = (turn, None if prior is None else prior[1], motion)
-            self._pending = NO_MOTION
-            self._has_pending = False
-            if widest > MAX_PRIOR_HEADING_SIGMA ** 2:
-                self.poses = self._sample_prior()
-            return
-        control = OdometryControl.from_delta(self._pending)
-        variances = control_variances(control, self.alphas, self.config.min_translation_sigma,
-                                      self.config.min_rotation_sigma, self.linear_noise)
+        """``_advance_motion`` without the turn faults: FastSLAM 1.0 samples the motion, 2.0
+        moves its Gaussian prior (sampled when too wide to linearise)."""
+        delta = self._pending
         self._pending = NO_MOTION
         self._has_pending = False
         if self.config.algorithm == "fastslam1":
+            control = OdometryControl.from_delta(delta)
+            variances = control_variances(control, self.alphas,
+                                          self.config.min_translation_sigma,
+                                          self.config.min_rotation_sigma, self.linear_noise)
             normals = self.rng.standard_normal((self.num_particles, 3))
-            sample = sample_motion if self.kernels is None else self.kernels.sample_motion
-            self.poses = sample(self.poses, control, variances, normals)
+            self.poses = self._backend.sample_motion(self.poses, control, variances, normals)
             return
-        prior = self._settled_prior()
-        mean, cov = prior if prior is not None else (
-            self.poses, np.zeros((self.num_particles, 3, 3)))
-        self._set_prior(propagate_gaussian(mean, cov, control, variances))
-        if self._prior[1][:, 2, 2].max() > MAX_PRIOR_HEADING_SIGMA ** 2:
+        if self._backend.advance_prior(self, delta) > MAX_PRIOR_HEADING_SIGMA ** 2:
             # Too wide to linearise at the next observation: let the particles carry it.
             self.poses = self._sample_prior()
 
@@ -322,7 +279,7 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         if self._deferred is not None:
             turn, cov, motion = self._deferred
             self._deferred = None
-            self._prior = (self._prior[0], self.kernels.propagate_cov(turn, cov, motion))
+            self._prior = (self._prior[0], self._backend.propagate_cov(turn, cov, motion))
         return self._prior
 
     def _set_prior(self, value: tuple[np.ndarray, np.ndarray] | None) -> None:
@@ -334,8 +291,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         """Draw every particle's pose from its Gaussian prior, which is then consumed."""
         mean, cov = self._settled_prior()
         self._set_prior(None)
-        sample = sample_pose if self.kernels is None else self.kernels.sample_pose
-        sampled = sample(mean, cov, self.rng.standard_normal((self.num_particles, 3)))
+        sampled = self._backend.sample_pose(mean, cov,
+                                            self.rng.standard_normal((self.num_particles, 3)))
         sampled[:, 2] = wrap_angle(sampled[:, 2])
         return sampled
 
@@ -356,7 +313,7 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
             raise ValueError("ranges, bearings and ids must have the same length")
         if not self._localization:  # a fixed map is saved as it is
             self.readings.record(stamp, ranges, bearings, labels)
-        usable_ranges, usable_bearings, usable_labels, farthest = self._reading.usable(
+        usable_ranges, usable_bearings, usable_labels, farthest = self._backend.usable(
             self, ranges, bearings, labels)
         self._advance_motion()                                                  # 1. motion
         # FastSLAM 2.0 scores the observations at its prior (whose covariance the compiled
@@ -365,13 +322,13 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
         reach = self._reach_of(farthest)
         # Split over threads, the compiled reading's chunks make a pending resampling's
         # working-set copy as they go; on one thread the copy in one call is the cheaper.
-        lazy = self.kernels is not None and self.kernels.splits(self.num_particles)
+        lazy = self._backend.splits(self.num_particles)
         known = self.config.association == "known"
         ws = self.working.for_reading(mean, reach, len(usable_ranges),
                                       usable_labels if known else None, lazy=lazy)
         if self.loop is not None:
             self.loop.before_reading(ws, self.working.pending)
-        outcome = self._reading.read(self, ws, mean, cov, usable_ranges,        # 2. to 5.
+        outcome = self._backend.read(self, ws, mean, cov, usable_ranges,        # 2. to 5.
                                      usable_bearings, usable_labels, reach, stamp)
         self.num_updates += 1
         self.working.created(outcome.columns)
@@ -423,14 +380,8 @@ class FastSLAM(NumpyReading, CompiledReading, Relocalizing):
             return
         weights = np.exp(self.log_weights)
         heaviest = self.config.best_particle == "heaviest"
-        if self._resample_compiled:
-            indices, self.poses, copy = self.kernels.resample_poses(weights, self.rng,
-                                                                    self.poses, self._best)
-        else:
-            indices = self._resample(weights, self.rng)
-            self.poses = self.poses[indices]
-            copies = (indices == self._best).nonzero()[0] if heaviest else ()
-            copy = int(copies[0]) if len(copies) else -1
+        indices, self.poses, copy = self._backend.resample(weights, self.rng, self.poses,
+                                                           self._best)
         self.landmarks.resample(indices)
         self.working.resample(indices)
         self.history.resample(indices)

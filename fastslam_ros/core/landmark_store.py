@@ -25,6 +25,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -36,6 +37,35 @@ MEAN, COV, LOGODDS = slice(0, 2), slice(2, 5), 5
 LABEL, KEY = 0, 1
 """Layout of the integer record: external label (-1: none) and store-wide key."""
 STATE_WIDTH = 6
+
+
+class StoreKernels(NamedTuple):
+    """The compiled twins a ``LandmarkStore`` and its ``WorkingSetCache`` run instead of their
+    numpy code (``compiled/landmark_store.py``, ``resampling.py``, ``reading.py``)."""
+
+    claim_plan: Callable
+    claim: Callable
+    gather: Callable
+    take: Callable
+    dirty_pairs: Callable
+    write_back: Callable
+    new_entries: Callable
+    insertion_pairs: Callable
+    place: Callable
+    block_records: Callable
+    reindex: Callable
+    """``WorkingSetCache.current``: a working set through a pending resampling."""
+    pose_box: Callable
+    """``WorkingSetCache.for_reading``: the box around the particles' positions."""
+
+    @classmethod
+    def compiled(cls) -> "StoreKernels":
+        """The twins from ``core.compiled`` (numba needed)."""
+        from . import compiled  # noqa: PLC0415 (optional dependency)
+        return cls(compiled.claim_plan, compiled.claim, compiled.gather, compiled.take,
+                   compiled.dirty_pairs, compiled.write_back, compiled.new_entries,
+                   compiled.insertion_pairs, compiled.place, compiled.block_records,
+                   compiled.reindex, compiled.pose_box)
 
 
 class RecordViews:
@@ -115,11 +145,11 @@ class LandmarkStore(RecordViews):
     """Per-particle landmark maps with structural sharing (see module docstring)."""
 
     def __init__(self, num_particles: int, cell_size: float, capacity: int = 8,
-                 initial_rows: int = 64, kernels=None) -> None:
+                 initial_rows: int = 64, kernels: StoreKernels | None = None) -> None:
         self.num_particles = num_particles
         self.kernels = kernels
-        """The compiled backend (``core.compiled``) that gathers working sets, writes them back
-        and reads one particle's map (the cache reindexes with it too), or None: numpy."""
+        """The compiled twins that gather working sets, write them back and read one
+        particle's map (the cache reindexes with them too), or None: numpy."""
         self.cell_size = float(cell_size)
         self.capacity = capacity
         self.state = np.zeros((initial_rows, capacity, STATE_WIDTH))

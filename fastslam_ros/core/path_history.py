@@ -36,10 +36,10 @@ class PathHistory:
     """
 
     def __init__(self, num_particles: int, prune_every: int = 32,
-                 chain_capacity: int = CHAIN_CAPACITY, kernels=None) -> None:
+                 chain_capacity: int = CHAIN_CAPACITY, prune=None) -> None:
         self.num_particles = num_particles
-        self.kernels = kernels
-        """The compiled backend (``core.compiled``, which then prunes) or None."""
+        self.compiled_prune = prune
+        """The compiled pruning (``compiled.prune``), or None: ``_prune_generations_numpy``."""
         self.prune_every = prune_every
         self.chain_capacity = max(chain_capacity, 2 * prune_every)
         self._chain_stamps = np.zeros(0)
@@ -120,9 +120,9 @@ class PathHistory:
     def _prune(self) -> None:
         """Drop nodes no particle descends from; move single-ancestor generations to the chain."""
         count = self._count
-        if self.kernels is not None:
-            self.leaf = self.kernels.prune(self.leaf, self._parents, self._poses, self._widths,
-                                           count)
+        if self.compiled_prune is not None:
+            self.leaf = self.compiled_prune(self.leaf, self._parents, self._poses, self._widths,
+                                            count)
         else:
             self._prune_generations_numpy()
         single = self._widths[:count] == 1

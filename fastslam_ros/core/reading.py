@@ -3,12 +3,12 @@
 """The math of one reading on each backend, behind one interface ``FastSLAM.update`` calls:
 association of every observation in every particle (step 2 of ``fastslam.py``), the FastSLAM
 2.0 proposal and its draw (3), the landmark EKF updates, new landmarks and existence evidence
-(4), the weights (5). ``NumpyReading`` is the reference; ``CompiledReading`` does the same in
-one call of ``compiled.update_reading`` on the same random draws."""
+(4), the weights (5), on numpy: ``NumpyReading``, the reference, which
+``backend_compiled.read`` twins in one call of ``compiled.update_reading`` on the same random
+draws."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -21,10 +21,6 @@ from .landmark_store import COV, LOGODDS, MEAN, WorkingSet
 from .observation import MIN_OBSERVATION_RANGE, observation_terms
 from .proposal import observation_proposal
 from .resampling import effective_sample_size, normalize_log_weights
-
-_NO_DRAWS = np.zeros(0)
-_NO_NORMALS = np.zeros((0, 3))
-
 
 @dataclass
 class UpdateReport:
@@ -52,45 +48,6 @@ class ReadingOutcome:
     """The reading's new-landmark columns that now hold landmarks (in some particles)."""
     checked: bool
     """The reading found every particle's state finite (else ``check_state`` looks)."""
-
-
-class CompiledReading:
-    """The compiled reading of ``FastSLAM`` (``compiled.update_reading``)."""
-
-    def _usable_compiled(self, ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray):
-        """``_usable_numpy`` in one compiled pass."""
-        return self.kernels.usable_observations(ranges, bearings, labels,
-                                                self.config.association == "known",
-                                                MIN_OBSERVATION_RANGE)
-
-    def _read_compiled(self, ws: WorkingSet, mean: np.ndarray, cov: np.ndarray | None,
-                       ranges: np.ndarray, bearings: np.ndarray, labels: np.ndarray,
-                       reach: float, stamp: float) -> ReadingOutcome:
-        """``_read_numpy`` in one call, on the numpy path's random draws in its order; a
-        covariance left to this reading (``_deferred``) is propagated in its blocks."""
-        config, count = self.config, self.num_particles
-        motion = self._deferred
-        draws = (self.rng.random(len(ranges) * count) if config.association == "monte_carlo"
-                 else _NO_DRAWS)
-        propose = (cov is not None or motion is not None) and config.algorithm == "fastslam2"
-        normals = self.rng.standard_normal((count, 3)) if propose else _NO_NORMALS
-        kernels = self.kernels
-        (associated_ids, is_new, poses, self.log_weights, n_eff, underflow, best, columns, keys,
-         finite, ws) = kernels.update_reading(
-            ws, kernels.Particles(self.poses, self.log_weights, mean, cov),
-            (ranges, bearings, labels), kernels.Draws(draws, normals), self._settings,
-            reach, self.landmarks.next_key, propose,
-            self.history.next_generation(), self.working.pending, motion)
-        self.working.took(ws)
-        if propose:
-            self._set_prior(None)
-        self.poses = poses
-        self.landmarks.next_key += keys
-        self.history.record(stamp, written=True)
-        self.num_underflows += int(underflow)
-        report = UpdateReport(len(ranges), associated_ids, is_new, False, float(n_eff),
-                              bool(underflow))
-        return ReadingOutcome(report, int(best), int(columns), bool(finite))
 
 
 class NumpyReading:
@@ -373,17 +330,3 @@ class NumpyReading:
         logodds[inside] = missed_logodds(logodds[inside], missed, *self._confirmation)
         ws.dirty[:, existing] |= inside
         ws.valid[:, existing][inside & (logodds < config.logodds_remove)] = False
-
-
-class ReadingBackend(NamedTuple):
-    """A backend's reading, its functions called with the filter (``FastSLAM.update``)."""
-
-    usable: Callable
-    """(filter, ranges, bearings, labels) -> the usable observations and the largest range."""
-    read: Callable
-    """(filter, ws, mean, cov, ranges, bearings, labels, reach, stamp) -> ``ReadingOutcome``."""
-
-
-NUMPY_READING = ReadingBackend(NumpyReading._usable_numpy, NumpyReading._read_numpy)
-COMPILED_READING = ReadingBackend(CompiledReading._usable_compiled,
-                                  CompiledReading._read_compiled)
