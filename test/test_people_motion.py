@@ -18,18 +18,19 @@ BEAMS = 360
 ANGLES = -math.pi + (np.arange(BEAMS) + 0.5) * (2.0 * math.pi / BEAMS)
 
 
-def linear_moments(x0: float, v0: float, sigma_a: float, tau: float, dt: float, steps: int
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def linear_moments(x0: float, v0: float, sigma_a: float, tau: float, dt: float, steps: int,
+                   q: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Mean (2,) and covariance (2, 2) of one axis' (position, velocity) after ``steps`` steps
-    of the linear model s' = F s + G a, a ~ N(0, sigma_a^2), with F = [[1, dt (1 + d) / 2],
-    [0, d]], G = [dt^2 / 2, dt], d = exp(-dt / tau) (Kalman's prediction equations)."""
+    of the linear model s' = F s + G a + [w, 0], a ~ N(0, sigma_a^2), w ~ N(0, q^2 dt), with
+    F = [[1, dt (1 + d) / 2], [0, d]], G = [dt^2 / 2, dt], d = exp(-dt / tau) (Kalman's
+    prediction equations)."""
     d = math.exp(-dt / tau)
     f = np.array([[1.0, 0.5 * dt * (1.0 + d)], [0.0, d]])
     g = np.array([0.5 * dt * dt, dt])
     mean, cov = np.array([x0, v0]), np.zeros((2, 2))
     for _ in range(steps):
         mean = f @ mean
-        cov = f @ cov @ f.T + sigma_a ** 2 * np.outer(g, g)
+        cov = f @ cov @ f.T + sigma_a ** 2 * np.outer(g, g) + np.diag([q * q * dt, 0.0])
     return mean, cov
 
 
@@ -47,20 +48,22 @@ def sample_moments(motion: PersonMotion, start: np.ndarray, velocity: np.ndarray
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
-@pytest.mark.parametrize("velocity, dt, steps", [
-    ((0.0, 0.0), 0.1, 1), ((0.0, 0.0), 0.5, 1), ((0.8, -0.3), 0.1, 1), ((0.8, -0.3), 0.4, 1),
-    ((0.6, 0.2), 0.1, 15)])
-def test_constant_velocity_prediction_matches_the_closed_form(seed, velocity, dt, steps):
+@pytest.mark.parametrize("velocity, dt, steps, q", [
+    ((0.0, 0.0), 0.1, 1, 0.0), ((0.0, 0.0), 0.5, 1, 0.0), ((0.8, -0.3), 0.1, 1, 0.0),
+    ((0.8, -0.3), 0.4, 1, 0.0), ((0.6, 0.2), 0.1, 15, 0.0), ((0.0, 0.0), 0.1, 1, 0.2),
+    ((0.8, -0.3), 0.4, 1, 0.2), ((0.6, 0.2), 0.1, 15, 0.2)])
+def test_constant_velocity_prediction_matches_the_closed_form(seed, velocity, dt, steps, q):
     """Mean and covariance of (position, velocity) per axis after dt (or 15 steps of it),
-    for a person at rest and one walking, match the linear Gaussian model's moments (the
-    speed cap far away: it scales less than 1e-6 of the samples)."""
+    for a person at rest and one walking, with and without the Brownian step, match the
+    linear Gaussian model's moments (the speed cap far away: it scales less than 1e-6 of
+    the samples)."""
     sigma_a, tau = 1.0, 2.0
-    motion = PersonMotion("constant_velocity", acceleration=sigma_a, velocity_time=tau,
-                          max_speed=10.0)
+    motion = PersonMotion("constant_velocity", sway=q, acceleration=sigma_a,
+                          velocity_time=tau, max_speed=10.0)
     start = np.array([2.0, 3.0])
     means, covs = sample_moments(motion, start, np.array(velocity), dt, steps, seed)
     for axis in range(2):
-        mean, cov = linear_moments(start[axis], velocity[axis], sigma_a, tau, dt, steps)
+        mean, cov = linear_moments(start[axis], velocity[axis], sigma_a, tau, dt, steps, q)
         std = np.sqrt(np.diag(cov))
         # sample mean: standard error std / sqrt(n); allow 5 of them
         np.testing.assert_allclose(means[axis], mean, atol=5 * std.max() / math.sqrt(SAMPLES))

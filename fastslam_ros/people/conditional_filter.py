@@ -125,8 +125,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             None if settings.seed < 0 else settings.seed)
         self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
         self.motion = PersonMotion(settings.person_motion, settings.person_diffusion,
-                                   settings.person_acceleration, settings.person_velocity_time,
-                                   settings.max_person_speed)
+                                   settings.person_sway, settings.person_acceleration,
+                                   settings.person_velocity_time, settings.max_person_speed)
         self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
                                    settings.max_leg_spacing, settings.max_person_width,
                                    settings.min_detection_beams)

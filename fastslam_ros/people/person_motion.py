@@ -9,12 +9,13 @@ carry no velocity (a person is as likely to turn back as to walk on).
 straight). Over a step of dt the velocity decays towards rest with time constant tau
 (``person_velocity_time``) and takes a random acceleration a ~ N(0, sigma_a^2 I), constant
 over the step (sigma_a = ``person_acceleration``); the position moves by the step's mean
-velocity::
+velocity, plus a Brownian step w ~ N(0, s^2 dt I), s = ``person_sway`` (a person's sway and
+the detections' jitter; it keeps the particles apart after every resampling)::
 
-    d = exp(-dt / tau),  v' = d v + a dt,  theta' = theta + (v + v') dt / 2
+    d = exp(-dt / tau),  v' = d v + a dt,  theta' = theta + (v + v') dt / 2 + w
 
 so, per axis, E[theta'] = theta + (1 + d) v dt / 2, E[v'] = d v, Var[theta'] = sigma_a^2
-dt^4 / 4, Var[v'] = sigma_a^2 dt^2, Cov[theta', v'] = sigma_a^2 dt^3 / 2. A velocity faster
+dt^4 / 4 + s^2 dt, Var[v'] = sigma_a^2 dt^2, Cov[theta', v'] = sigma_a^2 dt^3 / 2. A velocity faster
 than ``max_person_speed`` is scaled back to it (before the position moves). A new person's
 particles start at rest plus N(0, INITIAL_SPEED_SIGMA^2 I): its velocity is unknown until
 the detections that follow select the particles that move with it.
@@ -40,6 +41,8 @@ class PersonMotion:
     model: str = "brownian"
     diffusion: float = 0.4
     """Brownian: position standard deviation per sqrt(s) per axis (m/sqrt(s))."""
+    sway: float = 0.1
+    """constant_velocity: the Brownian step's standard deviation per sqrt(s) (m/sqrt(s))."""
     acceleration: float = 1.0
     """constant_velocity: random acceleration standard deviation per axis (m/s^2)."""
     velocity_time: float = 2.0
@@ -62,13 +65,14 @@ class PersonMotion:
         (new arrays; Brownian motion leaves the velocities as they are)."""
         if dt <= 0.0:
             return positions.copy(), velocities.copy()
+        sigma = (self.sway if self.carries_velocity else self.diffusion) * math.sqrt(dt)
+        moved = positions + rng.normal(0.0, sigma, positions.shape)
         if not self.carries_velocity:
-            moved = positions + rng.normal(0.0, self.diffusion * math.sqrt(dt), positions.shape)
             return moved, velocities.copy()
         decay = math.exp(-dt / self.velocity_time)
         after = decay * velocities + rng.normal(0.0, self.acceleration * dt, velocities.shape)
         after = cap_speed(after, self.max_speed)
-        return positions + 0.5 * dt * (velocities + after), after
+        return moved + 0.5 * dt * (velocities + after), after
 
     def initial_velocities(self, shape: tuple[int, ...], rng: np.random.Generator
                            ) -> np.ndarray:

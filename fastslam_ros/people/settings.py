@@ -73,11 +73,15 @@ class TrackerSettings:
         "brownian", "How a person moves between readings: 'brownian' (random steps, "
                     "person_diffusion) or 'constant_velocity' (each particle carries a "
                     "velocity: random acceleration person_acceleration, decaying with "
-                    "person_velocity_time, capped at max_person_speed).",
+                    "person_velocity_time, capped at max_person_speed, plus steps of "
+                    "person_sway).",
         choices=("brownian", "constant_velocity"))
     person_diffusion: float = parameter(
         0.4, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
              "(m/sqrt(s)).", low=0.0, low_exclusive=True)
+    person_sway: float = parameter(
+        0.1, "constant_velocity: Brownian steps on top of a person's velocity, sigma = "
+             "person_sway * sqrt(dt) per axis (m/sqrt(s)).", low=0.0)
     person_acceleration: float = parameter(
         1.0, "constant_velocity: standard deviation of a person's random acceleration per "
              "axis (m/s^2).", low=0.0)
