@@ -232,7 +232,10 @@ class Crowd:
     ones), so people step aside early to pass each other, keeping right. A person kept from
     progressing for longer than its patience (1.5-2.5 s) yields: for 1-2 s it steps in any
     direction away from the others (and back along its edge), which lets the other pass; it
-    never waits for good. Newcomers enter only when their entry point is clear.
+    never waits for good. A walking person's velocity follows the chosen step with time
+    constant TURN_TIME (rounded corners, no instant stops), and it aims at the walkable point
+    nearest its lateral offset beside the next graph point (through a door, within the
+    door). Newcomers enter only when their entry point is clear.
     """
 
     def __init__(self, count: int, rng: np.random.Generator,
