@@ -7,15 +7,16 @@ carry no velocity (a person is as likely to turn back as to walk on).
 
 ``constant_velocity``: each particle carries a velocity v (m/s) as well (people walk fairly
 straight). Over a step of dt the velocity decays towards rest with time constant tau
-(``person_velocity_time``) and takes a random acceleration a ~ N(0, sigma_a^2 I), constant
-over the step (sigma_a = ``person_acceleration``); the position moves by the step's mean
-velocity, plus a Brownian step w ~ N(0, s^2 dt I), s = ``person_sway`` (a person's sway and
-the detections' jitter; it keeps the particles apart after every resampling)::
+(``person_velocity_time``) and takes the change u ~ N(0, sigma_a^2 dt I) of a white-noise
+acceleration (sigma_a = ``person_acceleration``, m/s^1.5: the same motion whatever the scan
+rate); the position moves by the step's mean velocity, plus a Brownian step w ~ N(0, s^2 dt
+I), s = ``person_sway`` (a person's sway and the detections' jitter; it keeps the particles
+apart after every resampling)::
 
-    d = exp(-dt / tau),  v' = d v + a dt,  theta' = theta + (v + v') dt / 2 + w
+    d = exp(-dt / tau),  v' = d v + u,  theta' = theta + (v + v') dt / 2 + w
 
 so, per axis, E[theta'] = theta + (1 + d) v dt / 2, E[v'] = d v, Var[theta'] = sigma_a^2
-dt^4 / 4 + s^2 dt, Var[v'] = sigma_a^2 dt^2, Cov[theta', v'] = sigma_a^2 dt^3 / 2. A velocity faster
+dt^3 / 4 + s^2 dt, Var[v'] = sigma_a^2 dt, Cov[theta', v'] = sigma_a^2 dt^2 / 2. A velocity faster
 than ``max_person_speed`` is scaled back to it (before the position moves). A new person's
 particles start at rest plus N(0, INITIAL_SPEED_SIGMA^2 I): its velocity is unknown until
 the detections that follow select the particles that move with it.
@@ -38,13 +39,14 @@ walking speeds are 0.5-1.5 m/s, in any direction."""
 class PersonMotion:
     """One person motion model and its parameters (SI units)."""
 
-    model: str = "brownian"
+    model: str = "constant_velocity"
     diffusion: float = 0.4
     """Brownian: position standard deviation per sqrt(s) per axis (m/sqrt(s))."""
-    sway: float = 0.1
+    sway: float = 0.2
     """constant_velocity: the Brownian step's standard deviation per sqrt(s) (m/sqrt(s))."""
-    acceleration: float = 1.0
-    """constant_velocity: random acceleration standard deviation per axis (m/s^2)."""
+    acceleration: float = 0.6
+    """constant_velocity: white-noise acceleration per axis: over dt the velocity changes by
+    N(0, acceleration^2 dt) (m/s^1.5)."""
     velocity_time: float = 2.0
     """constant_velocity: time constant (s) of the velocity's decay towards rest."""
     max_speed: float = 1.5
@@ -70,7 +72,8 @@ class PersonMotion:
         if not self.carries_velocity:
             return moved, velocities.copy()
         decay = math.exp(-dt / self.velocity_time)
-        after = decay * velocities + rng.normal(0.0, self.acceleration * dt, velocities.shape)
+        after = decay * velocities + rng.normal(0.0, self.acceleration * math.sqrt(dt),
+                                                velocities.shape)
         after = cap_speed(after, self.max_speed)
         return moved + 0.5 * dt * (velocities + after), after
 

@@ -70,7 +70,7 @@ class TrackerSettings:
     sensor_yaw: float = parameter(0.0, "Laser yaw in the base frame (rad).", low=-math.pi,
                                   high=math.pi)
     person_motion: str = parameter(
-        "brownian", "How a person moves between readings: 'brownian' (random steps, "
+        "constant_velocity", "How a person moves between readings: 'brownian' (random steps, "
                     "person_diffusion) or 'constant_velocity' (each particle carries a "
                     "velocity: random acceleration person_acceleration, decaying with "
                     "person_velocity_time, capped at max_person_speed, plus steps of "
@@ -80,11 +80,11 @@ class TrackerSettings:
         0.4, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
              "(m/sqrt(s)).", low=0.0, low_exclusive=True)
     person_sway: float = parameter(
-        0.1, "constant_velocity: Brownian steps on top of a person's velocity, sigma = "
+        0.2, "constant_velocity: Brownian steps on top of a person's velocity, sigma = "
              "person_sway * sqrt(dt) per axis (m/sqrt(s)).", low=0.0)
     person_acceleration: float = parameter(
-        1.0, "constant_velocity: standard deviation of a person's random acceleration per "
-             "axis (m/s^2).", low=0.0)
+        0.6, "constant_velocity: white-noise acceleration of a person per axis: over dt its "
+             "velocity changes by N(0, person_acceleration^2 dt) (m/s^1.5).", low=0.0)
     person_velocity_time: float = parameter(
         2.0, "constant_velocity: time constant (s) of a person's velocity decaying towards "
              "rest (a person unseen for long is predicted to stop, not to walk on).",
