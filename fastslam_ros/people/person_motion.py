@@ -39,7 +39,7 @@ walking speeds are 0.5-1.5 m/s, in any direction."""
 class PersonMotion:
     """One person motion model and its parameters (SI units)."""
 
-    model: str = "constant_velocity"
+    model: str = "brownian"
     diffusion: float = 0.4
     """Brownian: position standard deviation per sqrt(s) per axis (m/sqrt(s))."""
     sway: float = 0.2

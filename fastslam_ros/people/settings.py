@@ -70,7 +70,7 @@ class TrackerSettings:
     sensor_yaw: float = parameter(0.0, "Laser yaw in the base frame (rad).", low=-math.pi,
                                   high=math.pi)
     person_motion: str = parameter(
-        "constant_velocity", "How a person moves between readings: 'brownian' (random steps, "
+        "brownian", "How a person moves between readings: 'brownian' (random steps, "
                     "person_diffusion) or 'constant_velocity' (each particle carries a "
                     "velocity: random acceleration person_acceleration, decaying with "
                     "person_velocity_time, capped at max_person_speed, plus steps of "
