@@ -71,7 +71,7 @@ def test_brownian_spread_matches_closed_form():
     grid = room()
     q, dt, steps = 0.4, 0.1, 25
     tracker = tracker_at(grid, (5.0, 5.0, 0.0), num_particles=1, people_particles=20000,
-                         person_diffusion=q)
+                         person_motion="brownian", person_diffusion=q)
     tracker.alive[0, 0] = True
     tracker.people[0, 0] = (2.0, 3.0)
     tracker._diffuse_people(0.0)
@@ -132,10 +132,12 @@ def test_person_entering_is_tracked_and_leaving_is_removed():
 
 
 def test_person_behind_a_wall_is_kept():
+    """Hidden behind a wall for 3 s, a person is kept (its Brownian cloud, 0.7 m after 3 s,
+    stays within lost_spread; constant_velocity's grows faster, see test_people_motion)."""
     wall = (5.0, 5.2, 3.0, 7.0)
     grid = room([wall])
     pose = (2.0, 5.0, 0.0)
-    tracker = tracker_at(grid, pose)
+    tracker = tracker_at(grid, pose, person_motion="brownian")
     # seen while the robot looks past the wall's end, then hidden behind the wall
     seen_from = (2.0, 9.2, 0.0)
     tracker.reset(np.asarray(seen_from), np.diag([1e-6, 1e-6, 1e-8]))
@@ -213,7 +215,7 @@ def test_a_person_unseen_in_the_open_keeps_its_brownian_cloud():
     pose = (2.0, 5.0, 0.0)
     q = 0.4
     tracker = tracker_at(grid, pose, num_particles=1, people_particles=2000,
-                         person_diffusion=q)
+                         person_motion="brownian", person_diffusion=q)
     t = run(tracker, grid, pose, [(6.0, 5.5)], 3)
     before = tracker.people[0, 0].copy()
     run(tracker, grid, pose, [], 1, t)                   # gone in the open
@@ -333,7 +335,8 @@ def test_a_person_hidden_for_a_while_keeps_its_id_and_one_lost_is_removed():
     wall = (5.0, 5.2, 3.0, 7.0)
     grid = room([wall])
     pose = np.array([2.0, 9.2, 0.0])
-    tracker = tracker_at(grid, pose, person_diffusion=0.4, lost_spread=1.0)
+    tracker = tracker_at(grid, pose, person_motion="brownian", person_diffusion=0.4,
+                         lost_spread=1.0)
     t = run(tracker, grid, pose, [(7.0, 6.0)], 8)
     key = tracker.people_of().keys.tolist()
     assert len(key) == 1
@@ -500,10 +503,11 @@ def test_a_removed_person_leaves_its_slot_unconfirmed():
 
 def see_then_hide(**settings) -> tuple[PeopleTracker, OccupancyMap, np.ndarray, float]:
     """A person at (7, 6) seen from (2, 9.2), past the end of a wall, then hidden behind the
-    wall from (2, 5), where the robot stays."""
+    wall from (2, 5), where the robot stays. Brownian motion unless ``settings`` say
+    otherwise (the tests using it count on its cloud's spread)."""
     grid = room([(5.0, 5.2, 3.0, 7.0)])
     seen_from = np.array([2.0, 9.2, 0.0])
-    tracker = tracker_at(grid, seen_from, **settings)
+    tracker = tracker_at(grid, seen_from, **{"person_motion": "brownian", **settings})
     t = run(tracker, grid, seen_from, [(7.0, 6.0)], 8)
     assert len(tracker.people_of().keys) == 1
     pose = np.array([2.0, 5.0, 0.0])

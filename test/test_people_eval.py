@@ -32,6 +32,22 @@ def test_clear_mot_counts_by_hand():
     assert result["motp"] == pytest.approx((0.1 + 0.2 + 0.1 + 0.3) / 4)
 
 
+def test_switch_gaps_are_the_time_between_a_persons_two_matches():
+    # person 1: matched by 10 at t 0, unmatched until t 1.5, then by 11 (gap 1.5 s: short);
+    # person 2: matched by 20 at t 0, unmatched until t 3, then by 21 (gap 3 s: long)
+    truth, estimates = [], []
+    for t in np.arange(0.0, 3.01, 0.5):
+        truth.append(Frame(float(t), np.array([1, 2]), np.array([[0.0, 0.0], [5.0, 0.0]])))
+        ids = [10, 20] if t == 0.0 else [11] if 1.5 <= t < 3.0 else [11, 21] if t >= 3.0 else []
+        spots = {10: [0, 0], 11: [0, 0], 20: [5, 0], 21: [5, 0]}
+        estimates.append(Frame(float(t), np.array(ids, dtype=int),
+                               np.array([spots[i] for i in ids], dtype=float).reshape(-1, 2)))
+    result = clear_mot(truth, estimates)
+    assert result["id_switches"] == 2
+    assert result["id_switch_gaps"] == pytest.approx([1.5, 3.0])
+    assert result["id_switches_short_gap"] == 1
+
+
 def test_a_kept_match_is_not_a_switch_when_another_track_comes_closer():
     truth = [frame([1], [[0, 0]]), frame([1], [[0, 0]])]
     estimates = [frame([10], [[0.4, 0]]), frame([10, 11], [[0.4, 0], [0.0, 0.0]])]

@@ -154,6 +154,7 @@ def test_scans_before_the_map_are_dropped_and_counted(context):
 @pytest.mark.parametrize("name, value, words", [
     ("people_particles", 0, "people_particles"),
     ("pose_estimate", "median", "pose_estimate"),
+    ("person_motion", "kalman", "person_motion"),
     ("no_such_parameter", 1.0, "no_such_parameter"),
     ("map_file", "/nonexistent/map.yaml", "map_file"),
 ])

@@ -8,7 +8,9 @@ Each robot pose particle m carries its own people: for person slot n, M_p positi
 people are estimated conditioned on the robot's pose, as FastSLAM's landmarks are:
 
 1. predict: the robot particles by the sampled odometry model (core.motion); every person by
-   Brownian motion, theta_t ~ N(theta_{t-1}, sigma^2 I) with sigma = person_diffusion sqrt(dt);
+   its motion model (``person_motion.py``): Brownian motion, theta_t ~ N(theta_{t-1}, sigma^2
+   I) with sigma = person_diffusion sqrt(dt), or constant velocity (each particle carries a
+   velocity, with random acceleration);
 2. weigh the robot particles by the likelihood field of the map (localization);
 3. detect people per robot particle (beams ending in free space away from obstacles);
 4. associate, per robot particle, detections to people under the Gaussian summary of each
@@ -66,6 +68,7 @@ from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_p
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
+from fastslam_ros.people.person_motion import PersonMotion
 from fastslam_ros.people.report import UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               sample_free_poses,
@@ -121,6 +124,9 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self.rng = rng if rng is not None else np.random.default_rng(
             None if settings.seed < 0 else settings.seed)
         self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
+        self.motion = PersonMotion(settings.person_motion, settings.person_diffusion,
+                                   settings.person_sway, settings.person_acceleration,
+                                   settings.person_velocity_time, settings.max_person_speed)
         self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
                                    settings.max_leg_spacing, settings.max_person_width,
                                    settings.min_detection_beams)
@@ -150,6 +156,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self.log_weights = np.full(count, -math.log(count) if count else 0.0)
         slots = s.max_people if people else 0
         self.people = np.zeros((count, slots, s.people_particles, 2))
+        self.velocities = np.zeros_like(self.people)  # constant_velocity's; else zero
         self.alive = np.zeros((count, slots), dtype=bool)
         self.logodds = np.zeros((count, slots))
         self.keys = np.full((count, slots), -1, dtype=np.int64)
@@ -210,15 +217,16 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                                    self.rng.standard_normal((self.num_particles, 3)))
 
     def _diffuse_people(self, stamp: float) -> None:
-        """Brownian motion of every live person particle over the time since the last reading."""
+        """Move every live person particle by the person motion model over the time since the
+        last reading."""
         dt = 0.0 if self.last_stamp is None else min(max(stamp - self.last_stamp, 0.0),
                                                      MAX_DIFFUSION_STEP)
         self.last_stamp = stamp
         if dt <= 0.0 or not self.alive.any():
             return
         m, n = np.nonzero(self.alive)
-        sigma = self.settings.person_diffusion * math.sqrt(dt)
-        self.people[m, n] += self.rng.normal(0.0, sigma, self.people[m, n].shape)
+        self.people[m, n], self.velocities[m, n] = self.motion.predict(
+            self.people[m, n], self.velocities[m, n], dt, self.rng)
 
     # --- update -------------------------------------------------------------------------------
 
@@ -348,6 +356,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             m, slot, key = m[placed], slot[placed], key[placed]
             self.people[m, slot] = points[m, j, None, :] + self.rng.normal(
                 0.0, s.detection_sigma, (len(m), s.people_particles, 2))
+            self.velocities[m, slot] = self.motion.initial_velocities(
+                (len(m), s.people_particles, 2), self.rng)
             self.alive[m, slot] = True
             mean[m, slot] = points[m, j]
             self.logodds[m, slot] = 0.0
@@ -370,6 +380,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             w /= w.sum(axis=1, keepdims=True)
             index = batched_systematic_resample(w, self.rng)
             self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
+            self._gather_velocities(m, n, index)
             self.last_seen[m, n] = self.last_stamp
         return observed, created, unexplained
 
@@ -481,6 +492,14 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         w /= w.sum(axis=1, keepdims=True)
         index = batched_systematic_resample(w, self.rng)
         self.people[m, n] = np.take_along_axis(self.people[m, n], index[..., None], axis=1)
+        self._gather_velocities(m, n, index)
+
+    def _gather_velocities(self, m: np.ndarray, n: np.ndarray, index: np.ndarray) -> None:
+        """The velocities of people (``m``, ``n``) follow their particles' resampling
+        ``index`` (K, M_p) (Brownian motion carries none)."""
+        if self.motion.carries_velocity:
+            self.velocities[m, n] = np.take_along_axis(self.velocities[m, n], index[..., None],
+                                                       axis=1)
 
     def _finish(self, report: UpdateReport) -> None:
         """Normalise, resample when N_eff is low, end global localization when converged."""
@@ -497,6 +516,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         """Keep the robot particles ``index`` with their people, at equal weights."""
         self.poses = self.poses[index]
         self.people = self.people[index]
+        self.velocities = self.velocities[index]
         self.alive = self.alive[index]
         self.logodds = self.logodds[index]
         self.keys = self.keys[index]

@@ -69,9 +69,26 @@ class TrackerSettings:
     sensor_y: float = parameter(0.0, "Laser position in the base frame, y (m).")
     sensor_yaw: float = parameter(0.0, "Laser yaw in the base frame (rad).", low=-math.pi,
                                   high=math.pi)
+    person_motion: str = parameter(
+        "brownian", "How a person moves between readings: 'brownian' (random steps, "
+                    "person_diffusion) or 'constant_velocity' (each particle carries a "
+                    "velocity: random acceleration person_acceleration, decaying with "
+                    "person_velocity_time, capped at max_person_speed, plus steps of "
+                    "person_sway).",
+        choices=("brownian", "constant_velocity"))
     person_diffusion: float = parameter(
         0.4, "Brownian motion of a person: sigma = person_diffusion * sqrt(dt) per axis "
              "(m/sqrt(s)).", low=0.0, low_exclusive=True)
+    person_sway: float = parameter(
+        0.2, "constant_velocity: Brownian steps on top of a person's velocity, sigma = "
+             "person_sway * sqrt(dt) per axis (m/sqrt(s)).", low=0.0)
+    person_acceleration: float = parameter(
+        0.6, "constant_velocity: white-noise acceleration of a person per axis: over dt its "
+             "velocity changes by N(0, person_acceleration^2 dt) (m/s^1.5).", low=0.0)
+    person_velocity_time: float = parameter(
+        2.0, "constant_velocity: time constant (s) of a person's velocity decaying towards "
+             "rest (a person unseen for long is predicted to stop, not to walk on).",
+        low=0.0, low_exclusive=True)
     detection_sigma: float = parameter(0.1, "Standard deviation of a person detection per "
                                             "axis (m).", low=0.0, low_exclusive=True)
     person_radius: float = parameter(0.2, "Radius of a person's outline in the scan (m): a "
@@ -107,7 +124,8 @@ class TrackerSettings:
              "is two detections at the default tau+ (log-odds saturate at 3).",
         high=LOGODDS_MAX)
     max_person_speed: float = parameter(
-        1.5, "Re-identification: a new person within this speed (m/s) times the time unseen "
+        1.5, "Fastest walking speed (m/s): constant_velocity caps the people's velocities at "
+             "it; re-identification: a new person within this speed times the time unseen "
              "(plus a margin) of a hidden or removed person's last position takes its id.",
         low=0.0)
     lost_spread: float = parameter(

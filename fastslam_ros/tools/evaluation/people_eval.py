@@ -17,9 +17,10 @@ existence is at least ``--min-existence``. CLEAR MOT (Bernardin and Stiefelhagen
 match radius of 0.5 m: a match of the last frame is kept while within the radius, the rest
 are paired by optimal assignment; an identity switch is a truth person matched to another
 track than before; switches per person per minute divide by the minutes people were in
-view (truth count x frame period). MOTA = 1 - (misses + false positives + switches) / truth
-count; MOTP is the mean distance of the matches. OSPA per frame with c = 1 m and order p = 2,
-averaged.
+view (truth count x frame period); each switch's gap is the time between the person's two
+matches (a switch after a gap below ``SHORT_GAP``: one a tracker should bridge). MOTA = 1 -
+(misses + false positives + switches) / truth count; MOTP is the mean distance of the
+matches. OSPA per frame with c = 1 m and order p = 2, averaged.
 """
 from __future__ import annotations
 
@@ -61,6 +62,9 @@ CONVERGED_ERROR = 0.5
 FRAME_TOLERANCE = 0.02
 """An estimate cloud belongs to the truth frame within this many seconds."""
 PERSON_RADIUS = 0.2
+SHORT_GAP = 2.0
+"""An identity switch after a person was unmatched (out of view, hidden or missed) for less
+than this (s) counts as a short-gap switch: an occlusion a tracker should bridge."""
 
 
 @dataclass
@@ -134,8 +138,11 @@ def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
 def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_RADIUS
               ) -> dict[str, Any]:
     """CLEAR MOT over paired frames (same length): MOTA, MOTP, misses, false positives,
-    identity switches, truth count, matches."""
+    identity switches (with the gap before each: the time between the person's two matches,
+    and how many came after less than SHORT_GAP), truth count, matches."""
     last_match: dict[int, int] = {}   # truth id -> track id of its latest match
+    last_stamp: dict[int, float] = {}  # truth id -> stamp of its latest match
+    gaps: list[float] = []
     previous: dict[int, int] = {}     # truth id -> track id matched in the previous frame
     misses = false_positives = switches = total = matches = 0
     distance_sum = 0.0
@@ -165,7 +172,9 @@ def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_
             truth_id, track_id = int(gt.ids[g]), int(est.ids[e])
             if truth_id in last_match and last_match[truth_id] != track_id:
                 switches += 1
+                gaps.append(float(gt.stamp - last_stamp[truth_id]))
             last_match[truth_id] = track_id
+            last_stamp[truth_id] = float(gt.stamp)
             current[truth_id] = track_id
             distance_sum += float(distance[g, e])
         previous = current
@@ -175,6 +184,8 @@ def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_
     return {"mota": 1.0 - (misses + false_positives + switches) / total if total else math.nan,
             "motp": distance_sum / matches if matches else math.nan,
             "misses": misses, "false_positives": false_positives, "id_switches": switches,
+            "id_switch_gaps": gaps,
+            "id_switches_short_gap": sum(gap < SHORT_GAP for gap in gaps),
             "truth_count": total, "matches": matches}
 
 
@@ -340,6 +351,8 @@ def markdown_table(metrics: dict[str, Any]) -> str:
              f"| MOTP (m) | {number(people['motp'])} |",
              f"| identity switches | {people['id_switches']} "
              f"({number(people['id_switches_per_person_minute'])} per person per minute) |",
+             f"| identity switches after less than {SHORT_GAP:g} s unmatched | "
+             f"{people['id_switches_short_gap']} |",
              f"| misses / false positives / truth | {people['misses']} / "
              f"{people['false_positives']} / {people['truth_count']} |",
              f"| MOTA, MOTP (m), switches, people hidden behind people not scored | "

@@ -80,6 +80,13 @@ WALK_HEADINGS = np.radians(np.arange(-90.0, 91.0, 15.0))
 """Headings (relative to the target) a walking person may step in."""
 YIELD_HEADINGS = np.radians(np.arange(-180.0, 180.0, 15.0))
 """Headings a yielding person may step in (any)."""
+TURN_TIME = 0.3
+"""A walking person's velocity follows the step it chose with this time constant (s): people
+round corners (a radius of about speed x TURN_TIME) and speed up and slow down over a few
+tenths of a second instead of turning or stopping in one step."""
+OFFSET_FRACTIONS = (1.0, 0.75, 0.5, 0.25, 0.0)
+"""A person's lateral offset is shrunk by these fractions until its target point is walkable:
+through a door, or where a room's point is near a wall, people aim where they can go."""
 
 
 def build_map() -> OccupancyMap:
@@ -152,7 +159,10 @@ class Crowd:
     ones), so people step aside early to pass each other, keeping right. A person kept from
     progressing for longer than its patience (1.5-2.5 s) yields: for 1-2 s it steps in any
     direction away from the others (and back along its edge), which lets the other pass; it
-    never waits for good. Newcomers enter only when their entry point is clear.
+    never waits for good. A walking person's velocity follows the chosen step with time
+    constant TURN_TIME (rounded corners, no instant stops), and it aims at the walkable point
+    nearest its lateral offset beside the next graph point (through a door, within the
+    door). Newcomers enter only when their entry point is clear.
     """
 
     def __init__(self, count: int, rng: np.random.Generator,
@@ -234,7 +244,7 @@ class Crowd:
         direction = (end - start) / max(np.linalg.norm(end - start), 1e-9)
         normal = np.array([-direction[1], direction[0]])
         offset = 0.0 if target_node in EXITS else person.offset
-        target = end + offset * normal
+        target = self._reachable_target(end, normal, offset)
         to_target = target - person.position
         distance = float(np.linalg.norm(to_target))
         step = person.speed * dt
@@ -266,10 +276,18 @@ class Crowd:
         progress = 0.0
         if feasible.any():
             best = int(np.argmax(np.where(feasible, score, -np.inf)))
-            moved = candidates[best] - person.position
+            chosen = candidates[best]
+            if person.yielding <= 0.0:  # walking: the velocity follows the chosen step
+                velocity = person.velocity + min(1.0, dt / TURN_TIME) * (
+                    (chosen - person.position) / dt - person.velocity)
+                smooth = person.position + velocity * dt
+                if self._clear(smooth, person)[0] and not self._robot_blocks(
+                        person.position, smooth[None], robot)[0]:
+                    chosen = smooth
+            moved = chosen - person.position
             progress = float(moved @ to_target) / max(distance, 1e-9)
             person.velocity = moved / dt
-            person.position = candidates[best]
+            person.position = chosen
         else:
             person.velocity = np.zeros(2)
         if person.yielding > 0.0:
@@ -284,6 +302,15 @@ class Crowd:
         elif person.waited >= person.patience:
             person.yielding = float(self.rng.uniform(1.0, 2.0))
             person.waited = 0.0
+
+    def _reachable_target(self, end: np.ndarray, normal: np.ndarray, offset: float
+                          ) -> np.ndarray:
+        """The point ``end`` + f ``offset`` ``normal`` for the first fraction f of
+        OFFSET_FRACTIONS that is walkable (``end`` itself otherwise)."""
+        points = end + np.outer(np.array(OFFSET_FRACTIONS) * offset, normal)
+        rows, cols, inside = self.grid.cells(points)
+        walkable = inside & self.walkable[rows, cols]
+        return points[int(np.argmax(walkable))] if walkable.any() else end
 
     @staticmethod
     def _robot_blocks(position: np.ndarray, candidates: np.ndarray,
