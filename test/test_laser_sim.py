@@ -133,3 +133,28 @@ def test_evaluation_plot_is_written_once_without_overwrite(tmp_path, capsys):
     assert main(arguments) == 2
     assert "scan.png" in capsys.readouterr().err
     assert main(["--set", "segment_jump=-1"]) == 2
+
+
+def test_a_walking_person_paces_its_segment_and_hides_what_is_behind():
+    """A person pacing (0, 5) -> (4, 5) at 1.2 m/s from its start: at 2.5 s it is 3 m along, at
+    5 s 2 m along on its way back; the beam straight at it returns its body's front (radius
+    0.2 m) as no pole, and at 0 s the beam at (3, 5) passes behind it to nothing."""
+    world = PoleWorld(np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool), np.zeros((0, 4)),
+                      np.array([[0.0, 5.0, 4.0, 5.0]]))
+    np.testing.assert_allclose(world.walkers(2.5), [[3.0, 5.0]], atol=1e-12)
+    np.testing.assert_allclose(world.walkers(5.0), [[2.0, 5.0]], atol=1e-12)
+    pose = np.array([3.0, 0.0, 0.5 * math.pi])          # looking along +y at x = 3
+    ranges, _, pole = LASER.cast(world, pose, 2.5)
+    centre = LASER.beams // 2
+    assert ranges[centre] == pytest.approx(4.8, abs=1e-9) and pole[centre] == -1
+    assert np.isinf(LASER.cast(world, pose, 0.0)[0][centre])
+
+
+def test_people_leave_the_pole_world_as_it_is_without_them():
+    config = sim.SimConfig(seed=1).resolved()
+    world = sim.build_world(config)
+    plain = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
+    crowded = pole_world(config.world_seed, world.landmarks.positions, world.waypoints, 10)
+    np.testing.assert_array_equal(plain.walls, crowded.walls)
+    np.testing.assert_array_equal(plain.radii, crowded.radii)
+    assert len(plain.walks) == 0 and len(crowded.walks) == 10

@@ -86,9 +86,9 @@ def evaluate_seed(seed: int, settings: ExtractorSettings, tally: Tally, laser: L
     bag = simulate(config)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
     rng = np.random.default_rng([config.seed, 2])
-    for pose in scan_truth_poses(bag):
-        ranges, intensities = laser.scan(poles, pose, rng)
-        truth_ranges, _, hit = laser.cast(poles, pose)
+    for stamp, pose in zip(bag.scans.stamps - bag.scans.stamps[0], scan_truth_poses(bag)):
+        ranges, intensities = laser.scan(poles, pose, rng, float(stamp))
+        truth_ranges, _, hit = laser.cast(poles, pose, float(stamp))
         scan = RawScan(ranges, float(laser.angles[0]), float(laser.angles[1] - laser.angles[0]),
                        0.05, laser.max_range, intensities)
         start = time.perf_counter()

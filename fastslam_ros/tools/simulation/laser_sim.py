@@ -1,12 +1,14 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""A 2-D laser in the simulator's landmark worlds: poles to find, walls and parked cars to ignore.
+"""A 2-D laser in the simulator's landmark worlds: poles to find, walls, parked cars and people
+to ignore.
 
 Every landmark of a ``fastslam-sim`` world becomes a pole or trunk (radius uniform in
 ``RADII``) or, a share ``REFLECTIVE_SHARE`` of them, a thin post wrapped in reflective tape;
-walls stand back from the
-route and cars are parked beside it, neither touching a pole. The laser (``Laser``: 1,081
-beams over 270 degrees, as a Hokuyo UTM-30LX) is ray cast analytically against circles and
+walls stand back from the route and cars are parked beside it, neither touching a pole;
+people, if asked for (circles of ``WALKER_RADIUS``, a body at the laser's height), pace to and
+fro beside the route. The laser (``Laser``: 1,081 beams over 270 degrees, as a Hokuyo
+UTM-30LX) is ray cast analytically against circles and
 line segments at the true pose; ranges get Gaussian noise, beams that hit nothing within
 ``max_range`` are +inf (REP 117). Intensities follow a diffuse surface, falling with range and
 the incidence angle, with reflectors ``REFLECTOR_GAIN`` times brighter. The layout depends on
@@ -14,6 +16,7 @@ the world seed only, so every noise seed of a world shares it. Plain numpy, no R
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -34,6 +37,10 @@ INTENSITY_NOISE = 0.1
 CAR_SIZE = (4.5, 1.8)
 POLE_CLEARANCE = 1.0
 """Smallest gap (m) between a pole and a wall or a car."""
+WALKER_RADIUS = 0.2
+"""Radius (m) of a walking person's body as the laser sees it: as wide as a trunk."""
+WALKER_SPEED = 1.2
+"""Walking speed (m/s) of the people pacing beside the route."""
 SCAN_TYPE = "sensor_msgs/msg/LaserScan"
 
 
@@ -46,6 +53,24 @@ class PoleWorld:
     radii: np.ndarray
     reflective: np.ndarray
     walls: np.ndarray
+    walks: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
+    """(P, 4) segments x0 y0 x1 y1 along which people pace at ``WALKER_SPEED``."""
+
+    def walkers(self, time: float) -> np.ndarray:
+        """(P, 2) positions of the people ``time`` s into the run: each walks its segment to
+        and fro, person i starting a share 0.618 i (mod 1) of the way along it."""
+        start, side = self.walks[:, :2], self.walks[:, 2:] - self.walks[:, :2]
+        length = np.maximum(np.hypot(side[:, 0], side[:, 1]), 1e-9)
+        travelled = (WALKER_SPEED * time
+                     + length * ((0.618 * np.arange(len(length))) % 1.0)) % (2.0 * length)
+        along = np.where(travelled < length, travelled, 2.0 * length - travelled) / length
+        return start + along[:, None] * side
+
+    def circles(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (N + P, 2) and radii of every circle the laser sees at ``time``: the poles,
+        then the people."""
+        return (np.concatenate([self.centres, self.walkers(time)]),
+                np.concatenate([self.radii, np.full(len(self.walks), WALKER_RADIUS)]))
 
 
 def segment_distance(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
@@ -71,9 +96,10 @@ def _rectangle(centre: np.ndarray, heading: float, size: tuple[float, float]) ->
 
 
 def build_pole_world(landmarks: np.ndarray, route: np.ndarray, rng: np.random.Generator,
-                     walls: int = 12, cars: int = 20) -> PoleWorld:
+                     walls: int = 12, cars: int = 20, people: int = 0) -> PoleWorld:
     """Poles at ``landmarks`` (N, 2); ``walls`` walls of 8-25 m 6-20 m off the closed
-    ``route`` and ``cars`` cars parked 3-5 m off it, each kept only clear of every pole."""
+    ``route``, ``cars`` cars parked 3-5 m off it and ``people`` people pacing 4-12 m 2-6 m off
+    it, each kept only clear of every pole."""
     radii = rng.uniform(*RADII, len(landmarks))
     reflective = rng.random(len(landmarks)) < REFLECTIVE_SHARE
     radii[reflective] = POST_RADIUS
@@ -112,8 +138,11 @@ def build_pole_world(landmarks: np.ndarray, route: np.ndarray, rng: np.random.Ge
             if candidate is not None:
                 sides.append(candidate)
                 placed += 1
+    walks = [walk for walk in (place((2.0, 6.0), (4.0, 12.0), 1.0, wall)
+                               for _ in range(50 * people)) if walk is not None][:people]
     return PoleWorld(np.asarray(landmarks, dtype=float).reshape(-1, 2), radii, reflective,
-                     np.concatenate(sides) if sides else np.zeros((0, 4)))
+                     np.concatenate(sides) if sides else np.zeros((0, 4)),
+                     np.concatenate(walks) if walks else np.zeros((0, 4)))
 
 
 @dataclass(frozen=True)
@@ -130,28 +159,29 @@ class Laser:
         """Bearing of every beam in the sensor frame, symmetric about the heading."""
         return np.linspace(-0.5 * self.field_of_view, 0.5 * self.field_of_view, self.beams)
 
-    def cast(self, world: PoleWorld, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                   np.ndarray]:
+    def cast(self, world: PoleWorld, pose: np.ndarray, time: float = 0.0
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """True ranges (B,) (inf: nothing within max_range), the cosine of the incidence angle
-        and the pole hit (-1: a wall, a car or nothing) from ``pose`` (x, y, theta)."""
+        and the pole hit (-1: a wall, a car, a person or nothing) from ``pose`` (x, y, theta)
+        ``time`` s into the run (where the people are)."""
         heading = pose[2] + self.angles
         direction = np.stack([np.cos(heading), np.sin(heading)], axis=1)
         ranges = np.full(self.beams, np.inf)
         incidence = np.ones(self.beams)
         pole = np.full(self.beams, -1)
-        offset = world.centres - pose[:2]
-        near = np.flatnonzero(np.hypot(offset[:, 0], offset[:, 1])
-                              < self.max_range + world.radii)
+        centres, radii = world.circles(time)
+        offset = centres - pose[:2]
+        near = np.flatnonzero(np.hypot(offset[:, 0], offset[:, 1]) < self.max_range + radii)
         if len(near):
             along = direction @ offset[near].T                              # (B, K)
             across_sq = np.sum(offset[near] ** 2, axis=1)[None] - along ** 2
-            radius_sq = world.radii[near][None] ** 2
+            radius_sq = radii[near][None] ** 2
             hit = along - np.sqrt(np.clip(radius_sq - across_sq, 0.0, None))
             hit = np.where((across_sq < radius_sq) & (hit > 0.0), hit, np.inf)
             first = np.argmin(hit, axis=1)
             ranges = hit[np.arange(self.beams), first]
             struck = np.isfinite(ranges)
-            pole = np.where(struck, near[first], -1)
+            pole = np.where(struck & (near[first] < len(world.centres)), near[first], -1)
             cos = np.sqrt(np.clip(1.0 - across_sq[np.arange(self.beams), first]
                                   / radius_sq[0, first], 0.0, 1.0))
             incidence = np.where(struck, cos, 1.0)
@@ -176,10 +206,11 @@ class Laser:
         ranges = np.where(ranges < self.max_range, ranges, np.inf)
         return ranges, incidence, pole
 
-    def scan(self, world: PoleWorld, pose: np.ndarray,
-             rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Noisy ranges (B,) and intensities (B,) from the true ``pose``."""
-        ranges, incidence, pole = self.cast(world, pose)
+    def scan(self, world: PoleWorld, pose: np.ndarray, rng: np.random.Generator,
+             time: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Noisy ranges (B,) and intensities (B,) from the true ``pose``, ``time`` s into the
+        run."""
+        ranges, incidence, pole = self.cast(world, pose, time)
         hit = np.isfinite(ranges)
         noisy = ranges + rng.normal(0.0, self.sigma_range, self.beams)
         noisy = np.where(hit & (noisy < self.max_range), np.maximum(noisy, 0.0), np.inf)
@@ -190,9 +221,12 @@ class Laser:
         return noisy, np.where(hit, intensity, 0.0)
 
 
-def pole_world(world_seed: int, landmarks: np.ndarray, route: np.ndarray) -> PoleWorld:
-    """The pole world of a ``fastslam-sim`` world (its own stream of ``world_seed``)."""
-    return build_pole_world(landmarks, route, np.random.default_rng([world_seed, 7]))
+def pole_world(world_seed: int, landmarks: np.ndarray, route: np.ndarray,
+               people: int = 0) -> PoleWorld:
+    """The pole world of a ``fastslam-sim`` world (its own stream of ``world_seed``; the
+    people, drawn last, leave the rest of the layout as it is without them)."""
+    return build_pole_world(landmarks, route, np.random.default_rng([world_seed, 7]),
+                            people=people)
 
 
 def scan_truth_poses(bag) -> np.ndarray:
@@ -201,17 +235,19 @@ def scan_truth_poses(bag) -> np.ndarray:
     return np.asarray(bag.ground_truth.poses)[index]
 
 
-def scan_records(config, world, bag, laser: Laser = Laser()) -> list[tuple[str, str, int, bytes]]:
+def scan_records(config, world, bag, laser: Laser = Laser(),
+                 people: int = 0) -> list[tuple[str, str, int, bytes]]:
     """``/scan`` records (topic, type, stamp ns, CDR) for ``write_schema_bag``: the laser at
     every landmark reading of a simulated ``bag`` of ``config`` and its ``world`` (route and
-    landmarks), in the landmarks' frame, with range noise from ``config.seed``."""
+    landmarks, ``people`` people pacing beside the route), in the landmarks' frame, with range
+    noise from ``config.seed``."""
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE, stamp_to_ns
     from fastslam_ros.tools.simulation.people_sim import SCAN_TOPIC, laser_scan_message
-    poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
+    poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints, people)
     rng = np.random.default_rng([config.seed, 2])
     records = []
     for stamp, pose in zip(bag.scans.stamps, scan_truth_poses(bag)):
-        ranges, intensities = laser.scan(poles, pose, rng)
+        ranges, intensities = laser.scan(poles, pose, rng, float(stamp - bag.scans.stamps[0]))
         msg = laser_scan_message(float(stamp), ranges, laser.angles, laser.max_range,
                                  config.sensor_frame, config.observation_rate, intensities)
         records.append((SCAN_TOPIC, SCAN_TYPE, stamp_to_ns(float(stamp)),
