@@ -9,13 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from fastslam_ros.people import OccupancyMap, PeopleTracker, Scan, TrackerSettings
+from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.person_motion import INITIAL_SPEED_SIGMA, PersonMotion, cap_speed
-from fastslam_ros.tools.simulation.people_sim import cast_scan
+from test_people_core import room, scan_at
+from test_people_core import tracker_at as core_tracker_at
 
 SAMPLES = 40000
-BEAMS = 360
-ANGLES = -math.pi + (np.arange(BEAMS) + 0.5) * (2.0 * math.pi / BEAMS)
 
 
 def linear_moments(x0: float, v0: float, sigma_a: float, tau: float, dt: float, steps: int,
@@ -144,27 +143,9 @@ def test_an_unknown_person_motion_fails_naming_the_parameter():
 
 # --- in the tracker ---------------------------------------------------------------------------
 
-def room(walls=()) -> OccupancyMap:
-    """A 10 m x 10 m room at 0.05 m with a border wall and extra wall rectangles."""
-    centres = (np.arange(200) + 0.5) * 0.05
-    x, y = np.meshgrid(centres, centres)
-    occupied = (x < 0.15) | (x > 9.85) | (y < 0.15) | (y > 9.85)
-    for x0, x1, y0, y1 in walls:
-        occupied |= (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-    return OccupancyMap(occupied, ~occupied, 0.05)
-
-
-def scan_at(grid: OccupancyMap, pose, people) -> Scan:
-    people = np.asarray(people, dtype=float).reshape(-1, 2)
-    ranges = cast_scan(grid, np.asarray(pose, dtype=float), ANGLES, people, 12.0)
-    return Scan(ranges, float(ANGLES[0]), float(ANGLES[1] - ANGLES[0]), 12.0)
-
-
 def tracker_at(grid: OccupancyMap, pose, **settings) -> PeopleTracker:
-    small = dict(num_particles=20, people_particles=50, max_people=6, seed=3)
-    tracker = PeopleTracker(TrackerSettings(**{**small, **settings}), grid)
-    tracker.reset(np.asarray(pose, dtype=float), np.diag([1e-6, 1e-6, 1e-8]))
-    return tracker
+    """``test_people_core``'s small tracker with 50 particles per person."""
+    return core_tracker_at(grid, pose, **{"people_particles": 50, **settings})
 
 
 def test_the_particles_velocities_follow_a_walking_person():
