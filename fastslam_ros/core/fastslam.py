@@ -241,7 +241,8 @@ class FastSLAM(NumpyReading, Relocalizing):
             moved[faulty] += turn_fault_shift(before, control, errors)
             moved[faulty, 2] = wrap_angle(moved[faulty, 2])
 
-    def _draw_turn_faults(self):
+    def _draw_turn_faults(self) -> tuple[np.ndarray, np.ndarray, OdometryControl,
+                                         np.ndarray] | None:
         """(particles, their poses before the motion, the motion, their rotation errors) of
         the particles that take this motion's turn as not executed as reported, each error
         N(0, rot^2) on rot1 and rot2; None when ``turn_fault_probability`` is 0."""
