@@ -36,3 +36,15 @@ def dataset_dir():
 def backend(request) -> str:
     """Each filter test runs on the numpy reference and on the compiled backend."""
     return request.param
+
+
+@pytest.fixture
+def context():
+    """A fresh rclpy ``Context`` per test (a file that needs another domain or scope defines
+    its own)."""
+    import rclpy  # noqa: PLC0415 (only the node tests need ROS)
+    from rclpy.context import Context  # noqa: PLC0415
+    ctx = Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.shutdown(context=ctx)

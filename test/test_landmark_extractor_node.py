@@ -12,12 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import rclpy
 import yaml
 from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticStatus
 from nav_msgs.msg import Odometry
-from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
@@ -37,14 +35,6 @@ from test_launch import launch_stand_ins  # noqa: F401 - a fixture
 REPO = Path(__file__).resolve().parents[1]
 START = 1_700_000_000.0
 POLES = [(4.0, 1.0, 0.12), (7.0, -2.0, 0.2)]
-
-
-@pytest.fixture
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.shutdown(context=ctx)
 
 
 def make_node(context, **params) -> LandmarkExtractorNode:

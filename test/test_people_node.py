@@ -32,14 +32,6 @@ POSE = np.array([2.0, 5.0, 0.0])
 PERSON = np.array([6.0, 5.5])
 
 
-@pytest.fixture
-def context():
-    ctx = Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.shutdown(context=ctx)
-
-
 def make_node(context, **params) -> PeopleTrackerNode:
     overrides = [Parameter(k, value=v) for k, v in {**BASE, **params}.items()]
     node = in_process(PeopleTrackerNode)(context=context, parameter_overrides=overrides,
