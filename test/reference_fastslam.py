@@ -77,7 +77,8 @@ class ReferenceFastSLAM:
         self.outliers = 0
         self.explained = 0
         p = config.map_min_existence
-        self.confirmed = (math.inf if p >= 1.0 or not config.persistent_landmarks
+        keep = config.persistent_landmarks or config.keep_confirmed_landmarks
+        self.confirmed = (math.inf if p >= 1.0 or not keep
                           else config.logodds_remove if p <= 0.0
                           else max(math.log(p / (1.0 - p)), config.logodds_remove))
         self.confirmed_missed = (config.logodds_missed * (LOGODDS_MAX - self.confirmed) / 20.0

@@ -52,7 +52,9 @@ def sorted_map(means, covs, logodds, labels):
                          [case + (None,) for case in CASES]
                          + [case + (ROBUST,) for case in ROBUST_CASES]
                          + [("fastslam2", "monte_carlo", 5.0, ROBUST),
-                            ("fastslam2", "ml", 0.3, {"persistent_landmarks": False})])
+                            ("fastslam2", "ml", 0.3, {"persistent_landmarks": False}),
+                            ("fastslam2", "ml", 0.3, {"persistent_landmarks": False,
+                                                      "keep_confirmed_landmarks": False})])
 def test_vectorized_filter_matches_reference(monkeypatch, algorithm, association, flush, extra,
                                              backend):
     world = make_world(seed=5, num_landmarks=7, extent=14.0, num_steps=40,

@@ -153,13 +153,16 @@ class FastSLAMConfig:
     logodds_missed: float = parameter(
         -0.5, "tau-: log-odds added when a landmark inside the perceptual range is not "
         "observed (see persistent_landmarks).", low=-100.0, high=0.0)
+    keep_confirmed_landmarks: bool = parameter(
+        True, "A confirmed landmark (map_min_existence) loses tau- (10 - l_c) / 20 per miss and "
+        "goes back to the saturation when observed, so only about 20 / |tau-| misses in a row "
+        "make it tentative again: a map seen constantly is not removed and founded again from "
+        "a drifted pose. false: every landmark loses tau- per miss.")
     persistent_landmarks: bool = parameter(
-        False, "A landmark in view is not missed when an observation the association rejected "
-        "lies within 10 sensor standard deviations of it, and a confirmed one "
-        "(map_min_existence) loses tau- (10 - l_c) / 20 per miss and goes back to the "
-        "saturation when observed, so only about 20 / |tau-| misses in a row make it tentative "
-        "again. Keeps the map of a few landmarks seen constantly (MRCLAM, a room); costs a "
-        "cluttered outdoor map (Victoria Park) its accuracy.")
+        False, "keep_confirmed_landmarks, and a landmark in view is not missed when an "
+        "observation the association rejected lies within 10 sensor standard deviations of it. "
+        "Keeps the map of a few landmarks seen constantly (MRCLAM, a room); costs a cluttered "
+        "outdoor map (Victoria Park) its accuracy.")
     detection_probability: float = parameter(
         0.0, "P_D: probability that the sensor detects a landmark inside the perceptual range "
         "in one reading (fastslam-calibrate measures it). > 0: the existence log-odds follow "
@@ -253,7 +256,7 @@ class FastSLAMConfig:
     def confirmation(self) -> tuple[float, float]:
         """(l_c, tau- of a confirmed landmark): the log-odds from which a landmark is confirmed
         (``map_min_existence``) and what a miss costs it (``existence.confirmed_evidence``)."""
-        if not self.persistent_landmarks:
+        if not (self.persistent_landmarks or self.keep_confirmed_landmarks):
             return math.inf, 0.0  # no landmark is treated as confirmed
         confirmed = confirmation_logodds(self.map_min_existence, self.logodds_remove)
         return confirmed, confirmed_evidence(self.existence_evidence()[1], confirmed,
