@@ -420,3 +420,16 @@ def test_faults_scenario_turns_and_slips_only_in_its_episodes():
         assert 0.01 * steps < share < 0.06 * steps
     clean = simulate(dataclasses.replace(config, scenario="room"))
     np.testing.assert_allclose(clean.odometry.poses, clean.ground_truth.poses, atol=1e-6)
+
+
+def test_a_faulty_vehicle_drives_the_same_route_twice_alike():
+    """One vehicle driven twice on the same draws: an episode under way at the end of the
+    first drive does not leak into the second."""
+    from fastslam_ros.tools.simulation.world import DifferentialDrive, OdometryFaults
+    vehicle = DifferentialDrive(1.0, 1.0, 0.2, 0.05, 0.1,
+                                faults=OdometryFaults(60.0, 60.0, 100.0))  # long episodes
+    route = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 5.0], [0.0, 5.0]])
+    first = vehicle.drive(route, 1, 40.0, np.random.default_rng(1), duration=20.0)
+    second = vehicle.drive(route, 1, 40.0, np.random.default_rng(1), duration=20.0)
+    np.testing.assert_array_equal(first[0], second[0])
+    np.testing.assert_array_equal(first[1], second[1])

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -253,6 +253,9 @@ class DifferentialDrive:
         true_pose = np.array([route[0][0], route[0][1], first_heading])
         odometry_pose = true_pose.copy()
         true_poses, odometry_poses = [true_pose], [odometry_pose]
+        # Every drive starts with no episode under way (the vehicle itself is immutable).
+        faults = None if self.faults is None else replace(self.faults, turn_left=0.0,
+                                                          slip_left=0.0)
         route_length = np.sum(np.linalg.norm(np.diff(route, axis=0, append=route[:1]), axis=1))
         max_steps = int(round(duration * control_rate)) if duration > 0 else int(
             10 * route_length * (laps + 1) / self.speed * control_rate)
@@ -266,8 +269,8 @@ class DifferentialDrive:
             turn_rate = float(np.clip(self.turn_gain * error, -self.max_turn_rate,
                                       self.max_turn_rate))
             speed = self.speed * max(math.cos(error), 0.0)
-            executed_speed, executed_turn = (speed, turn_rate) if self.faults is None else \
-                self.faults.executed(speed, turn_rate, dt, rng)
+            executed_speed, executed_turn = (speed, turn_rate) if faults is None else \
+                faults.executed(speed, turn_rate, dt, rng)
             true_pose = unicycle_step(true_pose, executed_speed, executed_turn, dt)
             odometry_pose = unicycle_step(odometry_pose,
                                           speed + rng.normal(0.0, self.sigma_speed),
