@@ -383,6 +383,9 @@ class FastSLAMNode(FilterNode):
     def _estimate(self) -> tuple[np.ndarray, np.ndarray]:
         """Pose per ``pose_estimate`` and the covariance of the particle spread."""
         mean, covariance = self.slam.mean_pose_and_covariance()
+        smoothed = self.slam.smoothed_pose()
+        if smoothed is not None:
+            return smoothed, covariance
         best = self.settings["pose_estimate"] == "best"
         return (self.slam.best_pose() if best else mean), covariance
 

@@ -227,11 +227,10 @@ def test_observe_and_the_residuals_agree():
     np.testing.assert_allclose(observed, 0.0, atol=1e-12)
 
 
-def test_a_long_log_is_solved_on_keyframes(monkeypatch):
-    """Beyond ``MAX_SOLVE_POSES`` readings every k-th pose is solved for and the others follow
+def test_a_long_log_is_solved_on_keyframes():
+    """Beyond ``max_solve_poses`` readings every k-th pose is solved for and the others follow
     it by odometry: with exact odometry the bent map is straightened as well (with a lever
     arm, which the keyframes' per-observation sensor poses carry)."""
-    monkeypatch.setattr(mr, "MAX_SOLVE_POSES", 20)
     truth, landmarks, readings = corridor()
     offset = SensorOffset(0.5, -0.3, 0.2)
     shifted = []
@@ -247,7 +246,7 @@ def test_a_long_log_is_solved_on_keyframes(monkeypatch):
     bent = LandmarkMap(landmarks + np.array([0.0, 1.0]),
                        np.tile(np.eye(2) * 0.01, (len(ids), 1, 1)), np.ones(len(ids)), ids, ids)
     refined, report = mr.refine(logged(truth, shifted), np.arange(len(truth), dtype=float), path,
-                                bent, config, known_ids=True)
+                                bent, config, known_ids=True, max_solve_poses=20)
     assert len(report.poses) == 20
     np.testing.assert_allclose(report.poses[:, :2], truth[::4, :2], atol=0.01)
     assert map_error(refined, landmarks) < 0.01

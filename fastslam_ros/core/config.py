@@ -191,6 +191,12 @@ class FastSLAMConfig:
         "robot mapped since the old ones were last seen move by it, the duplicates are removed "
         "and the rest of the map keeps its place: a drifted loop closes instead of mapping its "
         "start twice (0: off; mapping with unknown association only).", low=0, high=10)
+    smoothing_period: float = parameter(
+        0.0, "Seconds of data between solves of the least squares over the reported "
+        "particle's path and map (the map refinement, core/smoother.py); the estimate (~/pose, "
+        "map -> odom) is then the latest solved pose moved by the odometry since, in the frame "
+        "the filter started in (0: the filter's own pose; SLAM mode only).", low=0.0,
+        high=1e6)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",

@@ -35,6 +35,7 @@ from .landmark_ekf import pack, unpack
 from .landmark_store import LandmarkStore
 from .loop_closure import LoopClosure
 from .map_refinement import ReadingLog
+from .smoother import OnlineSmoother
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, turn_fault_shift
 from .observation import SensorOffset
@@ -125,8 +126,12 @@ class FastSLAM(NumpyReading, Relocalizing):
         self.log_weights = np.full(count, self._log_uniform)
         self._seed_landmarks()
         self.history = PathHistory(count, prune=self._backend.prune)
-        self.readings = ReadingLog()
+        self.readings = ReadingLog(origin=initial_pose)
         """The readings processed since the start, for ``map_refinement.refine``."""
+        self.smoother = (OnlineSmoother(self.config.smoothing_period)
+                         if self.config.smoothing_period > 0.0 and not self._localization
+                         else None)
+        """The estimate re-solved over the reported particle's path (``smoothing_period``)."""
         self._pending = NO_MOTION
         self._has_pending = False
         self._set_prior(None)
@@ -163,7 +168,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         packed = pack(np.asarray(covariances, dtype=float).reshape(count, 2, 2))
         self._seed = (means, packed, labels, logodds)
         self._seed_landmarks()
-        self.readings.clear()
+        self._forget_readings(self.mean_pose_and_covariance()[0])
 
     def _seed_landmarks(self) -> None:
         """A fresh landmark store (and its working-set cache) holding the seeded map (if any)
@@ -206,7 +211,13 @@ class FastSLAM(NumpyReading, Relocalizing):
         self._has_pending = False
         self._lost_since = None
         self._placed = True
-        self.readings.clear()
+        self._forget_readings(np.asarray(mean[0]))
+
+    def _forget_readings(self, origin: np.ndarray) -> None:
+        """Restart the reading log (and the smoother's solution) with the robot at ``origin``."""
+        self.readings.clear(origin)
+        if self.smoother is not None:
+            self.smoother.clear()
 
     # ------------------------------------------------------------------ motion
     def predict(self, odom_from, odom_to) -> None:
@@ -340,6 +351,8 @@ class FastSLAM(NumpyReading, Relocalizing):
             self.check_state()
         if self._localization and self.config.relocalization_fraction > 0.0:
             self._relocalize(ranges, bearings, stamp)
+        if self.smoother is not None and self.smoother.due(stamp):
+            self.smoother.solve(self, stamp)
         return outcome.report
 
     def _noise(self, ranges):
@@ -465,6 +478,12 @@ class FastSLAM(NumpyReading, Relocalizing):
     def best_pose(self) -> np.ndarray:
         """(3,) pose of the best particle, pending odometry applied."""
         return self.particle_poses()[self._best]
+
+    def smoothed_pose(self) -> np.ndarray | None:
+        """(3,) the smoother's pose now (``smoothing_period``), None when off or unsolved."""
+        if self.smoother is None:
+            return None
+        return self.smoother.pose(self.readings.odometry_pose)
 
     def weights(self) -> np.ndarray:
         return np.exp(self.log_weights)

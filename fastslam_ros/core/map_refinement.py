@@ -95,14 +95,16 @@ class ReadingLog:
     is reached, the older half of the readings is thinned to every other one."""
 
     def __init__(self, max_readings: int = MAX_READINGS,
-                 max_observations: int = MAX_OBSERVATIONS) -> None:
+                 max_observations: int = MAX_OBSERVATIONS, origin=(0.0, 0.0, 0.0)) -> None:
         self.max_readings = max(int(max_readings), 4)
         self.max_observations = max(int(max_observations), 4)
-        self.clear()
+        self.clear(origin)
 
-    def clear(self) -> None:
+    def clear(self, origin=(0.0, 0.0, 0.0)) -> None:
         """Forget every reading (a reset, an initial pose or a new map): the odometry chain
-        restarts."""
+        restarts at ``origin``, the robot's pose (map frame) at that moment."""
+        self.origin = np.array(origin, dtype=float).reshape(3)
+        """Pose (map frame) where the odometry chain starts: the refinement's gauge."""
         self._odometry_pose = (0.0, 0.0, 0.0)
         self._count = 0
         self._observation_count = 0
@@ -121,6 +123,11 @@ class ReadingLog:
     def move(self, step) -> None:
         """Odometry increment (dx, dy, dtheta) in the robot frame since the last call."""
         self._odometry_pose = compose_floats(self._odometry_pose, step)
+
+    @property
+    def odometry_pose(self) -> np.ndarray:
+        """(3,) the odometry chain's pose now (every increment given to ``move``)."""
+        return np.array(self._odometry_pose)
 
     def record(self, stamp: float, ranges: np.ndarray, bearings: np.ndarray,
                labels: np.ndarray) -> None:
@@ -213,6 +220,21 @@ class RefinementReport:
     stamps: np.ndarray
     poses: np.ndarray
     """Stamps and refined poses (3) of the solved readings (all, or the keyframes)."""
+    solution: "Solution"
+    """Every logged reading's refined pose and the refined landmarks, to start the next
+    solve from."""
+
+
+@dataclass
+class Solution:
+    """A solve's estimate, in the log origin's frame: a later solve starts from it."""
+
+    stamps: np.ndarray
+    poses: np.ndarray
+    """(T,) stamps and (T, 3) poses of every logged reading."""
+    keys: np.ndarray
+    means: np.ndarray
+    """(N,) landmark keys and (N, 2) their means."""
 
 
 @dataclass
@@ -454,12 +476,19 @@ def initial_poses(log_stamps: np.ndarray, odometry: np.ndarray, path_stamps: np.
 
 
 def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_map, config,
-           known_ids: bool = False):
+           known_ids: bool = False, start: Solution | None = None,
+           max_solve_poses: int = MAX_SOLVE_POSES, max_rounds: int = ASSOCIATION_ROUNDS):
     """(refined map, ``RefinementReport``): ``landmark_map`` (a ``fastslam.LandmarkMap``, the
     best particle's confirmed landmarks) refined by the least squares over the log and the
     particle's path (``FastSLAM.best_path()``). ``config``: the filter's ``FastSLAMConfig``
     (noise models, sensor offset). ``known_ids``: the observations' ids name their landmarks
-    (``association: known``). Raises ``ValueError`` when there is nothing to refine."""
+    (``association: known``). The first logged pose is pinned where the log's odometry puts
+    it from ``log.origin`` (path and map first moved rigidly there): the frame is the one the
+    filter started in, whichever particle is refined. ``start``: an earlier solve's
+    ``Solution`` to start from where it has the reading or the landmark (the readings after
+    it follow the particle's path from its last one). ``max_solve_poses``: keyframes beyond it;
+    ``max_rounds``: solves with the associations redone in between. Raises ``ValueError``
+    when there is nothing to refine."""
     began = time.perf_counter()
     stamps, odometry, reading, ranges, bearings, labels = log.readings()
     count, size = len(stamps), len(landmark_map)
@@ -469,6 +498,11 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
                           np.asarray(path, float))
     if poses is None:
         raise ValueError("the path holds none of the logged readings")
+    first = compose(log.origin[None], odometry[:1])[0]
+    poses, landmark_map = moved_rigidly(poses, landmark_map,
+                                        compose(first[None], relative_pose(poses[:1],
+                                                                           np.zeros((1, 3))))[0])
+    warm = None if start is None else warm_started(stamps, poses, landmark_map, start)
     offset = SensorOffset(config.sensor_x, config.sensor_y, config.sensor_yaw)
     var_r = config.sigma_range ** 2 + (config.sigma_range_per_meter * ranges) ** 2
     noise = (var_r, config.sigma_bearing ** 2)
@@ -476,7 +510,7 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     covariances = np.asarray(landmark_map.covariances, float)
     # Keyframes: beyond MAX_SOLVE_POSES readings, every ``every``-th reading's pose is solved for
     # and the readings between are tied to it by their odometry.
-    every = -(-count // MAX_SOLVE_POSES)
+    every = -(-count // max_solve_poses)
     key = np.arange(0, count, every)
     owner = np.arange(count) // every
     local = relative_pose(odometry[key[owner]], odometry)
@@ -488,14 +522,14 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
         at = np.minimum(np.searchsorted(ids[order], labels), size - 1)
         fixed = np.where((ids[order][at] == labels) & (labels >= 0), order[at], -1)
     refined_means, refined_cov = means.copy(), covariances.copy()
-    anchor = poses[0].copy()
+    anchor = first
     key_poses = poses[key]
     iterations = rounds = 0
     initial_cost = final_cost = 0.0
     previous = None
     used = np.zeros(size, bool)
     chosen = np.full(len(ranges), -1, np.int64)
-    for rounds in range(1, ASSOCIATION_ROUNDS + 1):
+    for rounds in range(1, max_rounds + 1):
         chosen = fixed if known_ids else associate(poses, reading, ranges, bearings,
                                                    refined_means, refined_cov, noise, offset)
         if previous is not None and np.array_equal(chosen, previous):
@@ -513,8 +547,14 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
                           np.sqrt(var_r[keep]), config.sigma_bearing,
                           offset if every == 1 else sensor_in_keyframe(local[reading[keep]],
                                                                        offset))
-        key_poses, marks, weights, steps, before, after = solve(problem, key_poses,
-                                                                refined_means[used])
+        marks = refined_means[used]
+        if warm is not None and rounds == 1:
+            # The earlier solve's estimate, unless the particle's own is the better start (it
+            # holds a loop closure the earlier solve had not seen).
+            warm_poses, warm_means = warm[0][key], warm[1][used]
+            if cost(problem, warm_poses, warm_means) < cost(problem, key_poses, marks):
+                key_poses, marks = warm_poses, warm_means
+        key_poses, marks, weights, steps, before, after = solve(problem, key_poses, marks)
         poses = key_poses if every == 1 else compose(key_poses[owner], local)
         iterations += steps
         initial_cost = before if rounds == 1 else initial_cost
@@ -531,9 +571,43 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     report = RefinementReport(count, size, int(used.sum()), len(ranges), int((chosen >= 0).sum()),
                               rounds, iterations, initial_cost, final_cost,
                               time.perf_counter() - began, float(shift.mean()), stamps[key],
-                              key_poses)
+                              key_poses, Solution(stamps, poses, np.asarray(landmark_map.keys),
+                                                  refined_means))
     refined = dataclasses.replace(landmark_map, means=refined_means, covariances=refined_cov)
     return refined, report
+
+
+def warm_started(stamps: np.ndarray, poses: np.ndarray, landmark_map, start: Solution):
+    """(poses (T, 3), landmark means (N, 2)): ``start``'s estimate where it has the reading or
+    the landmark key, the readings after its last one following the path's motion from there,
+    the rest as given."""
+    at = np.minimum(np.searchsorted(start.stamps, stamps), len(start.stamps) - 1)
+    known = start.stamps[at] == stamps
+    if not known.any():
+        return poses, np.asarray(landmark_map.means, float)
+    last = int(np.flatnonzero(known)[-1])
+    warm = poses.copy()
+    warm[known] = start.poses[at[known]]
+    warm[last + 1:] = compose(np.broadcast_to(warm[last], (len(poses) - last - 1, 3)),
+                              relative_pose(poses[last][None], poses[last + 1:]))
+    order = np.argsort(start.keys, kind="stable")
+    keys = np.asarray(landmark_map.keys)
+    found = np.minimum(np.searchsorted(start.keys[order], keys), max(len(order) - 1, 0))
+    same = (start.keys[order][found] == keys) if len(order) else np.zeros(len(keys), bool)
+    means = np.array(landmark_map.means, float)
+    means[same] = start.means[order][found[same]]
+    return warm, means
+
+
+def moved_rigidly(poses: np.ndarray, landmark_map, transform: np.ndarray):
+    """(poses, landmark map) moved by the rigid ``transform`` (x, y, theta) of the plane."""
+    c, s = np.cos(transform[2]), np.sin(transform[2])
+    rotation = np.array([[c, -s], [s, c]])
+    covariances = rotation @ np.asarray(landmark_map.covariances, float) @ rotation.T
+    moved = dataclasses.replace(
+        landmark_map, means=np.asarray(landmark_map.means, float) @ rotation.T + transform[:2],
+        covariances=covariances)
+    return compose(np.broadcast_to(transform, poses.shape), poses), moved
 
 
 def sensor_in_keyframe(local: np.ndarray, offset: SensorOffset) -> SensorOffset:

@@ -1,0 +1,84 @@
+# SPDX-License-Identifier: Apache-2.0
+# Copyright 2026 fastslam_ros maintainers
+"""The estimate at the time from a least squares over the reported particle's path and map.
+
+A particle's pose fits its own map, and its map was built from poses that had drifted: nothing
+moves a landmark once the robot has left it, so the reported pose carries the map's errors and
+jumps when the reported particle changes. Every ``smoothing_period`` seconds of data
+``OnlineSmoother`` solves the map refinement's least squares (``map_refinement.refine``: the
+logged odometry and observations, the reported particle's associations) and keeps the solved
+pose of the latest reading; between solves it follows the odometry from there. The solve's
+frame is the one the filter started in (the log's origin), so solves agree with each other
+whichever particle is reported. The filter itself is unchanged: the particles, their maps and
+``~/landmarks`` are the filter's.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .geometry import compose, relative_pose
+from .map_refinement import Solution, refine
+
+SOLVE_POSES = 1024
+"""Poses a solve solves for at most (keyframes beyond; ``map_refinement.MAX_SOLVE_POSES``):
+the solves repeat all run long, and the readings between keyframes follow their odometry."""
+
+
+class OnlineSmoother:
+    """The latest solved pose and the odometry it was solved at."""
+
+    def __init__(self, period: float) -> None:
+        self.period = float(period)
+        """Seconds of data between solves."""
+        self.solves = 0
+        """Solves that gave a pose."""
+        self.failures = 0
+        """Solves that gave none (nothing to refine yet, or a degenerate solution)."""
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget the solution (the filter was reset or given a pose)."""
+        self._solved: np.ndarray | None = None
+        self._solution: Solution | None = None
+        self._solved_odometry = np.zeros(3)
+        self._last = -math.inf
+
+    def due(self, stamp: float) -> bool:
+        return stamp - self._last >= self.period
+
+    def solve(self, slam, stamp: float) -> None:
+        """Refine the reported particle's path and confirmed map over ``slam.readings`` and keep
+        the latest reading's solved pose; a failed solve keeps the previous one."""
+        self._last = stamp
+        config = slam.config
+        log = slam.readings
+        landmark_map = slam.best_map(config.map_min_existence)
+        if len(landmark_map) == 0 or len(log) < 2:
+            self.failures += 1
+            return
+        path_stamps, path = slam.best_path()
+        try:
+            _, report = refine(log, path_stamps, path, landmark_map, config,
+                               known_ids=config.association == "known", start=self._solution,
+                               max_solve_poses=SOLVE_POSES, max_rounds=1)
+        except ValueError:
+            self.failures += 1
+            return
+        _, odometry, *_ = log.readings()
+        latest = report.solution.poses[-1]
+        if not np.isfinite(latest).all():
+            self.failures += 1
+            return
+        self._solution = report.solution
+        self._solved, self._solved_odometry = latest, odometry[-1]
+        self.solves += 1
+
+    def pose(self, odometry_now: np.ndarray) -> np.ndarray | None:
+        """(3,) the pose now: the latest solved pose moved by the odometry since (None before
+        the first solve)."""
+        if self._solved is None:
+            return None
+        return compose(self._solved[None], relative_pose(self._solved_odometry[None],
+                                                         np.asarray(odometry_now)[None]))[0]
