@@ -426,8 +426,9 @@ class FastSLAMNode(FilterNode):
 
     def _publish_map(self) -> None:
         """~/landmarks markers (DELETE for landmarks gone or unconfirmed since the last time) and
-        ~/map_cloud: the confirmed landmarks only (existence >= map_min_existence)."""
-        landmark_map = self.slam.best_map(self.config.map_min_existence)
+        ~/map_cloud: the confirmed landmarks only (existence >= map_min_existence), of the
+        smoother's latest solve when ``smoothing_period`` is on (the frame of ~/pose)."""
+        landmark_map = self.slam.reported_map()
         keys = set(landmark_map.keys.tolist())
         header = self._header()
         removed = sorted(self._published_keys - keys)

@@ -78,6 +78,8 @@ def test_between_solves_the_estimate_follows_the_odometry():
     solved = slam.smoothed_pose()
     assert slam.smoother.solves + slam.smoother.failures == 19  # one a reading: period 1 s
     assert np.linalg.norm(solved[:2] - truth[19, :2]) < 0.1
+    reported = slam.reported_map()  # the solve's map, in the frame of the solved pose
+    assert reported is slam.smoother.landmark_map and map_error(reported, landmarks) < 0.1
     step = np.array([0.7, 0.1, 0.2])
     slam.predict(np.zeros(3), step)
     np.testing.assert_allclose(slam.smoothed_pose(), compose(solved[None], step[None])[0],

@@ -485,6 +485,13 @@ class FastSLAM(NumpyReading, Relocalizing):
             return None
         return self.smoother.pose(self.readings.odometry_pose)
 
+    def reported_map(self) -> LandmarkMap:
+        """The confirmed map (``map_min_existence``) that goes with the reported pose: the
+        smoother's latest solve when it has one, else the best particle's."""
+        if self.smoother is not None and self.smoother.landmark_map is not None:
+            return self.smoother.landmark_map
+        return self.best_map(self.config.map_min_existence)
+
     def weights(self) -> np.ndarray:
         return np.exp(self.log_weights)
 

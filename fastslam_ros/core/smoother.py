@@ -9,8 +9,8 @@ jumps when the reported particle changes. Every ``smoothing_period`` seconds of 
 logged odometry and observations, the reported particle's associations) and keeps the solved
 pose of the latest reading; between solves it follows the odometry from there. The solve's
 frame is the one the filter started in (the log's origin), so solves agree with each other
-whichever particle is reported. The filter itself is unchanged: the particles, their maps and
-``~/landmarks`` are the filter's.
+whichever particle is reported, and the solve's map is the one reported with that pose. The
+filter itself is unchanged: the particles and their maps are the filter's.
 """
 from __future__ import annotations
 
@@ -42,6 +42,8 @@ class OnlineSmoother:
         """Forget the solution (the filter was reset or given a pose)."""
         self._solved: np.ndarray | None = None
         self._solution: Solution | None = None
+        self.landmark_map = None
+        """The latest solve's confirmed map (a ``LandmarkMap``, the frame of ``pose``)."""
         self._solved_odometry = np.zeros(3)
         self._last = -math.inf
 
@@ -60,7 +62,7 @@ class OnlineSmoother:
             return
         path_stamps, path = slam.best_path()
         try:
-            _, report = refine(log, path_stamps, path, landmark_map, config,
+            refined, report = refine(log, path_stamps, path, landmark_map, config,
                                known_ids=config.association == "known", start=self._solution,
                                max_solve_poses=SOLVE_POSES, max_rounds=1)
         except ValueError:
@@ -71,7 +73,7 @@ class OnlineSmoother:
         if not np.isfinite(latest).all():
             self.failures += 1
             return
-        self._solution = report.solution
+        self._solution, self.landmark_map = report.solution, refined
         self._solved, self._solved_odometry = latest, odometry[-1]
         self.solves += 1
 
