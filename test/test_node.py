@@ -330,6 +330,23 @@ def test_pose_estimate_mean_is_published_when_selected(context):
     assert (pose.position.x, pose.position.y) == pytest.approx((mean[0], mean[1]))
 
 
+def test_with_smoothing_the_pose_and_map_are_the_smoothers(context):
+    """``smoothing_period``: ~/pose is the smoother's pose (the truth within 0.1 m on the
+    scripted run) and ~/map_cloud its solve's landmarks."""
+    node = make_node(context, smoothing_period=1.0)
+    outputs = Recorder(node)
+    replay(node, scripted_run(6.0))
+    assert node.slam.smoother.solves > 0
+    message = outputs.last("/fastslam/pose")
+    pose = message.pose.pose
+    smoothed = node.slam.smoothed_pose()
+    assert (pose.position.x, pose.position.y) == pytest.approx((smoothed[0], smoothed[1]))
+    stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+    assert pose_error(pose, stamp)[0] < 0.1
+    node._publish_map()
+    assert outputs.last("/fastslam/map_cloud").width == len(node.slam.smoother.landmark_map)
+
+
 def test_cloud_is_predicted_to_odometry_interpolated_at_its_stamp(context):
     node = make_node(context)
     calls = []  # ("predict", odometry pose predicted to) and ("update", None), in call order
