@@ -7,6 +7,7 @@ same metadata (``fastslam_ros.core.params.specs``), and ``validate()`` fails nam
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter
@@ -64,6 +65,22 @@ class ExtractorSettings:
     reflector_radius: float = parameter(
         0.05, "Reflectors: radius (m) of the posts; the centre is this far behind the "
               "cluster's mean return along the beam.", low=0.0, high=100.0)
+    static_window: float = parameter(
+        0.0, "Moving objects: a landmark is published only when the scans about this long (s) "
+             "and half as long before saw one within static_tolerance of it in the odometry "
+             "frame (a walker moves, a pole does not); needs odometry on odom. 0: off, no "
+             "odometry needed.", low=0.0, high=10.0)
+    static_tolerance: float = parameter(
+        0.3, "Moving objects: how far (m) a landmark may lie from its earlier sighting and "
+             "still count as static (odometry drift and extraction error over static_window).",
+        low=0.0, low_exclusive=True, high=10.0)
+    sensor_x: float = parameter(0.0, "Sensor position on the robot, forward (m) (static_window "
+                                     "puts landmarks in the odometry frame).",
+                                low=-100.0, high=100.0)
+    sensor_y: float = parameter(0.0, "Sensor position on the robot, left (m).",
+                                low=-100.0, high=100.0)
+    sensor_yaw: float = parameter(0.0, "Sensor heading relative to the robot (rad).",
+                                  low=-math.pi, high=math.pi)
 
     def validate(self) -> "ExtractorSettings":
         """Self when every field is in range (``ParameterValueError`` naming the field)."""
