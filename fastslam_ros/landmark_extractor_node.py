@@ -12,7 +12,8 @@ frame and marker rate), the stamp and frame gates, the counters and ``/diagnosti
 other nodes' (``node_base.FilterNode``). With ``static_window`` > 0 the node also reads
 ``nav_msgs/Odometry`` on ``odom``: a scan waits, like the SLAM node's clouds, for odometry
 covering its stamp, and only the landmarks that ``extractor.static_filter`` finds in place
-over the window are published (moving people are not); a scan with no odometry pose at its
+over the window are published (not those where earlier scans saw free space: moving
+people); a scan with no odometry pose at its
 stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
 """
 from __future__ import annotations
@@ -31,7 +32,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-from fastslam_ros.extractor import Extraction, ExtractorSettings, extract_landmarks
+from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
 from fastslam_ros.extractor.static_filter import StaticFilter
 from fastslam_ros.node_base import INPUT_QOS, STREAM_QOS, FilterNode
@@ -94,6 +95,7 @@ class PendingScan:
     arrival: float
     header: Header
     extraction: Extraction
+    scan: RawScan
 
 
 class LandmarkExtractorNode(FilterNode):
@@ -111,7 +113,8 @@ class LandmarkExtractorNode(FilterNode):
         self.static_filter: StaticFilter | None = None
         """The moving-object filter (static_window > 0), which needs odometry."""
         if s.static_window > 0.0:
-            self.static_filter = StaticFilter(s.static_window, s.static_tolerance)
+            self.static_filter = StaticFilter(s.static_window, s.static_tolerance,
+                                              s.static_heading_tolerance)
             self._sensor = np.array([s.sensor_x, s.sensor_y, s.sensor_yaw])
             self._start_odometry(map_to_odom=False)
             self.create_subscription(Odometry, "odom", self.on_odometry, INPUT_QOS)
@@ -149,7 +152,7 @@ class LandmarkExtractorNode(FilterNode):
             self.stats[f"rejected_{reason}"] += count
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
         if self.static_filter is not None:  # waits for the odometry at its stamp
-            return self._queue(PendingScan(stamp, now, header, extraction), now)
+            return self._queue(PendingScan(stamp, now, header, extraction, scan), now)
         self._last_reading_stamp = stamp
         self._publish_landmarks(stamp, header, extraction)
         self._publish_throttled(now)
@@ -178,7 +181,7 @@ class LandmarkExtractorNode(FilterNode):
         landmarks = pending.extraction.landmarks
         keep = self.static_filter.update(pending.stamp,
                                          compose(self._odometry.anchor_pose, self._sensor),
-                                         landmarks.x, landmarks.y)
+                                         landmarks.x, landmarks.y, pending.scan)
         self.stats["rejected_moving"] += int(np.count_nonzero(~keep))
         self._publish_landmarks(pending.stamp, pending.header,
                                 dataclasses.replace(pending.extraction,

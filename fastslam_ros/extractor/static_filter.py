@@ -1,15 +1,17 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""Static landmarks over time: a detection passes only when earlier scans saw it in place.
+"""Moving objects over time: a detection where an earlier scan saw free space is no landmark.
 
 In one scan a walking person's body looks like a trunk. Over half a second a walker moves
 0.6 m (1.2 m/s) while a pole stays put, and odometry drifts little. ``StaticFilter`` keeps the
-detections of the last scans, each put in the odometry frame with its scan's odometry pose; a
-detection of the current scan passes when, in each reference scan, a detection lies within
-``tolerance`` of it in the odometry frame. The reference scans are the newest scans at least
-``window`` and ``window / 2`` s older than the current one: the second look stops a person who
-turns round at the end of a walk (back where it was ``window`` s ago for a moment) from
-passing. Until a scan ``window`` s older exists (after a start or a reset) nothing passes.
+last scans, each with its sensor's odometry pose. A detection of the current scan is put in the
+odometry frame and then in the frame of each reference scan (the newest scans at least
+``window`` and ``window / 2`` s older): when every beam of a reference scan that crosses the
+disc of radius ``tolerance`` (+ ``heading_tolerance`` per metre of range) around it went
+beyond the disc, that scan saw the place empty, and the detection is something that moved in.
+A detection is dropped on that evidence only: a pole that a scan missed, that was hidden or
+out of view keeps being reported, and so does everything before a window's worth of scans
+exists (no evidence yet).
 """
 from __future__ import annotations
 
@@ -17,9 +19,10 @@ from collections import deque
 
 import numpy as np
 
+from fastslam_ros.extractor.scan import RawScan
+
 REFERENCE_LAGS = (1.0, 0.5)
-"""Reference scans, in shares of ``window`` before the current scan; a detection must be seen
-in place in each."""
+"""Reference scans, in shares of ``window`` before the current scan."""
 MAX_SCANS = 4000
 """Scans held at most (a bound on memory whatever the scan rate)."""
 
@@ -30,62 +33,97 @@ def to_frame(pose: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.column_stack((pose[0] + c * x - s * y, pose[1] + s * x + c * y))
 
 
-class StaticFilter:
-    """Which detections of a scan stayed put over ``window`` s (odometry frame, m, s)."""
+def from_frame(pose: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) (N,) of points (N, 2) in the frame of ``pose``; the inverse of ``to_frame``."""
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    dx, dy = points[:, 0] - pose[0], points[:, 1] - pose[1]
+    return c * dx + s * dy, -s * dx + c * dy
 
-    def __init__(self, window: float, tolerance: float) -> None:
+
+def free_reach(scan: RawScan) -> np.ndarray:
+    """(B,) how far (m) each beam saw free space: its return, +inf for no return (REP 117:
+    +inf, at or beyond the maximum), -inf when blocked (NaN, -inf, below the minimum)."""
+    ranges = np.asarray(scan.ranges, float)
+    with np.errstate(invalid="ignore"):
+        reach = np.where(ranges >= scan.range_min, ranges, -np.inf)  # NaN -> -inf
+        return np.where(reach >= scan.range_max, np.inf, reach)
+
+
+class _Reference:
+    """One held scan: its stamp, sensor pose and free reach per beam."""
+
+    def __init__(self, stamp: float, pose: np.ndarray, scan: RawScan) -> None:
+        self.stamp, self.pose = stamp, pose
+        self.reach = free_reach(scan)
+        self.angle_min, self.increment = float(scan.angle_min), float(scan.angle_increment)
+
+    def seen_empty(self, points: np.ndarray, radius: np.ndarray) -> np.ndarray:
+        """(N,) whether every beam crossing the disc of ``radius`` (N,) around each point
+        (odometry frame) went beyond it; False when part of the disc was out of view."""
+        x, y = from_frame(self.pose, points)
+        distance = np.hypot(x, y)
+        outside = distance > radius
+        half = np.arcsin(np.clip(radius / np.maximum(distance, 1e-9), 0.0, 1.0))
+        first = (np.arctan2(y, x) - half - self.angle_min) / self.increment
+        last = (np.arctan2(y, x) + half - self.angle_min) / self.increment
+        low = np.ceil(np.minimum(first, last)).astype(int)
+        high = np.floor(np.maximum(first, last)).astype(int)
+        inside = outside & (low >= 0) & (high < len(self.reach)) & (high >= low)
+        if not inside.any():
+            return inside
+        width = int((high - low)[inside].max()) + 1
+        beams = low[:, None] + np.arange(width)[None, :]
+        in_disc = beams <= high[:, None]
+        beams = np.clip(beams, 0, len(self.reach) - 1)
+        beyond = (self.reach[beams] > (distance + radius)[:, None]) | ~in_disc
+        return inside & beyond.all(axis=1)
+
+
+class StaticFilter:
+    """Which detections of a scan are not where earlier scans saw free space (m, s, rad)."""
+
+    def __init__(self, window: float, tolerance: float, heading_tolerance: float = 0.0) -> None:
         self.window, self.tolerance = float(window), float(tolerance)
-        self._stamps: deque[float] = deque(maxlen=MAX_SCANS)
-        self._points: deque[np.ndarray] = deque(maxlen=MAX_SCANS)
+        self.heading_tolerance = float(heading_tolerance)
+        self._scans: deque[_Reference] = deque(maxlen=MAX_SCANS)
 
     def __len__(self) -> int:
         """Scans held."""
-        return len(self._stamps)
+        return len(self._scans)
 
     def clear(self) -> None:
         """Forget every scan (a reset, a time jump)."""
-        self._stamps.clear()
-        self._points.clear()
+        self._scans.clear()
 
-    def update(self, stamp: float, pose: np.ndarray, x: np.ndarray, y: np.ndarray
-               ) -> np.ndarray:
-        """Add a scan's detections (sensor frame, ``pose`` the sensor's odometry pose at
-        ``stamp``); return the (N,) mask of those that were in place in every reference scan.
+    def update(self, stamp: float, pose: np.ndarray, x: np.ndarray, y: np.ndarray,
+               scan: RawScan) -> np.ndarray:
+        """Add a scan (``pose`` its sensor's odometry pose at ``stamp``) and its detections
+        (sensor frame); return the (N,) mask of those that no reference scan saw as empty.
 
         Scans must come in stamp order; an older stamp than the newest held clears the history
         first (time went back)."""
-        if self._stamps and stamp < self._stamps[-1]:
+        if self._scans and stamp < self._scans[-1].stamp:
             self.clear()
-        points = to_frame(np.asarray(pose, float), np.asarray(x, float), np.asarray(y, float))
+        pose, x, y = np.asarray(pose, float), np.asarray(x, float), np.asarray(y, float)
+        points = to_frame(pose, x, y)
+        radius = self.tolerance + self.heading_tolerance * np.hypot(x, y)
         keep = np.ones(len(points), dtype=bool)
         for lag in REFERENCE_LAGS:
             reference = self._reference(stamp - lag * self.window)
-            if reference is None:
-                keep[:] = False
-                break
-            if len(points) and keep.any():
-                keep &= self._near(points, reference)
+            if reference is not None and len(points):
+                keep &= ~reference.seen_empty(points, radius)
         self._forget(stamp - self.window)
-        self._stamps.append(stamp)
-        self._points.append(points)
+        self._scans.append(_Reference(stamp, pose, scan))
         return keep
 
-    def _reference(self, before: float) -> np.ndarray | None:
-        """Points of the newest scan stamped at or before ``before``; None if there is none."""
-        index = int(np.searchsorted(np.fromiter(self._stamps, float, len(self._stamps)),
-                                    before, side="right")) - 1
-        return None if index < 0 else self._points[index]
-
-    def _near(self, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """(N,) whether each point has a reference point within the tolerance."""
-        if not len(reference):
-            return np.zeros(len(points), dtype=bool)
-        gaps = points[:, None, :] - reference[None, :, :]
-        return (np.einsum("nmk,nmk->nm", gaps, gaps) <= self.tolerance ** 2).any(axis=1)
+    def _reference(self, before: float) -> _Reference | None:
+        """The newest scan stamped at or before ``before``; None if there is none."""
+        stamps = np.fromiter((s.stamp for s in self._scans), float, len(self._scans))
+        index = int(np.searchsorted(stamps, before, side="right")) - 1
+        return None if index < 0 else self._scans[index]
 
     def _forget(self, oldest_needed: float) -> None:
         """Drop the scans before the newest one at or before ``oldest_needed`` (no later scan
         can need them)."""
-        while len(self._stamps) > 1 and self._stamps[1] <= oldest_needed:
-            self._stamps.popleft()
-            self._points.popleft()
+        while len(self._scans) > 1 and self._scans[1].stamp <= oldest_needed:
+            self._scans.popleft()
