@@ -71,7 +71,7 @@ def test_frames_and_free_reach():
     points = np.array([[3.0, 4.0], [-1.0, 0.5]])
     assert to_frame(pose, *in_sensor_frame(pose, points)) == pytest.approx(points)
     scan = RawScan(np.array([1.0, np.inf, np.nan, 0.01, 30.0, -np.inf]), 0.0, 0.1, 0.05, 30.0)
-    assert free_reach(scan).tolist() == [1.0, np.inf, -np.inf, -np.inf, np.inf, -np.inf]
+    assert free_reach(scan).tolist() == [1.0, 30.0, -np.inf, -np.inf, 30.0, -np.inf]
 
 
 def test_a_pole_always_passes_a_walker_after_one_window():
@@ -97,6 +97,21 @@ def test_a_pole_missed_or_hidden_in_the_reference_scans_still_passes():
     _, masks = run(crossing, [POLE_RADIUS, WALKER_RADIUS],
                    detect=lambda step: np.array([True, False]))
     assert masks[:, 0].all()
+
+
+@pytest.mark.parametrize("speed", [1.2, -1.2])
+def test_a_walker_going_straight_away_or_towards_the_sensor_is_dropped(speed):
+    """Walking along the line of sight, the person hides (or nearly fills) its own earlier
+    place: no scan sees it empty, but the earlier detection 0.6 m away, beyond the tolerance
+    and within it plus 2 m/s x 0.5 s, is the same person moved."""
+    static = StaticFilter(WINDOW, TOLERANCE)
+    kept = []
+    for stamp in np.arange(0.0, 3.0, 1.0 / RATE):
+        pose = np.zeros(3)
+        centres = np.array([[6.0 + speed * stamp, 0.5]])
+        kept.append(static.update(stamp, pose, *in_sensor_frame(pose, centres),
+                                  scan_of(pose, centres, [WALKER_RADIUS]))[0])
+    assert all(kept[:3]) and not any(kept[3:])  # the reference 0.25 s back: 0.3 m
 
 
 @pytest.mark.parametrize("window", [0.5, 1.0])

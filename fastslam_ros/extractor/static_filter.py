@@ -1,17 +1,24 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""Moving objects over time: a detection where an earlier scan saw free space is no landmark.
+"""Moving objects over time: a detection where an earlier scan saw free space, or next to
+where an earlier scan saw it, is no landmark.
 
 In one scan a walking person's body looks like a trunk. Over half a second a walker moves
 0.6 m (1.2 m/s) while a pole stays put, and odometry drifts little. ``StaticFilter`` keeps the
-last scans, each with its sensor's odometry pose. A detection of the current scan is put in the
-odometry frame and then in the frame of each reference scan (the newest scans at least
-``window`` and ``window / 2`` s older): when every beam of a reference scan that crosses the
-disc of radius ``tolerance`` (+ ``heading_tolerance`` per metre of range) around it went
-beyond the disc, that scan saw the place empty, and the detection is something that moved in.
+last scans, each with its sensor's odometry pose and its detections. A detection of the current
+scan is put in the odometry frame and compared with each reference scan (the newest scans at
+least ``window`` and ``window / 2`` s older); it is something that moved when
+
+* every beam of the reference scan crossing the disc of radius ``tolerance`` (+
+  ``heading_tolerance`` per metre of range) around it went beyond the disc: that scan saw the
+  place empty (a walker crossing the line of sight); or
+* the reference scan's nearest detection lies beyond that radius but within it plus
+  ``DISPLACEMENT_SPEED`` times the lag: the same object, moved (a walker going along the line
+  of sight, which hides its own earlier place).
+
 A detection is dropped on that evidence only: a pole that a scan missed, that was hidden or
-out of view keeps being reported, and so does everything before a window's worth of scans
-exists (no evidence yet).
+out of view keeps being reported, and so does everything before a reference scan exists.
+A person standing still, or turning round, stays where it was seen and is reported.
 """
 from __future__ import annotations
 
@@ -23,6 +30,9 @@ from fastslam_ros.extractor.scan import RawScan
 
 REFERENCE_LAGS = (1.0, 0.5)
 """Reference scans, in shares of ``window`` before the current scan."""
+DISPLACEMENT_SPEED = 2.0
+"""m/s: a detection with none of the reference scan's within the tolerance but one within the
+tolerance plus this speed times the lag is that one moved (a walker, whichever way it walks)."""
 MAX_SCANS = 4000
 """Scans held at most (a bound on memory whatever the scan rate)."""
 
@@ -41,19 +51,21 @@ def from_frame(pose: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def free_reach(scan: RawScan) -> np.ndarray:
-    """(B,) how far (m) each beam saw free space: its return, +inf for no return (REP 117:
-    +inf, at or beyond the maximum), -inf when blocked (NaN, -inf, below the minimum)."""
+    """(B,) how far (m) each beam saw free space: its return, the scan's maximum for no return
+    (REP 117: +inf, at or beyond the maximum; nothing is known beyond it), -inf when blocked
+    (NaN, -inf, below the minimum)."""
     ranges = np.asarray(scan.ranges, float)
     with np.errstate(invalid="ignore"):
         reach = np.where(ranges >= scan.range_min, ranges, -np.inf)  # NaN -> -inf
-        return np.where(reach >= scan.range_max, np.inf, reach)
+        return np.where(reach >= scan.range_max, scan.range_max, reach)
 
 
 class _Reference:
     """One held scan: its stamp, sensor pose and free reach per beam."""
 
-    def __init__(self, stamp: float, pose: np.ndarray, scan: RawScan) -> None:
-        self.stamp, self.pose = stamp, pose
+    def __init__(self, stamp: float, pose: np.ndarray, scan: RawScan,
+                 points: np.ndarray) -> None:
+        self.stamp, self.pose, self.points = stamp, pose, points
         self.reach = free_reach(scan)
         self.angle_min, self.increment = float(scan.angle_min), float(scan.angle_increment)
 
@@ -77,6 +89,16 @@ class _Reference:
         beams = np.clip(beams, 0, len(self.reach) - 1)
         beyond = (self.reach[beams] > (distance + radius)[:, None]) | ~in_disc
         return inside & beyond.all(axis=1)
+
+    def displaced(self, points: np.ndarray, radius: np.ndarray, reach: np.ndarray
+                  ) -> np.ndarray:
+        """(N,) whether the nearest of this scan's detections to each point (odometry frame)
+        lies beyond ``radius`` but within ``reach`` (N,)."""
+        if not len(self.points):
+            return np.zeros(len(points), dtype=bool)
+        gaps = points[:, None, :] - self.points[None, :, :]
+        nearest = np.sqrt(np.einsum("nmk,nmk->nm", gaps, gaps).min(axis=1))
+        return (nearest > radius) & (nearest <= reach)
 
 
 class StaticFilter:
@@ -111,9 +133,11 @@ class StaticFilter:
         for lag in REFERENCE_LAGS:
             reference = self._reference(stamp - lag * self.window)
             if reference is not None and len(points):
-                keep &= ~reference.seen_empty(points, radius)
+                reach = radius + DISPLACEMENT_SPEED * (stamp - reference.stamp)
+                keep &= ~(reference.seen_empty(points, radius)
+                          | reference.displaced(points, radius, reach))
         self._forget(stamp - self.window)
-        self._scans.append(_Reference(stamp, pose, scan))
+        self._scans.append(_Reference(stamp, pose, scan, points))
         return keep
 
     def _reference(self, before: float) -> _Reference | None:
