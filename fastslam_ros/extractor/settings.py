@@ -75,7 +75,7 @@ class ExtractorSettings:
              "must have seen empty (odometry drift and extraction error over static_window).",
         low=0.0, low_exclusive=True, high=10.0)
     static_heading_tolerance: float = parameter(
-        0.0, "Moving objects: static_tolerance grows by this much per metre of range (rad: the "
+        0.01, "Moving objects: static_tolerance grows by this much per metre of range (rad: the "
              "odometry's heading error over static_window moves far landmarks most).",
         low=0.0, high=1.0)
     sensor_x: float = parameter(0.0, "Sensor position on the robot, forward (m) (static_window "
