@@ -11,10 +11,9 @@ extractor's, see ``fastslam_ros.extractor.ExtractorSettings``, fixed at start; t
 frame and marker rate), the stamp and frame gates, the counters and ``/diagnostics`` are the
 other nodes' (``node_base.FilterNode``). With ``static_window`` > 0 the node also reads
 ``nav_msgs/Odometry`` on ``odom``: a scan waits, like the SLAM node's clouds, for odometry
-covering its stamp, and only the landmarks that ``extractor.static_filter`` finds in place
-over the window are published (not those where earlier scans saw free space: moving
-people); a scan with no odometry pose at its
-stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
+covering its stamp, and the landmarks that ``extractor.static_filter`` finds moved (where an
+earlier scan saw free space, or displaced: walking people) are not published; a scan with no
+odometry pose at its stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
 """
 from __future__ import annotations
 
@@ -167,8 +166,8 @@ class LandmarkExtractorNode(FilterNode):
         self._note_lag(stamp)
 
     def _update(self, pending: "PendingScan") -> None:
-        """A queued scan (static filter on): its landmarks that stayed put, at the odometry
-        pose of its stamp; dropped (dropped_stale) when odometry does not give that pose."""
+        """A queued scan (static filter on): its landmarks but those that moved, at the
+        odometry pose of its stamp; dropped (dropped_stale) when odometry gives no such pose."""
         self._last_reading_stamp = pending.stamp
         if not self._odometry.covers(pending.stamp):  # counted by _process_ready
             return self._warn("dropped_stale", f"scan dropped: no odometry covered its stamp "
