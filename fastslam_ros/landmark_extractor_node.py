@@ -9,30 +9,40 @@ the scan's exact header: x y z float32, id int32 = -1, radius and intensity floa
 ``fastslam_node`` reads as it is, and ``~/markers`` for RViz (throttled). Parameters (the
 extractor's, see ``fastslam_ros.extractor.ExtractorSettings``, fixed at start; the node's
 frame and marker rate), the stamp and frame gates, the counters and ``/diagnostics`` are the
-other nodes' (``node_base.FilterNode``, without odometry). See docs/extractor.md.
+other nodes' (``node_base.FilterNode``). With ``static_window`` > 0 the node also reads
+``nav_msgs/Odometry`` on ``odom``: a scan waits, like the SLAM node's clouds, for odometry
+covering its stamp, and the landmarks that ``extractor.static_filter`` finds moved (where an
+earlier scan saw free space, or displaced: walking people) are not published; a scan with no
+odometry pose at its stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
 """
 from __future__ import annotations
 
+import dataclasses
 import sys
 from dataclasses import dataclass
 
+import numpy as np
 from diagnostic_msgs.msg import KeyValue
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan, PointCloud2
 from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import extractor_io
+from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-from fastslam_ros.extractor import Extraction, ExtractorSettings, extract_landmarks
+from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
+from fastslam_ros.extractor.static_filter import StaticFilter
 from fastslam_ros.node_base import INPUT_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
+from fastslam_ros.node_parameters import max_speed_parameter, max_yaw_rate_parameter
 
 NODE_NAME = "landmark_extractor"
 COUNTERS = (
     "received_scan", "used_scan", "scan_missing", "resets", "time_jumps", "landmarks",
-    "reflectors", *(f"rejected_{reason}" for reason in REJECTIONS),
+    "reflectors", *(f"rejected_{reason}" for reason in REJECTIONS), "rejected_moving",
     "dropped_malformed_scan", "dropped_wrong_frame", "dropped_invalid_stamp",
     "dropped_outlier_stamp", "dropped_duplicate_stamp", "dropped_internal_error",
 )
@@ -43,11 +53,21 @@ DIAGNOSED = (("time_jumps", "time jumps"),)
 
 @dataclass(frozen=True)
 class NodeSettings:
-    """The ROS side of the node: the scan frame and the marker rate."""
+    """The ROS side of the node: the scan frame, the marker rate and, for static_window,
+    the odometry's frames, wait and plausibility gates."""
 
     scan_frame: str = parameter("", "Frame the scans must be in; '' accepts any.")
     markers_rate: float = parameter(5.0, "Maximum rate of ~/markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
+    odom_frame: str = parameter("odom", "With static_window: odometry frame (REP 105); '' "
+                                        "accepts any.")
+    base_frame: str = parameter("base_link", "With static_window: odometry's child_frame_id; "
+                                             "'' accepts any.")
+    max_observation_wait: float = parameter(
+        0.5, "With static_window: how long (s of node time) a scan waits for odometry that "
+             "covers its stamp; after that it is dropped (dropped_stale).", low=0.0, high=60.0)
+    max_speed: float = max_speed_parameter()
+    max_yaw_rate: float = max_yaw_rate_parameter()
 
     def validate(self) -> "NodeSettings":
         """Raise ``ParameterValueError`` naming the bad setting; return self when all are good."""
@@ -66,26 +86,47 @@ def parameter_specs() -> dict:
     return {**CORE_PARAMETERS, **NODE_PARAMETERS}
 
 
+@dataclass
+class PendingScan:
+    """A scan's extraction waiting for the odometry that covers its stamp (static filter)."""
+
+    stamp: float
+    arrival: float
+    header: Header
+    extraction: Extraction
+    scan: RawScan
+
+
 class LandmarkExtractorNode(FilterNode):
     """``scan`` in, ``landmarks`` and ``~/markers`` out, one cloud per usable scan."""
 
     NODE_NAME = NODE_NAME
 
     def _set_up(self) -> None:
-        self._start_inputs(COUNTERS, "scan", "scan", "", THROTTLED_OUTPUTS, DIAGNOSED,
-                           odometry=False)
+        self._start_inputs(COUNTERS, "scan", "scan", "dropped_stale", THROTTLED_OUTPUTS,
+                           DIAGNOSED, odometry=False)
         self.extractor_settings = self._declare_parameters(
             CORE_PARAMETERS, lambda **values: ExtractorSettings(**values).validate(),
             NODE_PARAMETERS, NodeSettings)
+        s = self.extractor_settings
+        self.static_filter: StaticFilter | None = None
+        """The moving-object filter (static_window > 0), which needs odometry."""
+        if s.static_window > 0.0:
+            self.static_filter = StaticFilter(s.static_window, s.static_tolerance,
+                                              s.static_heading_tolerance)
+            self._sensor = np.array([s.sensor_x, s.sensor_y, s.sensor_yaw])
+            self._start_odometry(map_to_odom=False)
+            self.create_subscription(Odometry, "odom", self.on_odometry, INPUT_QOS)
         self._last: tuple[Header, Extraction] | None = None
         self._no_intensities = False
         self._landmarks_pub = self.create_publisher(PointCloud2, "landmarks", STREAM_QOS)
         self._markers_pub = self.create_publisher(MarkerArray, "~/markers", STREAM_QOS)
         self.create_subscription(LaserScan, "scan", self.on_scan, INPUT_QOS)
         self.create_timer(DIAGNOSTICS_PERIOD, self._on_timer)
-        s = self.extractor_settings
         self.get_logger().info(f"landmark extractor: detector {s.detector}, ranges "
-                               f"[{s.min_range}, {s.max_range}) m")
+                               f"[{s.min_range}, {s.max_range}) m" + (
+                                   f", static over {s.static_window} s (odometry on odom)"
+                                   if self.static_filter else ""))
 
     def on_scan(self, msg: LaserScan) -> None:
         """Subscription callback: extract the scan's landmarks and publish them."""
@@ -105,25 +146,60 @@ class LandmarkExtractorNode(FilterNode):
             return
         extraction = extract_landmarks(scan, self.extractor_settings)
         self._no_intensities = len(scan.intensities) == 0
-        self._last_reading_stamp = stamp
         self.stats["used_scan"] += 1
-        self.stats["landmarks"] += len(extraction.landmarks)
-        self.stats["reflectors"] += int(extraction.landmarks.reflector.sum())
         for reason, count in extraction.rejected.items():
             self.stats[f"rejected_{reason}"] += count
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
+        if self.static_filter is not None:  # waits for the odometry at its stamp
+            return self._queue(PendingScan(stamp, now, header, extraction, scan), now)
+        self._last_reading_stamp = stamp
+        self._publish_landmarks(stamp, header, extraction)
+        self._publish_throttled(now)
+
+    def _publish_landmarks(self, stamp: float, header: Header, extraction: Extraction) -> None:
+        """The ``landmarks`` cloud of one scan, counted."""
+        self.stats["landmarks"] += len(extraction.landmarks)
+        self.stats["reflectors"] += int(extraction.landmarks.reflector.sum())
         self._publish(self._landmarks_pub,
                       extractor_io.landmark_cloud(header, extraction.landmarks))
         self._last = (header, extraction)
         self._note_lag(stamp)
-        self._publish_throttled(now)
+
+    def _update(self, pending: "PendingScan") -> None:
+        """A queued scan (static filter on): its landmarks but those that moved, at the
+        odometry pose of its stamp; dropped (dropped_stale) when odometry gives no such pose."""
+        self._last_reading_stamp = pending.stamp
+        if not self._odometry.covers(pending.stamp):  # counted by _process_ready
+            return self._warn("dropped_stale", f"scan dropped: no odometry covered its stamp "
+                                               f"{pending.stamp:.3f} in max_observation_wait "
+                                               "[dropped_stale]")
+        if pending.stamp < self._odometry.anchor_stamp:
+            return self._drop("stale", f"scan dropped: stamped {pending.stamp:.3f}, before the "
+                                       f"odometry kept ({self._odometry.anchor_stamp:.3f})")
+        self._odometry.advance(pending.stamp)
+        landmarks = pending.extraction.landmarks
+        keep = self.static_filter.update(pending.stamp,
+                                         compose(self._odometry.anchor_pose, self._sensor),
+                                         landmarks.x, landmarks.y, pending.scan)
+        self.stats["rejected_moving"] += int(np.count_nonzero(~keep))
+        self._publish_landmarks(pending.stamp, pending.header,
+                                dataclasses.replace(pending.extraction,
+                                                    landmarks=landmarks.subset(keep)))
+
+    def _predict(self, pose_from: np.ndarray, pose_to: np.ndarray) -> None:
+        """Nothing to move: the extractor keeps odometry only for the scans' poses."""
 
     def reset(self) -> None:
-        """Forget the input time (a looped bag); the extractor keeps no state."""
+        """Forget the input time (a looped bag), the odometry and the static filter's scans."""
         self._reset_inputs()
+        if self.static_filter is not None:
+            self.static_filter.clear()
 
     def flush(self) -> None:
-        """Publish the markers of the last scan and the diagnostics now (end of a bag)."""
+        """Run the queued scans, publish the markers of the last scan and the diagnostics now
+        (end of a bag)."""
+        if self.static_filter is not None:
+            self._process_ready(self._now(), force=True)
         if self._last is not None and self._throttles["markers_rate"].rate > 0.0:
             self._publish_markers()
         self._publish_diagnostics("extractor")

@@ -179,8 +179,7 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         self._odometry = OdometryHistory()
         self._odometry_gate = OdometryGate()
         self._stamp_gate = StampGate()
-        self._rates = {**({"odom": InputRate()} if odometry else {}),
-                       reading_topic: InputRate()}
+        self._rates = {reading_topic: InputRate()}
         self._pending: list[Reading] = []
         self._last_reading_stamp: float | None = None
         """Stamp of the newest reading used (a reading with the same stamp is a duplicate)."""
@@ -195,11 +194,22 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STREAM_QOS)
         self._tf_broadcaster = None
         if odometry:
+            self._start_odometry()
+        self._clock_check = self.create_timer(NO_CLOCK_WARNING, self._check_clock,
+                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _start_odometry(self, map_to_odom: bool = True) -> None:
+        """The ``odom`` input's rate and counters (GATE_COUNTERS missing from ``stats`` are
+        added) and, with ``map_to_odom``, the map -> odom output. ``_start_inputs`` calls it;
+        a node started with ``odometry=False`` may call it once its parameters ask for
+        odometry (the landmark extractor's static filter), the caller subscribing ``odom``."""
+        for name in (*GATE_COUNTERS, self._stale_counter):
+            self.stats.setdefault(name, 0)
+        self._rates = {"odom": InputRate(), **self._rates}
+        if map_to_odom:
             self._map_to_odom_pub = self.create_publisher(TransformStamped, "~/map_to_odom",
                                                           STREAM_QOS)
             self._tf_broadcaster = TransformBroadcaster(self) if TransformBroadcaster else None
-        self._clock_check = self.create_timer(NO_CLOCK_WARNING, self._check_clock,
-                                              clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- input gates ---------------------------------------------------------------------------
 

@@ -34,16 +34,18 @@ def generate_launch_description():
         DeclareLaunchArgument("scan_topic", default_value="scan",
                               description="sensor_msgs/LaserScan input of the extractor"),
         DeclareLaunchArgument("odom_topic", default_value="odom",
-                              description="nav_msgs/Odometry input of the SLAM node"),
+                              description="nav_msgs/Odometry input of the SLAM node (and of "
+                                          "the extractor, with its static_window)"),
     ]
     clock = {"use_sim_time": ParameterValue(LaunchConfiguration("use_sim_time"), value_type=bool)}
     nodes = [
         Node(package=PACKAGE, executable=executable, name=name,
              namespace=LaunchConfiguration("namespace"), output="screen",
              parameters=[LaunchConfiguration(params_file), clock],
-             remappings=[(topic, LaunchConfiguration(f"{topic}_topic"))])
-        for executable, name, params_file, topic in (
-            ("landmark_extractor_node", "landmark_extractor", "extractor_params_file", "scan"),
-            ("fastslam_node", "fastslam", "params_file", "odom"))
+             remappings=[(topic, LaunchConfiguration(f"{topic}_topic")) for topic in topics])
+        for executable, name, params_file, topics in (
+            ("landmark_extractor_node", "landmark_extractor", "extractor_params_file",
+             ("scan", "odom")),
+            ("fastslam_node", "fastslam", "params_file", ("odom",)))
     ]
     return LaunchDescription(arguments + nodes)

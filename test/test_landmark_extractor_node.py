@@ -206,9 +206,10 @@ def test_laser_launch_file_starts_the_extractor_and_the_slam_node(launch_stand_i
     for node in nodes.values():
         params_file = node["parameters"][0]
         assert params_file.args[0] in arguments
-    # The extractor's scan input is remappable; its landmarks go to the SLAM node's input.
+    # The extractor's scan (and odometry) input is remappable; its landmarks go to the SLAM
+    # node's input.
     remaps = {topic: value.args[0] for topic, value in nodes["landmark_extractor"]["remappings"]}
-    assert remaps == {"scan": "scan_topic"}
+    assert remaps == {"scan": "scan_topic", "odom": "odom_topic"}
     remaps = {topic: value.args[0] for topic, value in nodes["fastslam"]["remappings"]}
     assert remaps == {"odom": "odom_topic"}
     extractor_config = arguments["extractor_params_file"]["default_value"].args[0]

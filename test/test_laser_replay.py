@@ -42,6 +42,23 @@ def test_scans_without_landmarks_go_through_the_extractor(tmp_path, laser_bag):
     assert read_topic(out, "/fastslam/pose")[1]
 
 
+def test_the_static_filter_gets_the_bags_odometry(tmp_path, laser_bag):
+    """With static_window the extractor reads the bag's /odom too: every scan finds its
+    odometry pose and becomes a cloud at its stamp, and in a world of poles (no people) only
+    a few landmarks are dropped as moved."""
+    result = replay.replay_bag(laser_bag, {"seed": 1, "static_window": 0.5},
+                               out_path=tmp_path / "out", remap={"/landmarks": "/hidden"})
+    _, scans = read_topic(laser_bag, "/scan")
+    stats = result.stats
+    assert stats["extractor_used_odom"] == stats["used_odom"] > 0
+    assert stats["used_landmarks"] == len(scans) == 60
+    assert not any(v for k, v in stats.items() if k.startswith(("dropped_", "extractor_dropped")))
+    published, moved = stats["extractor_landmarks"], stats["extractor_rejected_moving"]
+    assert published > 0 and moved <= 0.05 * (published + moved)
+    _, clouds = read_topic(tmp_path / "out", "/landmarks")
+    assert [c.header.stamp for c in clouds] == [s.header.stamp for s in scans]
+
+
 def test_one_parameter_file_sets_both_nodes(tmp_path, laser_bag):
     params = tmp_path / "params.yaml"
     params.write_text("fastslam:\n  ros__parameters:\n    num_particles: 30\n"

@@ -171,3 +171,13 @@ def test_closures_in_clutter_move_the_pose_towards_the_truth(monkeypatch):
     assert len(moves) >= 3
     for before, after in moves:
         assert after < 0.5 * before
+
+
+def test_readings_that_see_nothing_before_the_first_landmark():
+    """Empty readings at the start (a detector that holds its first scans back) leave the
+    filter with no landmark to look up; they used to raise an IndexError."""
+    slam = FastSLAM(FastSLAMConfig(loop_closure_matches=2, num_particles=10, seed=1))
+    for _ in range(3):
+        slam.update(np.zeros(0), np.zeros(0))
+    slam.update(np.array([5.0]), np.array([0.3]))
+    assert len(slam.particle_map(slam.best_index())[0]) == 1

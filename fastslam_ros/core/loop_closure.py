@@ -179,7 +179,8 @@ class LoopClosure:
         # Landmarks this reading confirmed: their log-odds reached the bound now.
         confirmed = ws.valid & (ws.logodds >= self.min_logodds)
         confirmed[:, :first] &= before[..., 3] < self.min_logodds
-        confirmed &= (self.travelled - self._created[np.maximum(ws.key, 0)]) <= self.lifetime
+        if confirmed.any():  # (before the first landmark no key can be looked up)
+            confirmed &= (self.travelled - self._created[np.maximum(ws.key, 0)]) <= self.lifetime
         if confirmed.any():
             key = np.maximum(ws.key[:, :first], 0)
             stale = self.travelled - self._seen[key]

@@ -7,6 +7,7 @@ same metadata (``fastslam_ros.core.params.specs``), and ``validate()`` fails nam
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter
@@ -64,6 +65,26 @@ class ExtractorSettings:
     reflector_radius: float = parameter(
         0.05, "Reflectors: radius (m) of the posts; the centre is this far behind the "
               "cluster's mean return along the beam.", low=0.0, high=100.0)
+    static_window: float = parameter(
+        0.0, "Moving objects: a landmark is dropped when the scan about this long (s) or half "
+             "as long before saw free space all round it (within static_tolerance, in the "
+             "odometry frame): a walker moved there, a pole would have been seen; needs "
+             "odometry on odom. 0: off, no odometry needed.", low=0.0, high=10.0)
+    static_tolerance: float = parameter(
+        0.3, "Moving objects: radius (m) of the disc around a landmark that an earlier scan "
+             "must have seen empty (odometry drift and extraction error over static_window).",
+        low=0.0, low_exclusive=True, high=10.0)
+    static_heading_tolerance: float = parameter(
+        0.01, "Moving objects: static_tolerance grows by this much per metre of range (rad: the "
+             "odometry's heading error over static_window moves far landmarks most).",
+        low=0.0, high=1.0)
+    sensor_x: float = parameter(0.0, "Sensor position on the robot, forward (m) (static_window "
+                                     "puts landmarks in the odometry frame).",
+                                low=-100.0, high=100.0)
+    sensor_y: float = parameter(0.0, "Sensor position on the robot, left (m).",
+                                low=-100.0, high=100.0)
+    sensor_yaw: float = parameter(0.0, "Sensor heading relative to the robot (rad).",
+                                  low=-math.pi, high=math.pi)
 
     def validate(self) -> "ExtractorSettings":
         """Self when every field is in range (``ParameterValueError`` naming the field)."""
