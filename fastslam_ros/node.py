@@ -409,8 +409,9 @@ class FastSLAMNode(FilterNode):
             self._publish_diagnostics()
 
     def _publish_path(self) -> None:
-        """~/path: the best particle's path, decimated to at most path_max_poses."""
-        stamps, poses = self.slam.best_path()
+        """~/path: the best particle's path (the smoother's with ``smoothing_period``),
+        decimated to at most path_max_poses."""
+        stamps, poses = self.slam.reported_path()
         keep = decimation(len(stamps), self.settings["path_max_poses"])
         if keep is not None:
             stamps, poses = stamps[keep], poses[keep]

@@ -80,6 +80,10 @@ def test_between_solves_the_estimate_follows_the_odometry():
     assert np.linalg.norm(solved[:2] - truth[19, :2]) < 0.1
     reported = slam.reported_map()  # the solve's map, in the frame of the solved pose
     assert reported is slam.smoother.landmark_map and map_error(reported, landmarks) < 0.1
+    stamps, path = slam.reported_path()  # the solved path, in the same frame
+    np.testing.assert_array_equal(stamps, np.arange(1.0, 20.0))
+    np.testing.assert_allclose(path[-1], solved, atol=1e-12)
+    assert np.abs(path[:, :2] - truth[1:20, :2]).max() < 0.1
     step = np.array([0.7, 0.1, 0.2])
     slam.predict(np.zeros(3), step)
     np.testing.assert_allclose(slam.smoothed_pose(), compose(solved[None], step[None])[0],

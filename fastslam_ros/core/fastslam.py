@@ -485,6 +485,12 @@ class FastSLAM(NumpyReading, Relocalizing):
             return None
         return self.smoother.pose(self.readings.odometry_pose)
 
+    def reported_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (T,), poses (T, 3)) that go with the reported pose: the smoother's solved
+        path when it has one, else the best particle's."""
+        smoothed = None if self.smoother is None else self.smoother.path(self.readings)
+        return self.best_path() if smoothed is None else smoothed
+
     def reported_map(self) -> LandmarkMap:
         """The confirmed map (``map_min_existence``) that goes with the reported pose: the
         smoother's latest solve when it has one, else the best particle's."""

@@ -77,6 +77,19 @@ class OnlineSmoother:
         self._solved, self._solved_odometry = latest, odometry[-1]
         self.solves += 1
 
+    def path(self, log) -> tuple[np.ndarray, np.ndarray] | None:
+        """(stamps (T,), poses (T, 3)): the latest solve's poses of the readings it solved,
+        then the readings ``log`` recorded since, moved by their odometry (None before the
+        first solve)."""
+        if self._solution is None:
+            return None
+        stamps, odometry, *_ = log.readings()
+        later = stamps > self._solution.stamps[-1]
+        moved = compose(np.broadcast_to(self._solved, (int(later.sum()), 3)),
+                        relative_pose(self._solved_odometry[None], odometry[later]))
+        return (np.concatenate([self._solution.stamps, stamps[later]]),
+                np.concatenate([self._solution.poses, moved]))
+
     def pose(self, odometry_now: np.ndarray) -> np.ndarray | None:
         """(3,) the pose now: the latest solved pose moved by the odometry since (None before
         the first solve)."""
