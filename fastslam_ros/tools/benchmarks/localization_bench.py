@@ -94,7 +94,10 @@ def run_seed(seed: int, workdir: Path, args: argparse.Namespace) -> SeedResult:
     """The three replays of one seed."""
     duration, offset, yaw_offset = args.duration, args.offset, args.yaw_offset
     mapping_config = SimConfig(seed=seed, world_seed=seed, duration=duration)
-    params = {**recommended_params(mapping_config.resolved()), "seed": seed}
+    # The filter's own estimate while mapping (docs/localization.md's figures), not the
+    # smoother's: localization has no smoother.
+    params = {**recommended_params(mapping_config.resolved()), "seed": seed,
+              "smoothing_period": 0.0}
     mapping_bag = write_schema_bag(workdir / "mapping", simulate(mapping_config))
     map_file = workdir / "map.yaml"
     saved = replay_bag(mapping_bag, params, out_path=workdir / "mapping_out",
