@@ -381,11 +381,12 @@ class FastSLAMNode(FilterNode):
         return self._map_header(self._last_update_stamp)
 
     def _estimate(self) -> tuple[np.ndarray, np.ndarray]:
-        """Pose per ``pose_estimate`` and the covariance of the particle spread."""
+        """Pose per ``pose_estimate`` and the covariance of the particle spread (the
+        smoother's pose and covariance with ``smoothing_period``)."""
         mean, covariance = self.slam.mean_pose_and_covariance()
         smoothed = self.slam.smoothed_pose()
         if smoothed is not None:
-            return smoothed, covariance
+            return smoothed, self.slam.smoothed_covariance()
         best = self.settings["pose_estimate"] == "best"
         return (self.slam.best_pose() if best else mean), covariance
 

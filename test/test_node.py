@@ -341,6 +341,9 @@ def test_with_smoothing_the_pose_and_map_are_the_smoothers(context):
     pose = message.pose.pose
     smoothed = node.slam.smoothed_pose()
     assert (pose.position.x, pose.position.y) == pytest.approx((smoothed[0], smoothed[1]))
+    covariance = node.slam.smoothed_covariance()  # the solve's marginal, not the spread
+    assert message.pose.covariance[0] == pytest.approx(covariance[0, 0])
+    assert message.pose.covariance[35] == pytest.approx(covariance[2, 2])
     stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
     assert pose_error(pose, stamp)[0] < 0.1
     node._publish_map()

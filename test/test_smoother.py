@@ -10,7 +10,8 @@ import pytest
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core import map_refinement as mr
-from fastslam_ros.core.geometry import compose
+from fastslam_ros.core.geometry import compose, relative_pose
+from fastslam_ros.core.observation import SensorOffset
 from fastslam_ros.tools.evaluation.metrics import evaluate_trajectory
 from fastslam_ros.tools.simulation.sim import SimConfig, simulate
 from test_map_refinement import bent_estimate, corridor, logged, map_error
@@ -115,3 +116,24 @@ def test_the_estimate_at_the_time_on_the_simulated_world_is_as_good_as_the_refer
     result = evaluate_trajectory(np.asarray(bag.scans.stamps), np.array(estimates)[:, :2],
                                  bag.ground_truth)
     assert np.sqrt(np.mean(result.aligned_errors ** 2)) < 0.25
+
+
+def test_the_latest_pose_marginal_is_the_block_of_the_dense_inverse():
+    """``pose_marginal`` (a sparse factorization) against the dense inverse of J^T J; and the
+    chain's end is less certain than its start (pinned), growing with the odometry's noise."""
+    truth, landmarks, readings = corridor(seed=4, steps=30)
+    _, odometry, reading, ranges, bearings, ids = logged(truth, readings).readings()
+    increments = relative_pose(odometry[:-1], odometry[1:])
+    problem = mr.Problem(increments, mr.odometry_whitening(increments, CORRIDOR_CONFIG),
+                         truth[0], reading, ids, ranges, bearings,
+                         np.full(len(ranges), CORRIDOR_CONFIG.sigma_range),
+                         CORRIDOR_CONFIG.sigma_bearing, SensorOffset())
+    poses, marks, weights, *_ = mr.solve(problem, truth.copy(), landmarks.copy())
+    jac = mr.jacobian(problem, poses, marks, weights).toarray()
+    dense = np.linalg.inv(jac.T @ jac)
+    last = len(poses) - 1
+    marginal = mr.pose_marginal(problem, poses, marks, weights, last)
+    np.testing.assert_allclose(marginal, dense[3 * last:3 * last + 3, 3 * last:3 * last + 3],
+                               rtol=1e-6, atol=1e-12)
+    first = mr.pose_marginal(problem, poses, marks, weights, 0)
+    assert np.trace(first) < 1e-5 < np.trace(marginal)

@@ -485,6 +485,13 @@ class FastSLAM(NumpyReading, Relocalizing):
             return None
         return self.smoother.pose(self.readings.odometry_pose)
 
+    def smoothed_covariance(self) -> np.ndarray | None:
+        """(3, 3) covariance of ``smoothed_pose`` (the solve's marginal plus the odometry's
+        noise since), None when off or unsolved."""
+        if self.smoothed_pose() is None:
+            return None
+        return self.smoother.covariance(self.readings.odometry_pose, self.config)
+
     def reported_path(self) -> tuple[np.ndarray, np.ndarray]:
         """(stamps (T,), poses (T, 3)) that go with the reported pose: the smoother's solved
         path when it has one, else the best particle's."""

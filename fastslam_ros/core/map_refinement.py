@@ -223,6 +223,8 @@ class RefinementReport:
     solution: "Solution"
     """Every logged reading's refined pose and the refined landmarks, to start the next
     solve from."""
+    latest_covariance: np.ndarray | None = None
+    """(3, 3) marginal covariance of the last solved pose (``refine(latest_covariance=True)``)."""
 
 
 @dataclass
@@ -262,8 +264,13 @@ class Problem:
 
 
 def odometry_whitening(increments: np.ndarray, config) -> np.ndarray:
-    """(T, 3, 3) W with W^T W the information of each odometry increment (dx, dy, dtheta):
-    the motion model's (rot1, trans, rot2) variances (``motion.control_variances``) mapped
+    """(T, 3, 3) W with W^T W the information of each odometry increment
+    (``odometry_covariances``)."""
+    return np.linalg.inv(np.linalg.cholesky(odometry_covariances(increments, config)))
+
+
+def odometry_covariances(increments: np.ndarray, config) -> np.ndarray:
+    """(T, 3, 3) covariance of each odometry increment (dx, dy, dtheta): the motion model's (rot1, trans, rot2) variances (``motion.control_variances``) mapped
     through V = d(dx, dy, dtheta) / d(rot1, trans, rot2), plus min_translation_sigma^2 on x and
     y (a short step's lateral variance trans^2 var(rot1) vanishes)."""
     alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
@@ -284,7 +291,7 @@ def odometry_whitening(increments: np.ndarray, config) -> np.ndarray:
     cov = np.einsum("nij,jn,nkj->nik", v, variances, v)
     cov[:, 0, 0] += config.min_translation_sigma ** 2
     cov[:, 1, 1] += config.min_translation_sigma ** 2
-    return np.linalg.inv(np.linalg.cholesky(cov))
+    return cov
 
 
 def residuals(problem: Problem, poses: np.ndarray, landmarks: np.ndarray):
@@ -477,7 +484,8 @@ def initial_poses(log_stamps: np.ndarray, odometry: np.ndarray, path_stamps: np.
 
 def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_map, config,
            known_ids: bool = False, start: Solution | None = None,
-           max_solve_poses: int = MAX_SOLVE_POSES, max_rounds: int = ASSOCIATION_ROUNDS):
+           max_solve_poses: int = MAX_SOLVE_POSES, max_rounds: int = ASSOCIATION_ROUNDS,
+           latest_covariance: bool = False):
     """(refined map, ``RefinementReport``): ``landmark_map`` (a ``fastslam.LandmarkMap``, the
     best particle's confirmed landmarks) refined by the least squares over the log and the
     particle's path (``FastSLAM.best_path()``). ``config``: the filter's ``FastSLAMConfig``
@@ -487,8 +495,9 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     filter started in, whichever particle is refined. ``start``: an earlier solve's
     ``Solution`` to start from where it has the reading or the landmark (the readings after
     it follow the particle's path from its last one). ``max_solve_poses``: keyframes beyond it;
-    ``max_rounds``: solves with the associations redone in between. Raises ``ValueError``
-    when there is nothing to refine."""
+    ``max_rounds``: solves with the associations redone in between; ``latest_covariance``:
+    the last solved pose's marginal covariance too (one more factorization). Raises
+    ``ValueError`` when there is nothing to refine."""
     began = time.perf_counter()
     stamps, odometry, reading, ranges, bearings, labels = log.readings()
     count, size = len(stamps), len(landmark_map)
@@ -568,13 +577,29 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
             and (refined_cov[:, 0, 0] > 0.0).all() and (determinant > 0.0).all()):
         raise ValueError("the least squares gave a non-finite or degenerate landmark")
     shift = np.hypot(*(refined_means - means).T)
+    marginal = (pose_marginal(problem, key_poses, marks, weights, len(key_poses) - 1)
+                if latest_covariance else None)
     report = RefinementReport(count, size, int(used.sum()), len(ranges), int((chosen >= 0).sum()),
                               rounds, iterations, initial_cost, final_cost,
                               time.perf_counter() - began, float(shift.mean()), stamps[key],
                               key_poses, Solution(stamps, poses, np.asarray(landmark_map.keys),
-                                                  refined_means))
+                                                  refined_means), marginal)
     refined = dataclasses.replace(landmark_map, means=refined_means, covariances=refined_cov)
     return refined, report
+
+
+def pose_marginal(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,
+                  weights: np.ndarray, index: int) -> np.ndarray:
+    """(3, 3) marginal covariance of pose ``index`` at the solution: its block of the inverse
+    of the (robustly weighted) information matrix J^T J, relative to the pinned first pose."""
+    from scipy.sparse.linalg import splu  # noqa: PLC0415 (the filter itself never needs scipy)
+    jac = jacobian(problem, poses, landmarks, weights)
+    information = (jac.T.tocsr() @ jac).tocsc()
+    unit = np.zeros((information.shape[0], 3))
+    unit[3 * index + np.arange(3), np.arange(3)] = 1.0
+    columns = splu(information, **SYMMETRIC).solve(unit)
+    block = columns[3 * index:3 * index + 3]
+    return 0.5 * (block + block.T)
 
 
 def warm_started(stamps: np.ndarray, poses: np.ndarray, landmark_map, start: Solution):

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from .geometry import compose, relative_pose
-from .map_refinement import Solution, refine
+from .map_refinement import Solution, odometry_covariances, refine
 
 SOLVE_POSES = 1024
 """Poses a solve solves for at most (keyframes beyond; ``map_refinement.MAX_SOLVE_POSES``):
@@ -45,6 +45,7 @@ class OnlineSmoother:
         self.landmark_map = None
         """The latest solve's confirmed map (a ``LandmarkMap``, the frame of ``pose``)."""
         self._solved_odometry = np.zeros(3)
+        self._covariance = np.zeros((3, 3))
         self._last = -math.inf
 
     def due(self, stamp: float) -> bool:
@@ -64,7 +65,8 @@ class OnlineSmoother:
         try:
             refined, report = refine(log, path_stamps, path, landmark_map, config,
                                known_ids=config.association == "known", start=self._solution,
-                               max_solve_poses=SOLVE_POSES, max_rounds=1)
+                               max_solve_poses=SOLVE_POSES, max_rounds=1,
+                               latest_covariance=True)
         except ValueError:
             self.failures += 1
             return
@@ -74,6 +76,7 @@ class OnlineSmoother:
             self.failures += 1
             return
         self._solution, self.landmark_map = report.solution, refined
+        self._covariance = report.latest_covariance
         self._solved, self._solved_odometry = latest, odometry[-1]
         self.solves += 1
 
@@ -89,6 +92,16 @@ class OnlineSmoother:
                         relative_pose(self._solved_odometry[None], odometry[later]))
         return (np.concatenate([self._solution.stamps, stamps[later]]),
                 np.concatenate([self._solution.poses, moved]))
+
+    def covariance(self, odometry_now: np.ndarray, config) -> np.ndarray:
+        """(3, 3) the pose's covariance now: the solved pose's marginal (relative to the first
+        pose) plus the odometry's noise since, turned into the map frame (the heading's
+        growing lever on the position left out: the solves are seconds apart)."""
+        step = relative_pose(self._solved_odometry[None], np.asarray(odometry_now)[None])
+        noise = odometry_covariances(step, config)[0]
+        c, s = math.cos(self._solved[2]), math.sin(self._solved[2])
+        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return self._covariance + turn @ noise @ turn.T
 
     def pose(self, odometry_now: np.ndarray) -> np.ndarray | None:
         """(3,) the pose now: the latest solved pose moved by the odometry since (None before
