@@ -270,9 +270,10 @@ def odometry_whitening(increments: np.ndarray, config) -> np.ndarray:
 
 
 def odometry_covariances(increments: np.ndarray, config) -> np.ndarray:
-    """(T, 3, 3) covariance of each odometry increment (dx, dy, dtheta): the motion model's (rot1, trans, rot2) variances (``motion.control_variances``) mapped
-    through V = d(dx, dy, dtheta) / d(rot1, trans, rot2), plus min_translation_sigma^2 on x and
-    y (a short step's lateral variance trans^2 var(rot1) vanishes)."""
+    """(T, 3, 3) covariance of each odometry increment (dx, dy, dtheta): the motion model's
+    (rot1, trans, rot2) variances (``motion.control_variances``) mapped through
+    V = d(dx, dy, dtheta) / d(rot1, trans, rot2), plus min_translation_sigma^2 on x and y (a
+    short step's lateral variance trans^2 var(rot1) vanishes)."""
     alphas = (config.alpha1, config.alpha2, config.alpha3, config.alpha4)
     linear = (config.rotation_variance_per_radian, config.rotation_variance_per_meter,
               config.translation_variance_per_meter, config.translation_variance_per_radian)
