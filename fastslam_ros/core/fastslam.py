@@ -34,7 +34,7 @@ from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_f
 from .landmark_ekf import pack, unpack
 from .landmark_store import LandmarkStore
 from .loop_closure import LoopClosure
-from .map_refinement import ReadingLog
+from .reading_log import ReadingLog
 from .smoother import OnlineSmoother
 from .working_cache import WorkingSetCache
 from .motion import OdometryControl, control_variances, turn_fault_shift
