@@ -11,8 +11,9 @@ graph-based SLAM back end does, once, before the map is written:
 1. ``ReadingLog`` (``core/reading_log.py``) keeps every reading the filter processed: the
    odometry pose at the reading (the increments ``FastSLAM.predict`` received, composed) and
    its range-bearing observations in the sensor frame. Its memory is bounded
-   (``MAX_READINGS``, ``MAX_OBSERVATIONS``): when either is full the older half of the readings is thinned to every other one, as the path
-   history is, so the recent readings stay whole.
+   (``MAX_READINGS``, ``MAX_OBSERVATIONS``): when either is full the older half of the
+   readings is thinned to every other one, as the path history is, so the recent readings
+   stay whole.
 2. Each logged observation is associated, as seen from the best particle's pose at that
    reading (``FastSLAM.best_path``), to the nearest confirmed landmark of its map within the
    squared Mahalanobis gate ``ASSOCIATION_GATE`` (the landmark's covariance plus the
