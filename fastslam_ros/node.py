@@ -57,6 +57,7 @@ COUNTERS = (
     "odometry_jumps",         # confirmed odometry discontinuities, bridged with zero motion
     "filter_recoveries",      # updates after which the filter repaired a non-finite state
     "relocalizations",        # localization: particles redrawn at a pose found from a reading
+    "smoother_solves", "smoother_failures",  # smoothing_period: solves that gave a pose or not
     "odom_missing", "landmarks_missing",  # messages estimated lost from gaps in the stamps
     # points dropped from a cloud:
     "dropped_nan", "dropped_too_close", "dropped_out_of_range", "dropped_missing_id",
@@ -317,6 +318,11 @@ class FastSLAMNode(FilterNode):
     def _predict(self, pose_from: np.ndarray, pose_to: np.ndarray) -> None:
         self.slam.predict(pose_from, pose_to)
 
+    def _smoother_counts(self) -> tuple[int, int]:
+        """(solves, failures) of the filter's smoother ((0, 0) without one)."""
+        smoother = self.slam.smoother
+        return (0, 0) if smoother is None else (smoother.solves, smoother.failures)
+
     def _update(self, observation: Observation) -> None:
         """Predict to the observation's stamp, update, publish the per-observation outputs."""
         self._predict_to(observation.stamp, "late_observations")
@@ -327,6 +333,7 @@ class FastSLAMNode(FilterNode):
         labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
                          else None)
         recoveries, relocalizations = self.slam.num_recoveries, self.slam.num_relocalizations
+        solves, failures = self._smoother_counts()
         try:
             report = self.slam.update(observation.ranges, observation.bearings,
                                        ids=observation.ids, stamp=observation.stamp)
@@ -341,6 +348,13 @@ class FastSLAMNode(FilterNode):
             self._warn("filter_recoveries", "the filter's state was not finite after an update: "
                        "repaired from the finite particles (or reset) [filter_recoveries]")
         self.stats["relocalizations"] += self.slam.num_relocalizations - relocalizations
+        solves_now, failures_now = self._smoother_counts()
+        self.stats["smoother_solves"] += max(solves_now - solves, 0)
+        if failures_now > failures:
+            self.stats["smoother_failures"] += failures_now - failures
+            self._warn("smoother_failures", "the online least squares (smoothing_period) gave "
+                       "no pose: the estimate follows the odometry from the last solve "
+                       "[smoother_failures]")
         self._note_lag(observation.stamp)
         if check_ids:
             checked, correct = association_score(observation.ids, report.is_new,

@@ -336,7 +336,8 @@ def test_with_smoothing_the_pose_and_map_are_the_smoothers(context):
     node = make_node(context, smoothing_period=1.0)
     outputs = Recorder(node)
     replay(node, scripted_run(6.0))
-    assert node.slam.smoother.solves > 0
+    assert node.stats["smoother_solves"] == node.slam.smoother.solves > 0
+    assert node.stats["smoother_failures"] == 0
     message = outputs.last("/fastslam/pose")
     pose = message.pose.pose
     smoothed = node.slam.smoothed_pose()

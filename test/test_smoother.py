@@ -77,7 +77,7 @@ def test_between_solves_the_estimate_follows_the_odometry():
         slam.predict(truth[t - 1], truth[t])
         slam.update(readings[t].ranges, readings[t].bearings, readings[t].labels, stamp=float(t))
     solved = slam.smoothed_pose()
-    assert slam.smoother.solves + slam.smoother.failures == 19  # one a reading: period 1 s
+    assert slam.smoother.failures == 0 and 15 <= slam.smoother.solves <= 19  # period 1 s
     assert np.linalg.norm(solved[:2] - truth[19, :2]) < 0.1
     reported = slam.reported_map()  # the solve's map, in the frame of the solved pose
     assert reported is slam.smoother.landmark_map and map_error(reported, landmarks) < 0.1

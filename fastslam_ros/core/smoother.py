@@ -35,7 +35,8 @@ class OnlineSmoother:
         self.solves = 0
         """Solves that gave a pose."""
         self.failures = 0
-        """Solves that gave none (nothing to refine yet, or a degenerate solution)."""
+        """Solves that gave none (no logged observation matched, a degenerate solution); a
+        solve before the first confirmed landmark is no failure."""
         self.clear()
 
     def clear(self) -> None:
@@ -59,14 +60,13 @@ class OnlineSmoother:
         log = slam.readings
         landmark_map = slam.best_map(config.map_min_existence)
         if len(landmark_map) == 0 or len(log) < 2:
-            self.failures += 1
             return
         path_stamps, path = slam.best_path()
         try:
             refined, report = refine(log, path_stamps, path, landmark_map, config,
-                               known_ids=config.association == "known", start=self._solution,
-                               max_solve_poses=SOLVE_POSES, max_rounds=1,
-                               latest_covariance=True)
+                                     known_ids=config.association == "known",
+                                     start=self._solution, max_solve_poses=SOLVE_POSES,
+                                     max_rounds=1, latest_covariance=True)
         except ValueError:
             self.failures += 1
             return
