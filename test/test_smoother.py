@@ -137,3 +137,27 @@ def test_the_latest_pose_marginal_is_the_block_of_the_dense_inverse():
                                rtol=1e-6, atol=1e-12)
     first = mr.pose_marginal(problem, poses, marks, weights, 0)
     assert np.trace(first) < 1e-5 < np.trace(marginal)
+
+
+def test_a_solve_that_fails_is_counted_and_keeps_the_previous_pose(monkeypatch):
+    """Fault injection: a singular factorization (SuperLU raises RuntimeError) in a solve
+    leaves the previous solution in place and counts a failure; the filter goes on."""
+    truth, landmarks, readings = corridor(steps=30)
+    config = dataclasses.replace(CORRIDOR_CONFIG, num_particles=20, max_range=8.0,
+                                 association="known", smoothing_period=1.0, seed=3)
+    slam = FastSLAM(config, initial_pose=truth[0])
+    for t in range(1, 10):
+        slam.predict(truth[t - 1], truth[t])
+        slam.update(readings[t].ranges, readings[t].bearings, readings[t].labels, stamp=float(t))
+    solved, solves = slam.smoothed_pose(), slam.smoother.solves
+
+    def singular(*args, **kwargs):
+        raise RuntimeError("Factor is exactly singular")
+
+    monkeypatch.setattr(mr, "pose_marginal", singular)
+    slam.predict(truth[9], truth[10])
+    slam.update(readings[10].ranges, readings[10].bearings, readings[10].labels, stamp=10.0)
+    assert slam.smoother.failures == 1 and slam.smoother.solves == solves
+    step = relative_pose(truth[9][None], truth[10][None])[0]
+    np.testing.assert_allclose(slam.smoothed_pose(), compose(solved[None], step[None])[0],
+                               atol=1e-12)

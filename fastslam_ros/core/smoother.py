@@ -67,8 +67,8 @@ class OnlineSmoother:
                                      known_ids=config.association == "known",
                                      start=self._solution, max_solve_poses=SOLVE_POSES,
                                      max_rounds=1, latest_covariance=True)
-        except ValueError:
-            self.failures += 1
+        except (ValueError, RuntimeError, np.linalg.LinAlgError):  # RuntimeError: a singular
+            self.failures += 1                                       # factorization (SuperLU)
             return
         _, odometry, *_ = log.readings()
         latest = report.solution.poses[-1]
