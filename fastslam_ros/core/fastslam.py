@@ -488,7 +488,7 @@ class FastSLAM(NumpyReading, Relocalizing):
     def smoothed_covariance(self) -> np.ndarray | None:
         """(3, 3) covariance of ``smoothed_pose`` (the solve's marginal plus the odometry's
         noise since), None when off or unsolved."""
-        if self.smoothed_pose() is None:
+        if self.smoother is None:
             return None
         return self.smoother.covariance(self.readings.odometry_pose, self.config)
 

@@ -110,6 +110,11 @@ class ReadingLog:
         self._observation_count = int(lengths.sum())
         self.thinned = True
 
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps (T,), odometry poses (T, 3)) of the logged readings, without their
+        observations (what a path needs)."""
+        return self._stamps[:self._count].copy(), self._odometry[:self._count].copy()
+
     def readings(self):
         """(stamps (T,), odometry poses (T, 3), reading index of each observation (K,), ranges
         (K,), bearings (K,), ids (K,)), the observations' unusable ones (non-finite, or a range

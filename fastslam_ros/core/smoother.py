@@ -70,14 +70,14 @@ class OnlineSmoother:
         except (ValueError, RuntimeError, np.linalg.LinAlgError):  # RuntimeError: a singular
             self.failures += 1                                       # factorization (SuperLU)
             return
-        _, odometry, *_ = log.readings()
         latest = report.solution.poses[-1]
         if not np.isfinite(latest).all():
             self.failures += 1
             return
         self._solution, self.landmark_map = report.solution, refined
         self._covariance = report.latest_covariance
-        self._solved, self._solved_odometry = latest, odometry[-1]
+        # No motion has come since the reading just logged: the log's odometry is its own.
+        self._solved, self._solved_odometry = latest, log.odometry_pose
         self.solves += 1
 
     def path(self, log) -> tuple[np.ndarray, np.ndarray] | None:
@@ -86,17 +86,20 @@ class OnlineSmoother:
         first solve)."""
         if self._solution is None:
             return None
-        stamps, odometry, *_ = log.readings()
+        stamps, odometry = log.poses()
         later = stamps > self._solution.stamps[-1]
         moved = compose(np.broadcast_to(self._solved, (int(later.sum()), 3)),
                         relative_pose(self._solved_odometry[None], odometry[later]))
         return (np.concatenate([self._solution.stamps, stamps[later]]),
                 np.concatenate([self._solution.poses, moved]))
 
-    def covariance(self, odometry_now: np.ndarray, config) -> np.ndarray:
+    def covariance(self, odometry_now: np.ndarray, config) -> np.ndarray | None:
         """(3, 3) the pose's covariance now: the solved pose's marginal (relative to the first
         pose) plus the odometry's noise since, turned into the map frame (the heading's
-        growing lever on the position left out: the solves are seconds apart)."""
+        growing lever on the position left out: the solves are seconds apart); None before
+        the first solve."""
+        if self._solved is None:
+            return None
         step = relative_pose(self._solved_odometry[None], np.asarray(odometry_now)[None])
         noise = odometry_covariances(step, config)[0]
         c, s = math.cos(self._solved[2]), math.sin(self._solved[2])
