@@ -8,9 +8,9 @@ Each robot pose particle m carries its own people: for person slot n, M_p positi
 people are estimated conditioned on the robot's pose, as FastSLAM's landmarks are:
 
 1. predict: the robot particles by the sampled odometry model (core.motion); every person by
-   its motion model (``person_motion.py``): Brownian motion, theta_t ~ N(theta_{t-1}, sigma^2
-   I) with sigma = person_diffusion sqrt(dt), or constant velocity (each particle carries a
-   velocity, with random acceleration);
+   its motion model (``person_motion.py``): Brownian motion, sigma = person_diffusion sqrt(dt),
+   drifting with the person's walking velocity smoothed from its detections, or constant
+   velocity (each particle carries a velocity, with random acceleration);
 2. weigh the robot particles by the likelihood field of the map (localization);
 3. detect people per robot particle (beams ending in free space away from obstacles);
 4. associate, per robot particle, detections to people under the Gaussian summary of each
@@ -126,7 +126,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self.offset = np.array([settings.sensor_x, settings.sensor_y, settings.sensor_yaw])
         self.motion = PersonMotion(settings.person_motion, settings.person_diffusion,
                                    settings.person_sway, settings.person_acceleration,
-                                   settings.person_velocity_time, settings.max_person_speed)
+                                   settings.person_velocity_time, settings.max_person_speed,
+                                   settings.person_walk_time)
         self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
                                    settings.max_leg_spacing, settings.max_person_width,
                                    settings.min_detection_beams)
@@ -162,6 +163,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self.keys = np.full((count, slots), -1, dtype=np.int64)
         self.confirmed = np.zeros((count, slots), dtype=bool)
         self.last_seen = np.zeros((count, slots))
+        self.walk = np.zeros((count, slots, 2))  # person_walk_time's velocities (brownian)
+        self.seen_mean = np.zeros((count, slots, 2))  # mean after the last detection
         # removed confirmed people, kept for re-identification: key (-1: empty), position at
         # removal, stamp of their last detection
         self.lost_keys = np.full((count, slots), -1, dtype=np.int64)
@@ -221,12 +224,15 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         last reading."""
         dt = 0.0 if self.last_stamp is None else min(max(stamp - self.last_stamp, 0.0),
                                                      MAX_DIFFUSION_STEP)
-        self.last_stamp = stamp
+        previous, self.last_stamp = self.last_stamp, stamp
         if dt <= 0.0 or not self.alive.any():
             return
         m, n = np.nonzero(self.alive)
         self.people[m, n], self.velocities[m, n] = self.motion.predict(
             self.people[m, n], self.velocities[m, n], dt, self.rng)
+        shift, self.walk[m, n] = self.motion.walk_on(self.walk[m, n],
+                                                     self.last_seen[m, n] < previous, dt)
+        self.people[m, n] += shift[:, None, :]
 
     # --- update -------------------------------------------------------------------------------
 
@@ -368,6 +374,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
             self.last_seen[m, slot] = self.last_stamp
+            self.walk[m, slot], self.seen_mean[m, slot] = 0.0, points[m, j]
             observed[m, slot] = True
         self.next_key += len(key_of_detection)
         if len(associated_m):
@@ -381,7 +388,11 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             index = batched_systematic_resample(w, self.rng)
             self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
             self._gather_velocities(m, n, index)
-            self.last_seen[m, n] = self.last_stamp
+            seen_mean = self.people[m, n].mean(axis=1)
+            self.walk[m, n] = self.motion.walk_estimate(self.walk[m, n], self.seen_mean[m, n],
+                                                        seen_mean, self.last_stamp
+                                                        - self.last_seen[m, n])
+            self.seen_mean[m, n], self.last_seen[m, n] = seen_mean, self.last_stamp
         return observed, created, unexplained
 
     def _likeliest_pairs(self, points: np.ndarray, valid: np.ndarray, mean: np.ndarray,
@@ -522,6 +533,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self.keys = self.keys[index]
         self.confirmed = self.confirmed[index]
         self.last_seen = self.last_seen[index]
+        self.walk = self.walk[index]
+        self.seen_mean = self.seen_mean[index]
         self.lost_keys = self.lost_keys[index]
         self.lost_positions = self.lost_positions[index]
         self.lost_seen = self.lost_seen[index]

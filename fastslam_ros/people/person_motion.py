@@ -2,8 +2,12 @@
 # Copyright 2026 fastslam_ros maintainers
 """How a tracked person moves between two readings: the prediction of its position particles.
 
-``brownian``: theta_t ~ N(theta_{t-1}, q^2 dt I), q = ``person_diffusion``; the particles
-carry no velocity (a person is as likely to turn back as to walk on).
+``brownian``: theta_t ~ N(theta_{t-1} + (w + w') dt / 2, q^2 dt I), q = ``person_diffusion``;
+the particles carry no velocity of their own (a person is as likely to turn back as to walk
+on), but drift with the person's walking velocity w, smoothed from its detections
+(``walk_estimate``, time constant ``person_walk_time``); w' = w for a person detected at the
+last reading, else w slowed towards rest with ``person_velocity_time`` (``walk_on``): a person
+hidden for a moment walks on.
 
 ``constant_velocity``: each particle carries a velocity v (m/s) as well (people walk fairly
 straight). Over a step of dt the velocity decays towards rest with time constant tau
@@ -51,6 +55,9 @@ class PersonMotion:
     """constant_velocity: time constant (s) of the velocity's decay towards rest."""
     max_speed: float = 1.5
     """constant_velocity: fastest walking speed (m/s); faster velocities are scaled back."""
+    walk_time: float = 0.0
+    """brownian: time constant (s) of the walking velocity estimated from the detections
+    (0: none)."""
 
     def __post_init__(self) -> None:
         if self.model not in PERSON_MOTIONS:
@@ -76,6 +83,29 @@ class PersonMotion:
                                                 velocities.shape)
         after = cap_speed(after, self.max_speed)
         return moved + 0.5 * dt * (velocities + after), after
+
+    def walk_estimate(self, walk: np.ndarray, seen_mean: np.ndarray, mean: np.ndarray,
+                      elapsed: np.ndarray) -> np.ndarray:
+        """Walking velocities (K, 2) of people ``walk`` (K, 2) just detected: their mean moved
+        from ``seen_mean`` to ``mean`` (K, 2) in ``elapsed`` (K,) s since their previous
+        detection; exponential smoothing with time constant ``walk_time``, capped at
+        ``max_speed`` (zero when it is off or for constant_velocity)."""
+        if self.walk_time <= 0.0 or self.carries_velocity:
+            return np.zeros_like(walk)
+        elapsed = np.maximum(elapsed, 1e-9)[:, None]
+        gain = 1.0 - np.exp(-elapsed / self.walk_time)
+        return cap_speed(walk + gain * ((mean - seen_mean) / elapsed - walk), self.max_speed)
+
+    def walk_on(self, walk: np.ndarray, unseen: np.ndarray, dt: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Shift (K, 2) of people walking at ``walk`` (K, 2) over ``dt`` s and their walk
+        after it: the particles drift with it, and a person not detected at the last reading
+        (``unseen`` (K,)) walks on, slowing towards rest with time constant
+        ``velocity_time`` (a person hidden for a moment is looked for where it walked to,
+        one hidden for long is predicted to stop)."""
+        decay = np.where(unseen, math.exp(-dt / self.velocity_time), 1.0)[:, None]
+        after = decay * walk
+        return 0.5 * dt * (walk + after), after
 
     def initial_velocities(self, shape: tuple[int, ...], rng: np.random.Generator
                            ) -> np.ndarray:

@@ -87,8 +87,15 @@ class TrackerSettings:
              "velocity changes by N(0, person_acceleration^2 dt) (m/s^1.5).", low=0.0)
     person_velocity_time: float = parameter(
         2.0, "constant_velocity: time constant (s) of a person's velocity decaying towards "
-             "rest (a person unseen for long is predicted to stop, not to walk on).",
+             "rest (a person unseen for long is predicted to stop, not to walk on); brownian: "
+             "of an undetected person's person_walk_time velocity.",
         low=0.0, low_exclusive=True)
+    person_walk_time: float = parameter(
+        1.0, "brownian: time constant (s) over which a person's walking velocity is smoothed "
+             "from its detections (its mean's displacement between two); its particles drift "
+             "with it, and walk on at it, slowing with person_velocity_time, while it is not "
+             "detected (a person hidden for a moment is looked for where it walked to); 0: "
+             "off.", low=0.0)
     detection_sigma: float = parameter(0.1, "Standard deviation of a person detection per "
                                             "axis (m).", low=0.0, low_exclusive=True)
     person_radius: float = parameter(0.2, "Radius of a person's outline in the scan (m): a "
