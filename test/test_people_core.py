@@ -729,3 +729,22 @@ def test_global_localization_weighs_a_bounded_number_of_beams_whatever_the_scan(
         assert tracker.globally_localizing
         assert widths and max(widths) == global_localization.GLOBAL_MAX_BEAMS
         assert min(spans) > 1.9 * math.pi
+
+
+def test_a_person_too_far_to_return_enough_beams_gives_no_miss():
+    """Not detecting a person in view is evidence only within the range at which it returns
+    ``min_detection_beams`` beams: two legs of ``leg_radius`` 0.06 m across 1-degree beams,
+    0.24 / (2 x 2 pi / 360) = 6.88 m. A person 0.4 m closer loses existence when not seen;
+    one 0.4 m farther keeps it."""
+    grid = room()
+    pose = np.array([0.5, 5.0, 0.0])
+    reach = 4.0 * 0.06 / (2 * 2.0 * math.pi / BEAMS)
+    for distance, missed in ((reach - 0.4, True), (reach + 0.4, False)):
+        tracker = tracker_at(grid, pose, leg_radius=0.06, min_detection_beams=2)
+        tracker.alive[:, 0] = tracker.confirmed[:, 0] = True
+        tracker.keys[:, 0] = 7
+        tracker.people[:, 0] = (0.5 + distance, 5.0)
+        tracker.logodds[:, 0] = 2.0
+        tracker.update(0.0, scan_at(grid, pose, []))
+        assert np.all(tracker.logodds[:, 0] < 2.0) == missed
+        assert np.all(tracker.logodds[:, 0] == 2.0) == (not missed)

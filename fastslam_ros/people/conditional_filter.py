@@ -24,9 +24,10 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
    person within DUPLICATE_GATE of a person of that robot particle; the robot particle's
    weight is multiplied by max(likelihood, p0);
 5. update each associated person: weigh its M_p particles by N(z; theta_i, R), resample them;
-6. existence (core.existence): + tau+ when detected; + tau- when in view, not occluded (the
-   beams toward it passed beyond it: a person behind a wall or another person is no evidence)
-   and not detected; removed below the bound, or when its particles' spread exceeds
+6. existence (core.existence): + tau+ when detected; + tau- when in view, near enough to
+   return ``min_detection_beams`` beams (``detectable_range``), not occluded (the beams toward
+   it passed beyond it: a person behind a wall or another person is no evidence) and not
+   detected; removed below the bound, or when its particles' spread exceeds
    ``lost_spread`` (out of view for long, the person is lost: its Brownian cloud would cover
    half the map and catch anyone's detection); a new person is tentative, not published,
    until its log-odds reach ``logodds_confirm``, and removed as a duplicate within
@@ -46,9 +47,8 @@ PUBLISHED_GATE of one published at the previous reading keeps that one's publish
 whatever key the (new) best particle gives it, and of two people within PUBLISHED_GATE of
 each other only one is reported (the one continuing, else the one published longer).
 
-Without an initial pose the robot particles start uniform over the free space
-(``global_particles`` of them), are localized globally (``global_localization.py``) and are
-reduced to ``num_particles`` once their spread is below ``converged_spread``.
+Without an initial pose the robot particles start uniform over the free space and are
+localized globally (``global_localization.py``).
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ from fastslam_ros.core.motion import OdometryControl, control_variances, sample_
 from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
                                           systematic_resample)
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
-                                           dynamic_beams, segment_scan)
+                                           detectable_range, dynamic_beams, segment_scan)
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
@@ -131,6 +131,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self._leg_model = LegModel(settings.leg_radius, settings.max_leg_width,
                                    settings.max_leg_spacing, settings.max_person_width,
                                    settings.min_detection_beams)
+        self._seen_width = 4.0 * settings.leg_radius if settings.person_model == "legs" \
+            else 2.0 * settings.person_radius  # two legs, or the outline, across the beams
         self.grid: OccupancyMap | None = None
         self.globally_localizing = True
         self.next_key = 0
@@ -458,7 +460,9 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             measured = np.where(np.isnan(scan.ranges), -np.inf, np.where(
                 np.isfinite(scan.ranges) & (scan.ranges >= s.min_range), scan.ranges,
                 np.inf))[scan.beam_index(bearing)]
-            seen_free = in_perceptual_range(distance, bearing, s.min_range, max_range) & (
+            reach = min(max_range, detectable_range(self._seen_width, s.min_detection_beams,
+                                                    scan.angle_increment))
+            seen_free = in_perceptual_range(distance, bearing, s.min_range, reach) & (
                 measured > distance + s.person_radius)
             fraction = seen_free.mean(axis=1)
             missed = np.zeros_like(observed)

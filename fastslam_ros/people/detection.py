@@ -123,6 +123,13 @@ def dynamic_beams(grid: OccupancyMap, sensors: np.ndarray, ends: np.ndarray,
     return dynamic
 
 
+def detectable_range(width: float, min_beams: int, angle_increment: float) -> float:
+    """Farthest range (m) at which a person ``width`` (m) wide across the beams returns
+    ``min_beams`` beams of a scan ``angle_increment`` (rad) apart: beyond it a person in view
+    is missed by the beam spacing alone, so not detecting one there is no evidence."""
+    return width / (min_beams * max(abs(angle_increment), 1e-9))
+
+
 @dataclass
 class Detections:
     """Per robot particle and candidate segment: ``valid`` (M, S), and the detection's range
