@@ -112,8 +112,9 @@ class TrackerSettings:
     segment_jump: float = parameter(
         0.3, "Neighbouring beams whose ranges differ by more than this (m) belong to different "
              "objects.", low=0.0, low_exclusive=True)
-    min_detection_beams: int = parameter(2, "Beams a person must return to be detected.",
-                                         low=1)
+    min_detection_beams: int = parameter(
+        2, "Beams a person must return to be detected; beyond the range at which a person "
+           "returns this many, not detecting one is no evidence of absence.", low=1)
     max_person_width: float = parameter(1.0, "Wider free-space segments are not one person (m).",
                                         low=0.0, low_exclusive=True)
     new_person_likelihood: float = parameter(
