@@ -57,6 +57,7 @@ COUNTERS = (
     "odometry_jumps",         # confirmed odometry discontinuities, bridged with zero motion
     "filter_recoveries",      # updates after which the filter repaired a non-finite state
     "relocalizations",        # localization: particles redrawn at a pose found from a reading
+    "fault_recoveries",       # fault_recovery_matches: the map's rotated copy moved back onto it
     "smoother_solves", "smoother_failures",  # smoothing_period: solves that gave a pose or not
     "odom_missing", "landmarks_missing",  # messages estimated lost from gaps in the stamps
     # points dropped from a cloud:
@@ -333,6 +334,7 @@ class FastSLAMNode(FilterNode):
         labels_before = (self.slam.particle_map(self.slam.best_index())[3] if check_ids
                          else None)
         recoveries, relocalizations = self.slam.num_recoveries, self.slam.num_relocalizations
+        fault_recoveries = self.slam.num_fault_recoveries
         solves, failures = self._smoother_counts()
         try:
             report = self.slam.update(observation.ranges, observation.bearings,
@@ -348,6 +350,7 @@ class FastSLAMNode(FilterNode):
             self._warn("filter_recoveries", "the filter's state was not finite after an update: "
                        "repaired from the finite particles (or reset) [filter_recoveries]")
         self.stats["relocalizations"] += self.slam.num_relocalizations - relocalizations
+        self.stats["fault_recoveries"] += self.slam.num_fault_recoveries - fault_recoveries
         solves_now, failures_now = self._smoother_counts()
         self.stats["smoother_solves"] += max(solves_now - solves, 0)
         if failures_now > failures:

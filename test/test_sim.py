@@ -244,6 +244,11 @@ def test_recommended_params_are_valid_core_settings():
     assert (narrow["max_range"], narrow["field_of_view"]) == (15.0, math.pi)
 
 
+def test_odometry_with_turns_not_made_is_recommended_the_fault_recovery():
+    assert recommended_params(SimConfig(scenario="faults"))["fault_recovery_matches"] == 3
+    assert "fault_recovery_matches" not in recommended_params(SimConfig(scenario="room"))
+
+
 def test_a_sensor_that_misses_without_clutter_is_recommended_its_detection_probability():
     missing = recommended_params(SimConfig(detection_probability=0.3))
     assert missing["detection_probability"] == 0.3

@@ -56,15 +56,15 @@ def test_turn_fault_probability_is_checked():
         FastSLAMConfig(turn_fault_probability=1.0).validate()
 
 
-def faults_run(seed: int, fraction: float, duration: float = 120.0) -> float:
+def faults_run(seed: int, fraction: float, duration: float = 120.0, **settings) -> float:
     """RMS position error (m) of the reported pose over a ``faults`` run (two commanded turns
     not executed and two slips a minute) of a filter configured as a user would, unknown
-    association, ``turn_fault_probability`` ``fraction``. The filter starts at the true pose,
-    so its map frame is the world's."""
+    association, ``turn_fault_probability`` ``fraction`` (and other ``settings``). The filter
+    starts at the true pose, so its map frame is the world's."""
     bag = simulate(SimConfig(scenario="faults", duration=duration))
     config = FastSLAMConfig(max_range=5.6, min_range=0.4, field_of_view=4.2, sensor_x=0.219,
                             sigma_range=0.03, sigma_bearing=0.026, seed=seed,
-                            turn_fault_probability=fraction)
+                            turn_fault_probability=fraction, **settings)
     odometry, truth = bag.odometry, bag.ground_truth
     step_of = {round((t - odometry.stamps[0]) * 40): i for i, t in enumerate(odometry.stamps)}
     slam = FastSLAM(config, initial_pose=odometry.poses[0])

@@ -191,6 +191,19 @@ class FastSLAMConfig:
         "robot mapped since the old ones were last seen move by it, the duplicates are removed "
         "and the rest of the map keeps its place: a drifted loop closes instead of mapping its "
         "start twice (0: off; mapping with unknown association only).", low=0, high=10)
+    fault_recovery_matches: int = parameter(
+        0, "k: once per second the reported particle's young confirmed landmarks (created "
+        "within two sensor ranges of travel) are matched to its older ones as one rigid body "
+        "with any rotation; when at least k of them, and half, lie within fault_recovery_gate "
+        "of older landmarks after a move farther than that gate, the particle moves by it, the "
+        "copies are removed and every particle takes it: a turn the odometry reported and the "
+        "robot did not make (odometry from commanded velocities, as MRCLAM's) no longer maps "
+        "the room again in a rotated frame (0: off; >= 3; mapping with unknown association "
+        "only).", low=0, high=20)
+    fault_recovery_gate: float = parameter(
+        0.3, "Distance (m) within which a young landmark moved by the rigid match counts as a "
+        "copy of an older one (fault_recovery_matches); below the spacing of distinct "
+        "landmarks.", low=0.0, low_exclusive=True, high=10.0)
     smoothing_period: float = parameter(
         0.0, "Seconds of data between solves of the least squares over the reported "
         "particle's path and map (the map refinement, core/smoother.py); the estimate (~/pose, "
@@ -238,6 +251,8 @@ class FastSLAMConfig:
         need(self.logodds_remove < self.existence_evidence()[0],
              ("logodds_remove", "detection_probability", "clutter_rate"),
              "below the log-odds a detection gives (tau+)")
+        need(self.fault_recovery_matches == 0 or self.fault_recovery_matches >= 3,
+             ("fault_recovery_matches",), "0 (off) or at least 3")
         need(self.backend != "numba" or numba_available(), ("backend",),
              "numpy or auto when numba is not installed (pip install numba)")
         return self

@@ -31,8 +31,10 @@ from .backend import choose_backend
 from .config import LOGODDS_MAX, FastSLAMConfig
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
+from .landmark_clock import LandmarkClock
 from .landmark_ekf import pack, unpack
 from .landmark_store import LandmarkStore
+from .fault_recovery import FaultRecovery, correct_map
 from .loop_closure import LoopClosure
 from .reading_log import ReadingLog
 from .smoother import OnlineSmoother
@@ -148,6 +150,11 @@ class FastSLAM(NumpyReading, Relocalizing):
         self.num_underflows = 0
 
     @property
+    def num_fault_recoveries(self) -> int:
+        """Corrections made after odometry faults (``fault_recovery_matches``)."""
+        return 0 if self.fault is None else self.fault.num_recoveries
+
+    @property
     def num_particles(self) -> int:
         return self.config.num_particles
 
@@ -179,11 +186,19 @@ class FastSLAM(NumpyReading, Relocalizing):
         self.working = WorkingSetCache(self.landmarks, self.config.association == "known")
         """The landmarks near the robot that readings work on (kept across readings)."""
         config = self.config
+        mapping = not self._localization and config.association != "known"
+        self.clock = (LandmarkClock() if mapping and (config.loop_closure_matches > 0
+                                                      or config.fault_recovery_matches > 0)
+                      else None)
+        """Creation and observation times of the landmark keys, for the two below."""
         self.loop = (LoopClosure(count, config.loop_closure_matches, config.map_min_existence,
-                                 config.max_range)
-                     if config.loop_closure_matches > 0 and not self._localization
-                     and config.association != "known" else None)
+                                 config.max_range, self.clock)
+                     if mapping and config.loop_closure_matches > 0 else None)
         """Loop closure confirmed across readings (``loop_closure_matches``), or None."""
+        self.fault = (FaultRecovery(config.fault_recovery_matches, config.fault_recovery_gate,
+                                    config.map_min_existence, config.max_range, self.clock)
+                      if mapping and config.fault_recovery_matches > 0 else None)
+        """Recovery from odometry faults (``fault_recovery_matches``), or None."""
         if self._seed is None or len(self._seed[0]) == 0:
             return
         means, packed, labels, logodds = self._seed
@@ -193,8 +208,8 @@ class FastSLAM(NumpyReading, Relocalizing):
         ws.valid[0] = ws.is_new[0] = True
         self.landmarks.scatter(ws, track_labels=self.config.association == "known")
         self.landmarks.resample(np.zeros(count, np.int64))
-        if self.loop is not None:
-            self.loop.register(self.landmarks.next_key)
+        if self.clock is not None:
+            self.clock.register(self.landmarks.next_key)
 
     def initialize_pose(self, mean, covariance) -> None:
         """Redraw every particle's pose from N(mean (3,), covariance (3, 3)), e.g. a pose the
@@ -231,8 +246,8 @@ class FastSLAM(NumpyReading, Relocalizing):
         step = relative_pose_floats(pose_floats(odom_from), pose_floats(odom_to))
         self._pending = compose_floats(self._pending, step)
         self.readings.move(step)
-        if self.loop is not None:
-            self.loop.travelled += math.hypot(step[0], step[1])
+        if self.clock is not None:
+            self.clock.travelled += math.hypot(step[0], step[1])
         self._has_pending = True
         x, y, theta = self._pending
         if (math.hypot(x, y) > self.config.max_pending_translation
@@ -338,14 +353,15 @@ class FastSLAM(NumpyReading, Relocalizing):
         known = self.config.association == "known"
         ws = self.working.for_reading(mean, reach, len(usable_ranges),
                                       usable_labels if known else None, lazy=lazy)
-        if self.loop is not None:
-            self.loop.before_reading(ws, self.working.pending)
+        if self.clock is not None:
+            self.clock.before_reading(ws, self.working.pending)
         outcome = self._backend.read(self, ws, mean, cov, usable_ranges,        # 2. to 5.
                                      usable_bearings, usable_labels, reach, stamp)
         self.num_updates += 1
         self.working.created(outcome.columns)
         self._best = outcome.best
         self._close_loops()
+        self._recover_from_fault(stamp)
         self._resample_if_degenerate(outcome.report)
         if not outcome.checked:
             self.check_state()
@@ -383,9 +399,38 @@ class FastSLAM(NumpyReading, Relocalizing):
         """``loop_closure_matches``: the reading's new landmarks against old ones
         (``loop_closure.LoopClosure``), after the map step and before resampling, the same
         numpy step on both backends."""
+        if self.clock is not None:
+            self.clock.after_reading(self.working.current, self.landmarks.next_key)
         if self.loop is not None:
-            self.poses = self.loop.after_reading(self.working, self.poses,
-                                                 self.landmarks.next_key)
+            self.poses = self.loop.after_reading(self.working, self.poses)
+
+    def _recover_from_fault(self, stamp: float) -> None:
+        """``fault_recovery_matches``: correct the reported particle when its young landmarks
+        are a rigidly moved copy of older ones (``fault_recovery``); every particle then takes
+        its corrected pose and map (they all carry the fault), weights uniform."""
+        if self.fault is None:
+            return
+        best = self._best
+        correction = self.fault.search(self.poses[best], self.particle_map(best), stamp)
+        if correction is None:
+            return
+        self.working.flush()
+        ws = self.landmarks.gather_maps(np.array([best]))
+        correct_map(ws, best, correction)
+        self.landmarks.scatter_moved(ws, self.working.track_labels)
+        pose = np.append(correction.pivot + correction.shift,
+                         wrap_angle(self.poses[best, 2] + correction.rotation))
+        indices = np.full(self.num_particles, best)
+        self.landmarks.resample(indices)
+        self.history.resample(indices)
+        if self.loop is not None:
+            self.loop.resample(indices)
+        if self._prior is not None:
+            mean, cov = self._settled_prior()
+            self._set_prior((np.tile(pose, (self.num_particles, 1)),
+                             None if cov is None else cov[indices]))
+        self.poses = np.tile(pose, (self.num_particles, 1))
+        self.log_weights = np.full(self.num_particles, self._log_uniform)
 
     def _resample_if_degenerate(self, report: UpdateReport) -> None:
         """Resample (poses, maps, working set, history) when N_eff is below the threshold;

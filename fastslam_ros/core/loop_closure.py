@@ -32,12 +32,11 @@ changed its covariance in some particle. Landmarks of a loaded map count as obse
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .geometry import rigid_fit, wrap_angle
-from .landmark_store import COV, LOGODDS, WorkingSet
+from .landmark_clock import LandmarkClock, logodds_of
+from .landmark_store import WorkingSet
 from .working_cache import WorkingSetCache
 
 DRIFT_PER_METER = 0.01
@@ -74,7 +73,7 @@ def _mahalanobis(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
         return (syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy) / det
 
 
-def _rotate_cov(cov: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
+def rotate_cov(cov: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
     """R S R^T for packed covariances (..., 3) and rotations given by cos, sin (...)."""
     sxx, sxy, syy = cov[..., 0], cov[..., 1], cov[..., 2]
     cc, ss, cs = cos * cos, sin * sin, cos * sin
@@ -107,25 +106,18 @@ def _fit_residuals(old: np.ndarray, new: np.ndarray, cov: np.ndarray,
 
 
 class LoopClosure:
-    """Per-particle offset hypotheses and per-key observation times (module docstring)."""
+    """Per-particle offset hypotheses (module docstring)."""
 
     def __init__(self, num_particles: int, matches: int, min_existence: float,
-                 max_range: float) -> None:
+                 max_range: float, clock: LandmarkClock) -> None:
         self.matches = matches
-        self.min_logodds = (-math.inf if min_existence <= 0.0 else
-                            math.log(min_existence / (1.0 - min_existence))
-                            if min_existence < 1.0 else math.inf)
+        self.min_logodds = logodds_of(min_existence)
         self.old_after = OLD_AFTER_RANGES * max_range
         self.lifetime = LIFETIME_RANGES * max_range
-        self.travelled = 0.0
-        """Odometry distance (m) received so far (``FastSLAM.predict``)."""
+        self.clock = clock
+        """Creation and observation times of the landmark keys (shared, ``FastSLAM``)."""
         self.num_closures = 0
         """Particle shifts made so far (a closure shifts every particle that confirmed it)."""
-        self._seen = np.zeros(0)
-        """Per landmark key: ``travelled`` when some particle last observed it."""
-        self._created = np.zeros(0)
-        """Per landmark key: ``travelled`` when it was created."""
-        self._num_keys = 0
         count = num_particles
         self.support = np.zeros(count, np.int64)
         """Distinct old landmarks agreeing on each particle's offset (0: no hypothesis)."""
@@ -140,50 +132,23 @@ class LoopClosure:
         """Latest time (``travelled``) a supporting old landmark was observed."""
         self._old_keys = np.full((count, matches), -1, np.int64)
         self._new_keys = np.full((count, matches), -1, np.int64)
-        self._before: np.ndarray | None = None
-        self._first_new = 0
 
-    def register(self, next_key: int) -> None:
-        """Keys below ``next_key`` not registered yet were created (and observed) now."""
-        known = self._num_keys
-        if next_key <= known:
-            return
-        if next_key > len(self._seen):
-            # Doubling: a reading creates up to one key per particle and new landmark.
-            grow = max(next_key, 2 * len(self._seen)) - len(self._seen)
-            self._seen = np.concatenate([self._seen, np.zeros(grow)])
-            self._created = np.concatenate([self._created, np.zeros(grow)])
-        self._seen[known:next_key] = self._created[known:next_key] = self.travelled
-        self._num_keys = next_key
-
-    def before_reading(self, ws: WorkingSet, pending: np.ndarray | None) -> None:
-        """Remember the covariances and log-odds of the working set's landmarks (``pending``:
-        the resampling the reading applies to it first), to tell which the reading observes
-        and which it confirms."""
-        kept = ws.state[:, :ws.first_new_slot, COV.start:LOGODDS + 1]
-        self._before = kept[pending] if pending is not None else kept.copy()
-        self._first_new = ws.first_new_slot
-
-    def after_reading(self, cache: WorkingSetCache, poses: np.ndarray,
-                      next_key: int) -> np.ndarray:
-        """Update observation times, match the new landmarks of the reading's working set
-        (``cache.current``), close confirmed loops; returns the poses (moved where a loop
+    def after_reading(self, cache: WorkingSetCache, poses: np.ndarray) -> np.ndarray:
+        """Match the new landmarks of the reading's working set (``cache.current``; the clock
+        has taken the reading), close confirmed loops; returns the poses (moved where a loop
         closed)."""
         ws = cache.current
-        first, before = self._first_new, self._before
-        self._before = None
-        changed = ws.valid[:, :first] & (ws.cov[:, :first] != before[..., :3]).any(axis=2)
-        self._seen[ws.key[:, :first][changed]] = self.travelled
-        self.register(next_key)
-        self.support[self.travelled - self._started > self.lifetime] = 0
+        first, before = self.clock.first_new, self.clock.before
+        travelled, created, seen = self.clock.travelled, self.clock.created, self.clock.seen
+        self.support[travelled - self._started > self.lifetime] = 0
         # Landmarks this reading confirmed: their log-odds reached the bound now.
         confirmed = ws.valid & (ws.logodds >= self.min_logodds)
         confirmed[:, :first] &= before[..., 3] < self.min_logodds
         if confirmed.any():  # (before the first landmark no key can be looked up)
-            confirmed &= (self.travelled - self._created[np.maximum(ws.key, 0)]) <= self.lifetime
+            confirmed &= (travelled - created[np.maximum(ws.key, 0)]) <= self.lifetime
         if confirmed.any():
             key = np.maximum(ws.key[:, :first], 0)
-            stale = self.travelled - self._seen[key]
+            stale = travelled - seen[key]
             old = (ws.valid[:, :first] & (ws.logodds[:, :first] >= self.min_logodds)
                    & (stale >= self.old_after))
             if old.any():
@@ -230,7 +195,7 @@ class LoopClosure:
             pick = np.where(agree[rows], agree_d2[rows], np.inf).argmin(axis=1)
             slot = np.minimum(self.support[rows], self.matches - 1)
             self._store(ws, rows, slot, column, pick, key, match_cov)
-            self._since[rows] = np.maximum(self._since[rows], self._seen[key[rows, pick]])
+            self._since[rows] = np.maximum(self._since[rows], self.clock.seen[key[rows, pick]])
             self.support[rows] += 1
         rows = (wide.any(axis=1) & ~joins).nonzero()[0]
         if len(rows):
@@ -238,8 +203,8 @@ class LoopClosure:
             self._old_keys[rows] = -1
             self._new_keys[rows] = -1
             self._store(ws, rows, np.zeros(len(rows), np.int64), column, pick, key, match_cov)
-            self._since[rows] = self._seen[key[rows, pick]]
-            self._started[rows] = self.travelled
+            self._since[rows] = self.clock.seen[key[rows, pick]]
+            self._started[rows] = self.clock.travelled
             self.support[rows] = 1
 
     def _store(self, ws: WorkingSet, rows: np.ndarray, slot: np.ndarray, column: int,
@@ -272,7 +237,7 @@ class LoopClosure:
         shift = np.stack([cos * robot[:, 0] - sin * robot[:, 1],
                           sin * robot[:, 0] + cos * robot[:, 1]], axis=-1) + translation - robot
         near = cache.current
-        span = self._num_keys + 1
+        span = self.clock.num_keys + 1
         owner, entry = np.nonzero(near.valid[rows])
         near_codes = owner * span + near.key[rows][owner, entry]
         cache.flush()
@@ -280,7 +245,7 @@ class LoopClosure:
         ws = store.gather_maps(rows)
         valid = ws.valid[rows]
         key = ws.key[rows]
-        created = self._created[np.maximum(key, 0)]
+        created = self.clock.created[np.maximum(key, 0)]
         codes = np.arange(len(rows))[:, None] * span + np.maximum(key, 0)
         moved = (valid & (created > self._since[rows, None])
                  & np.isin(codes, near_codes))
@@ -292,7 +257,7 @@ class LoopClosure:
             np.stack([lcos * mean[..., 0] - lsin * mean[..., 1],
                       lsin * mean[..., 0] + lcos * mean[..., 1]], axis=-1)
             + (robot + shift)[:, None], ws.mean[rows])
-        ws.cov[rows] = _rotate_cov(ws.cov[rows], lcos, lsin)
+        ws.cov[rows] = rotate_cov(ws.cov[rows], lcos, lsin)
         duplicate = valid & (key[:, :, None] == self._new_keys[rows, None, :]).any(axis=2)
         ws.valid[rows] = valid & ~duplicate
         ws.dirty[rows] |= moved | duplicate

@@ -67,8 +67,18 @@ def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
     scored on ``MAX_SCORED_POINTS`` of them): the rotation takes b - a onto j - i and the
     translation a onto i. Ties in the count go to the smaller sum of squared distances. The
     winner is refined by least squares over its matched points."""
+    pose, inliers, _ = find_pose_and_rival(points, landmarks, tolerance, math.inf)
+    return pose, inliers
+
+
+def find_pose_and_rival(points: np.ndarray, landmarks: np.ndarray, tolerance: float,
+                        distinct: float) -> tuple[np.ndarray, int, int]:
+    """``find_pose``, and the most points any candidate pose farther than ``distinct`` (m)
+    from the winner puts near landmarks (the distance between two poses: their positions'
+    plus their headings' over the points' spread): a rival as good as the winner makes the
+    match ambiguous."""
     if len(points) < 2 or len(landmarks) < 2:
-        return np.zeros(3), 0
+        return np.zeros(3), 0, 0
     pairing = _spread(points, MAX_PAIR_POINTS)
     a, b = np.triu_indices(len(pairing), 1)
     observed = pairing[b] - pairing[a]
@@ -82,7 +92,7 @@ def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
     mismatch[:, diagonal, diagonal] = np.inf                               # no pair (i, i)
     pair, i, j = (mismatch <= tolerance).nonzero()
     if len(pair) == 0:
-        return np.zeros(3), 0
+        return np.zeros(3), 0, 0
     if len(pair) > MAX_CANDIDATES:
         order = np.argsort(mismatch[pair, i, j], kind="stable")[:MAX_CANDIDATES]
         pair, i, j = pair[order], i[order], j[order]
@@ -101,12 +111,16 @@ def find_pose(points: np.ndarray, landmarks: np.ndarray, tolerance: float
     inliers = inside.sum(axis=1)
     cost = np.where(inside, squared, 0.0).sum(axis=1)
     best = int(np.lexsort((cost, -inliers))[0])
+    spread = max(float(np.hypot(scoring[:, 0], scoring[:, 1]).max()), tolerance)
+    apart = (np.hypot(x - x[best], y - y[best])
+             + spread * np.abs(wrap_angle(yaw - yaw[best]))) > distinct
+    rival = int(inliers[apart].max(initial=0))
     pose = np.array([x[best], y[best], yaw[best]])
     matched = inside[best]
     world = world_points(pose, scoring[matched])
     nearest = landmarks[np.argmin(((world[:, None] - landmarks) ** 2).sum(axis=2), axis=1)]
     pose = _fit(scoring[matched], nearest, pose)
-    return pose, int(explained(world_points(pose, points), landmarks, tolerance).sum())
+    return pose, int(explained(world_points(pose, points), landmarks, tolerance).sum()), rival
 
 
 def _spread(points: np.ndarray, limit: int) -> np.ndarray:

@@ -73,6 +73,10 @@ TRANSLATION_NOISE_INFLATION = 2.0
 LOOP_CLOSURE_MATCHES = 2
 """``loop_closure_matches`` of the recommended parameters: old landmarks that must agree on a
 particle's correction before a loop closes (see recommended_params)."""
+FAULT_RECOVERY_MATCHES = 3
+"""``fault_recovery_matches`` of the recommended parameters when turns are not made
+(``turn_faults``): the faults scenario, seeds 1-5, 3.54 / 3.63 -> 0.296 / 0.371 m with its
+recommended file (docs/benchmarks.md)."""
 SMOOTHING_PERIOD = 2.0
 """``smoothing_period`` of the recommended parameters, except in the room scenarios (the
 filter alone is at the reference there; with odometry faults the smoother follows the
@@ -284,7 +288,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time. A
     sensor that misses landmarks without clutter states its detection probability (the
     existence log-odds follow from it); with clutter, fixed log-odds remove unconfirmed
-    landmarks sooner.
+    landmarks sooner. Odometry that reports turns not made gets the fault recovery
+    (``fault_recovery_matches``).
     """
     config = config.resolved()
     dt = 1.0 / config.control_rate
@@ -320,6 +325,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params["persistent_landmarks"] = True
     else:
         params["smoothing_period"] = SMOOTHING_PERIOD
+    if config.turn_faults > 0.0:
+        params["fault_recovery_matches"] = FAULT_RECOVERY_MATCHES
     if config.clutter_rate > 0.0:
         params.update(logodds_observed=1.0, logodds_missed=-0.4, logodds_remove=-0.9)
     elif config.detection_probability < 1.0:
