@@ -118,9 +118,13 @@ def test_the_estimate_at_the_time_on_the_simulated_world_is_as_good_as_the_refer
     assert np.sqrt(np.mean(result.aligned_errors ** 2)) < 0.25
 
 
-def test_the_latest_pose_marginal_is_the_block_of_the_dense_inverse():
-    """``pose_marginal`` (a sparse factorization) against the dense inverse of J^T J; and the
-    chain's end is less certain than its start (pinned), growing with the odometry's noise."""
+def test_the_marginals_are_the_blocks_of_the_dense_inverse(monkeypatch):
+    """``Marginals`` (a sparse factorization, the landmark columns in chunks: two landmarks
+    per chunk here) against the dense inverse of J^T J; the chain's end is less certain than
+    its start (pinned), and every landmark's marginal holds at least its conditional
+    covariance (the path's uncertainty added); a landmark the solve did not hold keeps its
+    covariance."""
+    monkeypatch.setattr(mr, "MARGINAL_COLUMNS", 4)
     truth, landmarks, readings = corridor(seed=4, steps=30)
     _, odometry, reading, ranges, bearings, ids = logged(truth, readings).readings()
     increments = relative_pose(odometry[:-1], odometry[1:])
@@ -131,12 +135,23 @@ def test_the_latest_pose_marginal_is_the_block_of_the_dense_inverse():
     poses, marks, weights, *_ = mr.solve(problem, truth.copy(), landmarks.copy())
     jac = mr.jacobian(problem, poses, marks, weights).toarray()
     dense = np.linalg.inv(jac.T @ jac)
+    solved = np.append(np.ones(len(marks), bool), False)     # one more landmark, not solved
+    marginals = mr.factorize_information(problem, poses, marks, weights, solved)
     last = len(poses) - 1
-    marginal = mr.pose_marginal(problem, poses, marks, weights, last)
-    np.testing.assert_allclose(marginal, dense[3 * last:3 * last + 3, 3 * last:3 * last + 3],
+    np.testing.assert_allclose(marginals.pose(last),
+                               dense[3 * last:3 * last + 3, 3 * last:3 * last + 3],
                                rtol=1e-6, atol=1e-12)
-    first = mr.pose_marginal(problem, poses, marks, weights, 0)
-    assert np.trace(first) < 1e-5 < np.trace(marginal)
+    base = 3 * len(poses)
+    expected = np.array([dense[base + 2 * j:base + 2 * j + 2, base + 2 * j:base + 2 * j + 2]
+                         for j in range(len(marks))])
+    assert len(marks) > 2
+    given = np.tile(np.eye(2) * 7.0, (len(solved), 1, 1))
+    covariances = marginals.landmark_covariances(given)
+    np.testing.assert_allclose(covariances[:-1], expected, rtol=1e-6, atol=1e-12)
+    np.testing.assert_array_equal(covariances[-1], given[-1])
+    conditional = mr.conditional_covariances(problem, poses, marks, weights)
+    assert (np.linalg.eigvalsh(covariances[:-1] - conditional) > -1e-12).all()
+    assert np.trace(marginals.pose(0)) < 1e-5 < np.trace(marginals.pose(last))
 
 
 def test_a_solve_that_fails_is_counted_and_keeps_the_previous_pose(monkeypatch):
@@ -154,7 +169,7 @@ def test_a_solve_that_fails_is_counted_and_keeps_the_previous_pose(monkeypatch):
     def singular(*args, **kwargs):
         raise RuntimeError("Factor is exactly singular")
 
-    monkeypatch.setattr(mr, "pose_marginal", singular)
+    monkeypatch.setattr(mr, "factorize_information", singular)
     slam.predict(truth[9], truth[10])
     slam.update(readings[10].ranges, readings[10].bearings, readings[10].labels, stamp=10.0)
     assert slam.smoother.failures == 1 and slam.smoother.solves == solves

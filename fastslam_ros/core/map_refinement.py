@@ -40,15 +40,18 @@ graph-based SLAM back end does, once, before the map is written:
 
 The refined covariances are each landmark's conditional on the refined path (the inverse of
 its own 2x2 block of the information matrix, robust weights included), as the filter's are
-conditional on the particle's path. A landmark with no associated observation in the log (a
-loaded one never seen again, or one whose readings were thinned away) keeps the filter's mean
-and covariance.
+conditional on the particle's path; the online smoother reports their marginals (``Marginals``:
+their blocks of the inverse of the whole information matrix), which hold the path's
+uncertainty too, so that the map it reports claims no more than the solve supports. A landmark
+with no associated observation in the log (a loaded one never seen again, or one whose readings
+were thinned away) keeps the filter's mean and covariance.
 """
 from __future__ import annotations
 
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -82,6 +85,9 @@ SYMMETRIC = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
              "options": {"SymmetricMode": True}}
 """SuperLU's settings for a symmetric positive definite matrix: minimum degree ordering on
 A + A^T, the diagonal as pivots (3.4x faster than its default on the bench's maps)."""
+MARGINAL_COLUMNS = 256
+"""Columns of the inverse solved at once for the landmarks' marginal covariances (memory:
+unknowns x 256 floats)."""
 TOLERANCE = 1e-7
 """A solve stops once an accepted step lowers the cost by less than this fraction."""
 
@@ -114,6 +120,9 @@ class RefinementReport:
     solve from."""
     latest_covariance: np.ndarray | None = None
     """(3, 3) marginal covariance of the last solved pose (``refine(latest_covariance=True)``)."""
+    marginals: "Marginals | None" = None
+    """The solve's factorized information, for the landmarks' marginal covariances
+    (``refine(latest_covariance=True)``)."""
 
 
 @dataclass
@@ -386,7 +395,8 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
     ``Solution`` to start from where it has the reading or the landmark (the readings after
     it follow the particle's path from its last one). ``max_solve_poses``: keyframes beyond it;
     ``max_rounds``: solves with the associations redone in between; ``latest_covariance``:
-    the last solved pose's marginal covariance too (one more factorization). Raises
+    the last solved pose's marginal covariance too, and the ``Marginals`` that give the
+    landmarks' (one more factorization). Raises
     ``ValueError`` when there is nothing to refine."""
     began = time.perf_counter()
     stamps, odometry, reading, ranges, bearings, labels = log.readings()
@@ -467,29 +477,65 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
             and (refined_cov[:, 0, 0] > 0.0).all() and (determinant > 0.0).all()):
         raise ValueError("the least squares gave a non-finite or degenerate landmark")
     shift = np.hypot(*(refined_means - means).T)
-    marginal = (pose_marginal(problem, key_poses, marks, weights, len(key_poses) - 1)
-                if latest_covariance else None)
+    marginals = (factorize_information(problem, key_poses, marks, weights, used)
+                 if latest_covariance else None)
     report = RefinementReport(count, size, int(used.sum()), len(ranges), int((chosen >= 0).sum()),
                               rounds, iterations, initial_cost, final_cost,
                               time.perf_counter() - began, float(shift.mean()), stamps[key],
                               key_poses, Solution(stamps, poses, np.asarray(landmark_map.keys),
-                                                  refined_means), marginal)
+                                                  refined_means),
+                              None if marginals is None else marginals.pose(len(key_poses) - 1),
+                              marginals)
     refined = dataclasses.replace(landmark_map, means=refined_means, covariances=refined_cov)
     return refined, report
 
 
-def pose_marginal(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,
-                  weights: np.ndarray, index: int) -> np.ndarray:
-    """(3, 3) marginal covariance of pose ``index`` at the solution: its block of the inverse
-    of the (robustly weighted) information matrix J^T J, relative to the pinned first pose."""
+@dataclass
+class Marginals:
+    """A solve's factorized information matrix J^T J (robust weights included, first pose
+    pinned): blocks of its inverse, the marginal covariances, solved when asked for."""
+
+    factor: Any
+    """``scipy.sparse.linalg.SuperLU`` of J^T J."""
+    size: int
+    num_poses: int
+    solved: np.ndarray
+    """(N,) which landmarks of the refined map the solve held (in order)."""
+
+    def blocks(self, first: int, width: int, count: int) -> np.ndarray:
+        """(count, width, width) diagonal blocks of the inverse from unknown ``first`` on."""
+        unit = np.zeros((self.size, width * count))
+        unit[first + np.arange(width * count), np.arange(width * count)] = 1.0
+        columns = self.factor.solve(unit)[first:first + width * count]
+        split = columns.reshape(count, width, count, width)
+        block = split[np.arange(count), :, np.arange(count), :]
+        return 0.5 * (block + block.transpose(0, 2, 1))
+
+    def pose(self, index: int) -> np.ndarray:
+        """(3, 3) marginal covariance of solved pose ``index``."""
+        return self.blocks(3 * index, 3, 1)[0]
+
+    def landmark_covariances(self, covariances: np.ndarray) -> np.ndarray:
+        """``covariances`` (N, 2, 2) of the refined map with the solved landmarks' replaced by
+        their marginals (``MARGINAL_COLUMNS`` columns of the inverse at a time)."""
+        count, chunk = int(self.solved.sum()), MARGINAL_COLUMNS // 2
+        base = 3 * self.num_poses
+        result = np.array(covariances, float)
+        if count:
+            result[self.solved] = np.concatenate([
+                self.blocks(base + 2 * start, 2, min(chunk, count - start))
+                for start in range(0, count, chunk)])
+        return result
+
+
+def factorize_information(problem: Problem, poses: np.ndarray, landmarks: np.ndarray,
+                          weights: np.ndarray, solved: np.ndarray) -> Marginals:
+    """The ``Marginals`` of the solution (``solved``: the refined map's landmarks it holds)."""
     from scipy.sparse.linalg import splu  # noqa: PLC0415 (the filter itself never needs scipy)
     jac = jacobian(problem, poses, landmarks, weights)
     information = (jac.T.tocsr() @ jac).tocsc()
-    unit = np.zeros((information.shape[0], 3))
-    unit[3 * index + np.arange(3), np.arange(3)] = 1.0
-    columns = splu(information, **SYMMETRIC).solve(unit)
-    block = columns[3 * index:3 * index + 3]
-    return 0.5 * (block + block.T)
+    return Marginals(splu(information, **SYMMETRIC), information.shape[0], len(poses),
+                     solved.copy())
 
 
 def warm_started(stamps: np.ndarray, poses: np.ndarray, landmark_map, start: Solution):

@@ -14,12 +14,13 @@ filter itself is unchanged: the particles and their maps are the filter's.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from .geometry import compose, relative_pose
-from .map_refinement import Solution, odometry_covariances, refine
+from .map_refinement import Marginals, Solution, odometry_covariances, refine
 
 SOLVE_POSES = 1024
 """Poses a solve solves for at most (keyframes beyond; ``map_refinement.MAX_SOLVE_POSES``):
@@ -43,11 +44,23 @@ class OnlineSmoother:
         """Forget the solution (the filter was reset or given a pose)."""
         self._solved: np.ndarray | None = None
         self._solution: Solution | None = None
-        self.landmark_map = None
-        """The latest solve's confirmed map (a ``LandmarkMap``, the frame of ``pose``)."""
+        self._map = None
+        self._marginals: Marginals | None = None
         self._solved_odometry = np.zeros(3)
         self._covariance = np.zeros((3, 3))
         self._last = -math.inf
+
+    @property
+    def landmark_map(self):
+        """The latest solve's confirmed map (a ``LandmarkMap``, the frame of ``pose``) with the
+        landmarks' marginal covariances, which hold the path's uncertainty too; solved on the
+        first read after a solve (a read costs about as much as a solve; the map is published
+        at ``markers_rate``, the solves come every ``smoothing_period``)."""
+        if self._marginals is not None:
+            self._map = dataclasses.replace(
+                self._map, covariances=self._marginals.landmark_covariances(self._map.covariances))
+            self._marginals = None
+        return self._map
 
     def due(self, stamp: float) -> bool:
         return stamp - self._last >= self.period
@@ -74,7 +87,7 @@ class OnlineSmoother:
         if not np.isfinite(latest).all():
             self.failures += 1
             return
-        self._solution, self.landmark_map = report.solution, refined
+        self._solution, self._map, self._marginals = report.solution, refined, report.marginals
         self._covariance = report.latest_covariance
         # No motion has come since the reading just logged: the log's odometry is its own.
         self._solved, self._solved_odometry = latest, log.odometry_pose
