@@ -428,10 +428,12 @@ def test_random_clouds_never_break_the_node(running_node, msg, offset):
 
 
 def test_poisoned_bag_replays_to_the_clean_estimate(tmp_path):
-    """fastslam-poison mixes every class into a bag; the replay drops exactly the faults."""
+    """fastslam-poison mixes every class into a bag; the replay drops exactly the faults, and
+    fastslam-eval scores it as the clean one."""
     from fastslam_ros.tools.bags.bag_schema import read_topic, write_schema_bag
     from fastslam_ros.tools.bags.poison import poison_bag
     from fastslam_ros.tools.bags.replay import replay_bag
+    from fastslam_ros.tools.evaluation.evaluate import evaluate
 
     bag = write_schema_bag(tmp_path / "clean", simulate(SimConfig(duration=25.0, seed=4)))
     counts = poison_bag(bag, tmp_path / "poisoned", rate=2.0, seed=1)
@@ -447,6 +449,10 @@ def test_poisoned_bag_replays_to_the_clean_estimate(tmp_path):
              for name in ("clean_out", "poisoned_out")]
     assert [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[0]] == \
         [(p.pose.pose.position.x, p.pose.pose.position.y) for p in poses[1]]
+    # fastslam-eval scores both runs (the poisoned inputs recorded with the outputs) alike.
+    scores = [evaluate(tmp_path / name)["estimate"]["aligned"]["rmse"]
+              for name in ("clean_out", "poisoned_out")]
+    assert scores[0] == scores[1]
 
 
 def test_lost_odometry_shows_in_diagnostics_with_the_gap(context):
