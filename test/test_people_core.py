@@ -12,7 +12,7 @@ import pytest
 from fastslam_ros.core.existence import (LOGODDS_MAX, in_perceptual_range, removed,
                                          update_logodds)
 from fastslam_ros.people import OccupancyMap, PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.people.conditional_filter import batched_systematic_resample
+from fastslam_ros.core.resampling import batched_systematic_resample
 from fastslam_ros.people.localization import roughen
 from fastslam_ros.tools.simulation.people_sim import cast_scan
 
@@ -748,3 +748,46 @@ def test_a_person_too_far_to_return_enough_beams_gives_no_miss():
         tracker.update(0.0, scan_at(grid, pose, []))
         assert np.all(tracker.logodds[:, 0] < 2.0) == missed
         assert np.all(tracker.logodds[:, 0] == 2.0) == (not missed)
+
+
+def test_beams_of_a_partial_scan_either_way_round():
+    """A 270-degree scan (541 beams, either sign of ``angle_increment``): a bearing's beam is
+    the one at that angle (closed form: (bearing - angle_min) / angle_increment), also past
+    +pi/4 where the difference to ``angle_min`` wraps; a bearing behind the laser is outside
+    its span and takes the nearer end beam."""
+    span, count = 1.5 * math.pi, 541
+    bearings = np.array([1.5, -1.5, 0.0, 2.3, 3.0, -3.0, 2.4, -2.4])
+    inside = np.array([True, True, True, True, False, False, False, False])
+    for angle_min, increment in ((-span / 2, span / (count - 1)), (span / 2, -span / (count - 1))):
+        scan = Scan(np.full(count, 5.0), angle_min, increment, 30.0)
+        index = scan.beam_index(bearings)
+        np.testing.assert_allclose(scan.angles[index[inside]], bearings[inside],
+                                   atol=0.5 * span / (count - 1))
+        np.testing.assert_array_equal(scan.covers(bearings), inside)
+        ends = scan.angles[index[~inside]]
+        np.testing.assert_allclose(np.abs(ends), span / 2)
+        np.testing.assert_array_equal(np.sign(ends), np.sign(bearings[~inside]))
+
+
+def test_a_partial_scan_gives_miss_evidence_only_within_its_span():
+    """A 270-degree laser, heading +y: a person 3 m to its left (bearing 1.5 rad) in the
+    open and not detected loses existence; a person 3 m behind it (outside the span) keeps
+    it and is not reported. Both took the first beam's range before: the left one, with the
+    wall 1.2 m down that beam, kept its existence; the one behind, with 6.9 m of free space,
+    lost it."""
+    grid = room()
+    angles = np.radians(np.arange(-135.0, 135.5, 1.0))
+    for pose, person, missed in (((5.0, 1.0, math.pi / 2), (2.0, 1.2), True),
+                                 ((5.0, 5.0, math.pi / 2), (5.0, 2.0), False)):
+        pose = np.array(pose)
+        tracker = tracker_at(grid, pose)
+        tracker.alive[:, 0] = tracker.confirmed[:, 0] = True
+        tracker.keys[:, 0] = 7
+        tracker.people[:, 0] = person
+        tracker.logodds[:, 0] = 2.0
+        ranges = cast_scan(grid, pose, angles, np.zeros((0, 2)), 12.0)
+        tracker.update(0.0, Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0))
+        assert np.all(tracker.logodds[:, 0] < 2.0) == missed
+        assert np.all(tracker.logodds[:, 0] == 2.0) == (not missed)
+        # Kept, but reported only within the span: nothing observes the one behind.
+        assert len(tracker.published_people().keys) == (1 if missed else 0)

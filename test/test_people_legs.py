@@ -12,6 +12,7 @@ import pytest
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
 from fastslam_ros.tools.simulation import people_legs
+from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
 from fastslam_ros.tools.simulation.crowd import build_map
 from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, simulate_people
@@ -257,3 +258,28 @@ def test_two_legs_are_published_at_once_one_leg_after_two_detections():
     assert len(_people_seen(0.15, leg, scans=1)) == 0
     assert len(_people_seen(0.15, leg, scans=2)) == 1
     assert len(_people_seen(0.15, pair, scans=2, confirm_pairs=False)) == 1
+
+
+def test_a_270_degree_laser_at_7_5_hz_is_simulated_and_scored_within_its_span():
+    """The real recording's laser: 540 beams over 270 degrees, 7.5 scans a second (with
+    odometry at 60 Hz). The beams span +-135 degrees evenly; the scorer counts a person
+    ahead and to the left as in view and one behind the laser as not."""
+    span = 1.5 * math.pi
+    config = PeopleSimConfig(seed=1, duration=4.0, legs=True, beams=540, field_of_view=span,
+                             scan_rate=7.5, odometry_rate=60.0)
+    run = simulate_people(config)
+    assert len(run.scans) == 31 and len(run.scans[0]) == 540
+    np.testing.assert_allclose(run.angles[[0, -1]], [-span / 2 + span / 1080,
+                                                     span / 2 - span / 1080])
+    np.testing.assert_allclose(np.diff(run.angles), span / 540)
+    view = people_eval.LaserView(12.0, Scan(np.zeros(540), float(run.angles[0]),
+                                            float(run.angles[1] - run.angles[0])))
+    walls = np.zeros((100, 100), bool)          # an empty 5 m x 5 m room
+    walls[[0, -1], :] = walls[:, [0, -1]] = True
+    grid = OccupancyMap(walls, ~walls, 0.05)
+    pose = np.array([2.5, 2.5, 0.0])
+    points = pose[:2] + np.array([[1.5, 0.0], [0.0, 1.5], [-1.5, 0.0]])
+    np.testing.assert_array_equal(people_eval.visible(grid, pose, points, view),
+                                  [True, True, False])
+    with pytest.raises(ValueError, match="field_of_view"):
+        PeopleSimConfig(field_of_view=7.0).validate()

@@ -23,6 +23,18 @@ def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.nda
     return np.searchsorted(_cumulative(weights), positions, side="right")
 
 
+def batched_systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Systematic resampling of every row of ``weights`` (K, P) (rows normalised) at once:
+    indices (K, P) into each row; one uniform offset per row."""
+    rows, count = weights.shape
+    cumulative = np.cumsum(weights, axis=1)
+    cumulative[:, -1] = 1.0
+    offsets = np.arange(rows)[:, None]
+    positions = (rng.random((rows, 1)) + np.arange(count)) / count + offsets
+    flat = np.searchsorted((cumulative + offsets).ravel(), positions.ravel(), side="right")
+    return np.clip(flat.reshape(rows, count) - offsets * count, 0, count - 1)
+
+
 def stratified_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """One uniform draw inside each of M equal strata."""
     count = len(weights)

@@ -61,8 +61,8 @@ from fastslam_ros.core.existence import (existence_probability, in_perceptual_ra
                                          update_logodds)
 from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, wrap_angle
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
-from fastslam_ros.core.resampling import (effective_sample_size, normalize_log_weights,
-                                          systematic_resample)
+from fastslam_ros.core.resampling import (batched_systematic_resample, effective_sample_size,
+                                          normalize_log_weights, systematic_resample)
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
                                            detectable_range, dynamic_beams, segment_scan)
 from fastslam_ros.people.global_localization import GlobalLocalization
@@ -100,18 +100,6 @@ class PeopleEstimate:
     means: np.ndarray
     covariances: np.ndarray
     existence: np.ndarray
-
-
-def batched_systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Systematic resampling of every row of ``weights`` (K, P) (rows normalised) at once:
-    indices (K, P) into each row; one uniform offset per row."""
-    rows, count = weights.shape
-    cumulative = np.cumsum(weights, axis=1)
-    cumulative[:, -1] = 1.0
-    offsets = np.arange(rows)[:, None]
-    positions = (rng.random((rows, 1)) + np.arange(count)) / count + offsets
-    flat = np.searchsorted((cumulative + offsets).ravel(), positions.ravel(), side="right")
-    return np.clip(flat.reshape(rows, count) - offsets * count, 0, count - 1)
 
 
 class PeopleTracker(GlobalLocalization, PeopleIdentities):
@@ -205,6 +193,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                                                  s.num_particles, self.rng))
             self.globally_localizing = False
         self.last_stamp = None
+        self._span: Scan | None = None   # the latest scan: people outside its span go unreported
         self._published = None
         self._last_published = (np.zeros(0, np.int64), np.zeros((0, 2)))
 
@@ -244,6 +233,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             raise ValueError("no map: set_map() first")
         s = self.settings
         self._diffuse_people(stamp)
+        self._span = scan
         max_range = min(s.max_range, scan.range_max)
         returns = scan.returns(s.min_range, s.max_range)
         if self.globally_localizing:
@@ -462,8 +452,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                 np.inf))[scan.beam_index(bearing)]
             reach = min(max_range, detectable_range(self._seen_width, s.min_detection_beams,
                                                     scan.angle_increment))
-            seen_free = in_perceptual_range(distance, bearing, s.min_range, reach) & (
-                measured > distance + s.person_radius)
+            seen_free = (in_perceptual_range(distance, bearing, s.min_range, reach)
+                         & scan.covers(bearing) & (measured > distance + s.person_radius))
             fraction = seen_free.mean(axis=1)
             missed = np.zeros_like(observed)
             missed[m, n] = fraction >= MISSED_FRACTION
@@ -559,7 +549,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
 
     def published_people(self) -> PeopleEstimate:
         """The people to publish: the best robot particle's confirmed people but those whose
-        particles' position standard deviation exceeds ``publish_spread``. Unseen for a while
+        particles' position standard deviation exceeds ``publish_spread`` or who lie outside a
+        partial scan's span (behind a 270-degree laser: kept, not observed). Unseen for a while
         (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
         stale track would be a false positive, and catch whoever walks by. The ids are the
         published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
@@ -571,6 +562,12 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         people = self.people_of()
         keep = np.flatnonzero(np.trace(people.covariances, axis1=1, axis2=2)
                               <= 2.0 * self.settings.publish_spread ** 2)
+        if self._span is not None and len(keep):
+            # Outside a partial scan's span (behind a 270-degree laser) a person is kept, not
+            # reported: nothing observes it there.
+            sensor = sensor_poses(self.poses[self.best_index][None], self.offset)[0]
+            offset = people.means[keep] - sensor[:2]
+            keep = keep[self._span.covers(np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2])]
         ids, kept = self._published_ids(people.keys[keep], people.means[keep])
         now = self.last_stamp if self.last_stamp is not None else 0.0
         for i in ids.tolist():

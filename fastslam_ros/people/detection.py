@@ -47,15 +47,33 @@ class Scan:
         with np.errstate(invalid="ignore"):
             return np.isfinite(self.ranges) & (self.ranges >= min_range) & (self.ranges < limit)
 
+    def _steps(self, bearings: np.ndarray) -> tuple[np.ndarray, float, bool]:
+        """(beams from the first beam to each bearing, counted the scan's way round in
+        [0, a full turn), beams in a full turn, whether the scan covers a full turn)."""
+        turn = 2.0 * np.pi / abs(self.angle_increment)
+        steps = np.mod((np.asarray(bearings, float) - self.angle_min) / self.angle_increment,
+                       turn)
+        return steps, turn, len(self.ranges) >= turn - 1e-6
+
     def beam_index(self, bearings: np.ndarray) -> np.ndarray:
-        """Index of the beam nearest each bearing (rad), wrapping round a full turn; beams
-        outside a partial scan's span clip to its first or last beam."""
+        """Index of the beam nearest each bearing (rad), wrapping round a full turn; a bearing
+        outside a partial scan's span takes the nearer of its end beams (``covers`` tells)."""
         count = len(self.ranges)
-        steps = np.rint(wrap_angle(bearings - self.angle_min) / self.angle_increment)
-        full_turn = abs(self.angle_increment) * count >= 2.0 * np.pi - 1e-6
+        steps, turn, full_turn = self._steps(bearings)
         if full_turn:
-            return np.mod(steps, count).astype(np.intp)
-        return np.clip(steps, 0, count - 1).astype(np.intp)
+            return np.mod(np.rint(steps), count).astype(np.intp)
+        beyond = steps > count - 1
+        nearer_last = steps - (count - 1) < turn - steps
+        return np.where(beyond, np.where(nearer_last, count - 1, 0),
+                        np.rint(steps)).astype(np.intp)
+
+    def covers(self, bearings: np.ndarray) -> np.ndarray:
+        """Whether each bearing (rad) lies within the scan's span (up to half a beam beyond its
+        end beams): a partial scan (a 270-degree laser) sees nothing behind it."""
+        steps, turn, full_turn = self._steps(bearings)
+        if full_turn:
+            return np.ones(steps.shape, bool)
+        return (steps <= len(self.ranges) - 0.5) | (steps >= turn - 0.5)
 
 
 @dataclass

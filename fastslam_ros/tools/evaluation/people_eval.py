@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from fastslam_ros.people.detection import Scan
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools import cli
 from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
@@ -91,18 +92,30 @@ def people_frames(stamps: np.ndarray, messages: list[Any]) -> list[Frame]:
     return frames
 
 
-def visible(grid: OccupancyMap, pose: np.ndarray, points: np.ndarray, max_range: float
+@dataclass(frozen=True)
+class LaserView:
+    """What the laser (at the robot's centre, as the simulator puts it) sees: its range, and a
+    partial scan's span (a ``Scan`` with the run's beam angles; None: a full turn)."""
+
+    max_range: float
+    span: Scan | None = None
+
+
+def visible(grid: OccupancyMap, pose: np.ndarray, points: np.ndarray, view: LaserView
             ) -> np.ndarray:
-    """Whether each point (K, 2) is within ``max_range`` of ``pose`` with a clear line of sight
-    on the map (people do not block it)."""
+    """Whether each point (K, 2) is within the laser's range and span from ``pose`` with a
+    clear line of sight on the map (people do not block it)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(points) == 0:
         return np.zeros(0, dtype=bool)
     offset = points - pose[:2]
     distance = np.hypot(offset[:, 0], offset[:, 1])
-    wall = grid.cast(np.broadcast_to(pose[:2], points.shape), np.arctan2(offset[:, 1],
-                                                                        offset[:, 0]), max_range)
-    return (distance <= max_range) & (wall >= distance - PERSON_RADIUS)
+    heading = np.arctan2(offset[:, 1], offset[:, 0])
+    wall = grid.cast(np.broadcast_to(pose[:2], points.shape), heading, view.max_range)
+    seen = (distance <= view.max_range) & (wall >= distance - PERSON_RADIUS)
+    if view.span is not None:
+        seen &= view.span.covers(heading - pose[2])
+    return seen
 
 
 def hidden_by_people(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -190,7 +203,7 @@ def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_
 
 
 def benchmark_mot(ground_truth: PoseSeries, grid: OccupancyMap, truth_frames: list[Frame],
-                  estimate_frames: list[Frame], max_range: float, min_existence: float
+                  estimate_frames: list[Frame], view: LaserView, min_existence: float
                   ) -> dict[str, Any]:
     """CLEAR MOT as the leg tracking benchmark counts: BENCHMARK_RADIUS, every scan a frame
     (from the first, converged or not; a scan without output has no tracks), the people the
@@ -208,7 +221,7 @@ def benchmark_mot(ground_truth: PoseSeries, grid: OccupancyMap, truth_frames: li
         index = min(np.searchsorted(ground_truth.stamps, frame.stamp),
                     len(ground_truth.stamps) - 1)
         pose = ground_truth.poses[index]
-        seen = visible(grid, pose, frame.positions, max_range)
+        seen = visible(grid, pose, frame.positions, view)
         seen[seen] &= ~hidden_by_people(pose, frame.positions[seen])
         truths.append(Frame(frame.stamp, frame.ids[seen], frame.positions[seen]))
         estimates.append(est)
@@ -229,7 +242,7 @@ def convergence_time(result) -> float:
 
 
 def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: OccupancyMap,
-                    truth_frames: list[Frame], estimate_frames: list[Frame], max_range: float,
+                    truth_frames: list[Frame], estimate_frames: list[Frame], view: LaserView,
                     min_existence: float = 0.5) -> tuple[dict[str, Any], Any]:
     """Every metric of a run (JSON-ready dict) and the robot's trajectory match."""
     trajectory = evaluate_trajectory(estimate.stamps, estimate.poses[:, :2], ground_truth)
@@ -252,8 +265,8 @@ def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: Occupa
             continue
         index = min(np.searchsorted(ground_truth.stamps, frame.stamp), len(ground_truth.stamps) - 1)
         pose = ground_truth.poses[index]
-        keep_gt = visible(grid, pose, frame.positions, max_range)
-        keep_est = visible(grid, pose, est.positions, max_range)
+        keep_gt = visible(grid, pose, frame.positions, view)
+        keep_est = visible(grid, pose, est.positions, view)
         if est.existence is not None:
             keep_est &= est.existence >= min_existence
         gt = Frame(frame.stamp, frame.ids[keep_gt], frame.positions[keep_gt])
@@ -266,7 +279,7 @@ def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: Occupa
         shown_estimates.append(shown_est)
     metrics["people_unhidden"] = clear_mot(shown_truths, shown_estimates)
     metrics["benchmark"] = benchmark_mot(ground_truth, grid, truth_frames, estimate_frames,
-                                         max_range, min_existence)
+                                         view, min_existence)
     mot = clear_mot(truths, estimates)
     period = float(np.median(np.diff([f.stamp for f in truths]))) if len(truths) > 1 else 0.0
     person_minutes = mot["truth_count"] * period / 60.0
@@ -320,8 +333,13 @@ def evaluate_people_bag(out_path: str | Path, ground_truth_path: str | Path | No
     truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1])
     truth_frames = people_frames(*data[PEOPLE_TRUTH_TOPIC])
     estimate_frames = people_frames(*data[PEOPLE_TOPIC])
-    metrics, _ = evaluate_people(estimate, truth, grid, truth_frames, estimate_frames, max_range,
-                                 min_existence)
+    span = None
+    if scans:
+        first = scans[0]
+        span = Scan(np.zeros(len(first.ranges)), float(first.angle_min),
+                    float(first.angle_increment))
+    metrics, _ = evaluate_people(estimate, truth, grid, truth_frames, estimate_frames,
+                                 LaserView(max_range, span), min_existence)
     if info:
         metrics["runtime"] = {key: info[key] for key in
                               ("wall_time", "cpu_time", "bag_duration", "real_time_factor")

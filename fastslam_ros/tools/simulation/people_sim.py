@@ -59,6 +59,8 @@ class PeopleSimConfig:
     """Stamp of the first message (s since the Unix epoch): a date, as a recording has (as
     ``SimConfig.start_time``)."""
     beams: int = 360
+    field_of_view: float = 2.0 * math.pi
+    """The laser's span (rad), centred ahead; 2 pi: a full turn."""
     scan_rate: float = 10.0
     odometry_rate: float = 50.0
     max_range: float = 12.0
@@ -89,6 +91,8 @@ class PeopleSimConfig:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(self, name)})")
         if self.people < 0 or self.beams < 8:
             raise ValueError("people: must be >= 0 and beams >= 8")
+        if not 0.0 < self.field_of_view <= 2.0 * math.pi:
+            raise ValueError(f"field_of_view: must be in (0, 2 pi] (got {self.field_of_view})")
         ratio = self.odometry_rate / self.scan_rate
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError("scan_rate: must divide odometry_rate")
@@ -153,7 +157,8 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
                      math.atan2(route[1, 1] - route[0, 1], route[1, 0] - route[0, 0])])
     odometry = np.zeros(3)
     target = 1
-    angles = -math.pi + (np.arange(config.beams) + 0.5) * (2.0 * math.pi / config.beams)
+    angles = -0.5 * config.field_of_view + (np.arange(config.beams) + 0.5) * (
+        config.field_of_view / config.beams)
     stamps, true_poses, odometry_poses = [], [], []
     scan_stamps, scans, people = [], [], []
     steps = int(round(config.duration * config.odometry_rate))
@@ -330,6 +335,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--people", type=int, default=defaults.people, help="number of people")
     parser.add_argument("--no-initial-pose", action="store_true",
                         help="write no /initialpose: the tracker must localize globally")
+    parser.add_argument("--beams", type=int, default=defaults.beams, help="beams per scan")
+    parser.add_argument("--field-of-view", type=float, default=defaults.field_of_view,
+                        help="the laser's span (rad), centred ahead (a 270-degree laser: 4.712)")
+    parser.add_argument("--scan-rate", type=float, default=defaults.scan_rate,
+                        help="scans per second (it must divide --odometry-rate)")
+    parser.add_argument("--odometry-rate", type=float, default=defaults.odometry_rate,
+                        help="odometry messages per second")
     parser.add_argument("--legs", action="store_true",
                         help="the real-laser world: people as two swinging legs, tables and "
                              "chairs on thin legs, people close to walls and furniture")
@@ -337,8 +349,10 @@ def main(argv: list[str] | None = None) -> int:
     params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
     try:
         config = PeopleSimConfig(seed=args.seed, duration=args.duration, people=args.people,
-                                 initial_pose=not args.no_initial_pose,
-                                 legs=args.legs).validate()
+                                 initial_pose=not args.no_initial_pose, legs=args.legs,
+                                 beams=args.beams, field_of_view=args.field_of_view,
+                                 scan_rate=args.scan_rate,
+                                 odometry_rate=args.odometry_rate).validate()
         cli.output_folder(args.out, "--out")
         cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any
