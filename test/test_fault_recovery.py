@@ -124,3 +124,11 @@ def test_fault_recovery_is_the_same_on_both_backends():
         runs.append(slam)
     assert runs[0].fault.num_recoveries == runs[1].fault.num_recoveries > 0
     np.testing.assert_allclose(runs[0].poses, runs[1].poses, atol=1e-9, rtol=0)
+
+
+def test_a_match_no_turn_explains_is_not_taken():
+    """Young landmarks that are old ones shifted 3 m without a turn (new territory that
+    happens to repeat the old map's shape): a turn not made moves the robot by at most the
+    turn times the recent travel, so no correction."""
+    recovery, robot, landmarks = rotated_copies(0.0, spacing=3.0)
+    assert recovery.search(robot, landmarks, stamp=0.0) is None

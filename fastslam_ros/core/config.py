@@ -193,13 +193,13 @@ class FastSLAMConfig:
         "start twice (0: off; mapping with unknown association only).", low=0, high=10)
     fault_recovery_matches: int = parameter(
         0, "k: once per second the reported particle's young confirmed landmarks (created "
-        "within two sensor ranges of travel) are matched to its older ones as one rigid body "
-        "with any rotation; when at least k of them, and half, lie within fault_recovery_gate "
-        "of older landmarks after a move farther than that gate, the particle moves by it, the "
-        "copies are removed and every particle takes it: a turn the odometry reported and the "
-        "robot did not make (odometry from commanded velocities, as MRCLAM's) no longer maps "
-        "the room again in a rotated frame (0: off; >= 3; mapping with unknown association "
-        "only).", low=0, high=20)
+        "within two sensor ranges of travel) are matched to its older ones near the robot as "
+        "one rigid body with any rotation; when at least k of them, and half, lie within "
+        "fault_recovery_gate of older landmarks after a move farther than that gate, the "
+        "particle moves by it, the copies are removed and every particle takes it: a turn "
+        "the odometry reported and the robot did not make (odometry from commanded "
+        "velocities, as MRCLAM's) no longer maps the room again in a rotated frame (0: off; "
+        ">= 3; mapping with unknown association only).", low=0, high=20)
     fault_recovery_gate: float = parameter(
         0.3, "Distance (m) within which a young landmark moved by the rigid match counts as a "
         "copy of an older one (fault_recovery_matches); below the spacing of distinct "

@@ -10,19 +10,23 @@ every particle maps them a second time in a rotated frame. The loop closure
 travelled and a small heading error, and these landmarks were seen moments ago.
 
 The rotated copies keep the shape of the landmarks they duplicate. So, at most once per
-``SEARCH_RETRY`` s of data, the reported particle's youngest confirmed landmarks (the k, 2k
-and 4k most recently created, within ``YOUNG_RANGES`` sensor ranges of travel: when the fault
+``SEARCH_RETRY`` s of data, the reported particle's youngest confirmed landmarks (the k, 2k and
+4k most recently created, within ``YOUNG_RANGES`` sensor ranges of travel: when the fault
 happened is not known) are matched to its confirmed landmarks created before them as one rigid
 body with any rotation (``relocalization.find_pose_and_rival``, the pair-distance search that
-localization uses on a reading). A young landmark is a copy of the old one it lands on within
-``fault_recovery_gate`` only if that old one was not observed after the copy was created (the
-robot would have seen it where it is; ``landmark_clock``). The match is taken when at least k
-young landmarks, and half of them, are copies, no distinct pose (``DISTINCT_POSE``) puts as
-many onto old landmarks, and the match moves them by more than the gate (nearer, they are
-neighbours, not copies). Then the particle's pose moves by the rigid motion, the young
-landmarks created since the first copy move with it, the copies are removed, and every
-particle takes the corrected one (they all carry the same fault). The next readings associate
-the old landmarks as before the fault.
+localization uses on a reading), among the older landmarks within two sensor ranges of the
+robot (the copies are of landmarks in view). A young landmark is a copy of the old one it lands
+on within ``fault_recovery_gate`` only if that old one was not observed after the copy was
+created (the robot would have seen it where it is; ``landmark_clock``). The match is taken when
+at least k young landmarks, and half of them, are copies, no distinct pose (``DISTINCT_POSE``)
+puts as many onto old landmarks, the match moves them by more than the gate (nearer, they are
+neighbours, not copies), and it moves the robot no farther than a turn of its angle about a
+point of the recent path would (the turn times ``YOUNG_RANGES`` sensor ranges, plus the gate;
+without these two bounds, new territory that repeats the shape of old landmarks moved the
+default world's robot by tens of metres). Then the particle's pose moves by the rigid motion,
+the young landmarks created since the first copy move with it, the copies are removed, and
+every particle takes the corrected one (they all carry the same fault). The next readings
+associate the old landmarks as before the fault.
 
 Measured (docs/benchmarks.md, "Odometry faults"): it brings the faults scenario back to its
 map; on MRCLAM's sparse readings (one or two landmarks at a time, 15 in all) the few
@@ -83,6 +87,7 @@ class FaultRecovery:
         self.gate = gate
         self.min_logodds = logodds_of(min_existence)
         self.young_travel = YOUNG_RANGES * max_range
+        self.max_range = max_range
         self.clock = clock
         """Creation and observation times of the landmark keys (shared, ``FastSLAM``)."""
         self.num_recoveries = 0
@@ -123,7 +128,12 @@ class FaultRecovery:
         count = int(young.sum())
         if not old.any():
             return None
-        old_means, old_keys = mean[old], key[old]
+        # The copies are of landmarks the robot sees now: their originals lie within the
+        # sensor's range of it (its position is off by less than the young landmarks' spread).
+        near = old & (((mean - pose[:2]) ** 2).sum(axis=1) <= (2.0 * self.max_range) ** 2)
+        old_means, old_keys = mean[near], key[near]
+        if len(old_means) < 2:
+            return None
         if len(old_means) > MAX_RELOCALIZATION_LANDMARKS:
             nearest = np.argsort(((old_means - pose[:2]) ** 2).sum(axis=1), kind="stable")[
                 :MAX_RELOCALIZATION_LANDMARKS]
@@ -145,6 +155,9 @@ class FaultRecovery:
             return None
         if np.median(np.hypot(*(moved_to - mean[young]).T)[copies]) <= self.gate:
             return None       # young landmarks next to old ones: neighbours, not copies
+        if np.hypot(*(found[:2] - pose[:2])) > abs(wrap_angle(found[2] - pose[2])) * (
+                self.young_travel) + self.gate:
+            return None       # farther than a turn about a point of the recent path moves it
         since = young_created[copies].min()
         return Correction(float(wrap_angle(found[2] - pose[2])), pose[:2].copy(),
                           found[:2] - pose[:2],
