@@ -408,7 +408,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         """``fault_recovery_matches``: correct the reported particle when its young landmarks
         are a rigidly moved copy of older ones (``fault_recovery``); every particle then takes
         its corrected pose and map (they all carry the fault), weights uniform."""
-        if self.fault is None:
+        if self.fault is None or not self.fault.due(stamp):
             return
         best = self._best
         correction = self.fault.search(self.poses[best], self.particle_map(best), stamp)

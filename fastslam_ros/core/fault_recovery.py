@@ -94,13 +94,19 @@ class FaultRecovery:
         """Corrections made so far."""
         self._searched = -math.inf
 
+    def due(self, stamp: float) -> bool:
+        """Whether a search is due at ``stamp``: ``SEARCH_RETRY`` s of data since the last one
+        (or time went back); the caller reads the particle's map only then."""
+        return not (stamp - self._searched < SEARCH_RETRY and stamp >= self._searched)
+
     def search(self, pose: np.ndarray, landmarks: tuple[np.ndarray, ...],
                stamp: float) -> Correction | None:
         """The correction the particle at ``pose`` (3,) with the map ``landmarks`` (mean,
-        packed cov, log-odds, label, key: ``FastSLAM.particle_map``) needs, or None. The
-        young landmarks are the k, 2k and 4k most recently created (the fault's time is not
-        known), each set matched to the confirmed landmarks created before it."""
-        if stamp - self._searched < SEARCH_RETRY and stamp >= self._searched:
+        packed cov, log-odds, label, key: ``FastSLAM.particle_map``) needs, or None (also
+        when no search is due). The young landmarks are the k, 2k and 4k most recently
+        created (the fault's time is not known), each set matched to the confirmed landmarks
+        created before it."""
+        if not self.due(stamp):
             return None
         self._searched = stamp
         mean, _, logodds, _, key = landmarks
