@@ -29,12 +29,12 @@ import numpy as np
 from . import association as assoc
 from .backend import choose_backend
 from .config import LOGODDS_MAX, FastSLAMConfig
+from .fault_recovery import FaultRecovery, correct_map
 from .geometry import (compose, compose_floats, mean_pose_and_covariance, pose_floats,
                        relative_pose_floats, wrap_angle)
 from .landmark_clock import LandmarkClock
 from .landmark_ekf import pack, unpack
 from .landmark_store import LandmarkStore
-from .fault_recovery import FaultRecovery, correct_map
 from .loop_closure import LoopClosure
 from .reading_log import ReadingLog
 from .smoother import OnlineSmoother
@@ -398,7 +398,7 @@ class FastSLAM(NumpyReading, Relocalizing):
     def _close_loops(self) -> None:
         """``loop_closure_matches``: the reading's new landmarks against old ones
         (``loop_closure.LoopClosure``), after the map step and before resampling, the same
-        numpy step on both backends."""
+        numpy step on both backends; the landmark clock takes the reading first."""
         if self.clock is not None:
             self.clock.after_reading(self.working.current, self.landmarks.next_key)
         if self.loop is not None:
