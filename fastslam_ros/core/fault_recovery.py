@@ -127,10 +127,11 @@ class FaultRecovery:
 
     def _match(self, pose: np.ndarray, mean: np.ndarray, key: np.ndarray, young: np.ndarray,
                old: np.ndarray) -> Correction | None:
-        """The correction that puts the ``young`` landmarks onto ``old`` ones not observed
-        since (copies), when at least k and half of them are copies, no distinct motion
-        puts as many near old landmarks and the motion moves them by more than the gate;
-        else None."""
+        """The correction that puts the ``young`` landmarks onto ``old`` ones within two
+        sensor ranges and not observed since (copies), when at least k and half of them are
+        copies, no distinct motion puts as many near old landmarks, the motion moves them by
+        more than the gate and the robot no farther than its turn about the recent path
+        would; else None."""
         count = int(young.sum())
         if not old.any():
             return None
