@@ -198,8 +198,10 @@ class FastSLAMConfig:
         "fault_recovery_gate of older landmarks after a move farther than that gate, the "
         "particle moves by it, the copies are removed and every particle takes it: a turn "
         "the odometry reported and the robot did not make (odometry from commanded "
-        "velocities, as MRCLAM's) no longer maps the room again in a rotated frame (0: off; "
-        ">= 3; mapping with unknown association only).", low=0, high=20)
+        "velocities, as MRCLAM's) no longer maps the room again in a rotated frame. For a "
+        "small set of landmarks seen constantly (a room): with many similar landmarks "
+        "(Victoria Park's trees) it matches the wrong ones (0: off; >= 3; mapping with "
+        "unknown association only).", low=0, high=20)
     fault_recovery_gate: float = parameter(
         0.3, "Distance (m) within which a young landmark moved by the rigid match counts as a "
         "copy of an older one (fault_recovery_matches); below the spacing of distinct "
