@@ -86,8 +86,7 @@ SYMMETRIC = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
 """SuperLU's settings for a symmetric positive definite matrix: minimum degree ordering on
 A + A^T, the diagonal as pivots (3.4x faster than its default on the bench's maps)."""
 MARGINAL_COLUMNS = 256
-"""Columns of the inverse solved at once for the landmarks' marginal covariances (memory:
-unknowns x 256 floats)."""
+"""Columns of the inverse solved at once for the landmarks' marginals (unknowns x 256 floats)."""
 TOLERANCE = 1e-7
 """A solve stops once an accepted step lowers the cost by less than this fraction."""
 
@@ -492,11 +491,9 @@ def refine(log: ReadingLog, path_stamps: np.ndarray, path: np.ndarray, landmark_
 
 @dataclass
 class Marginals:
-    """A solve's factorized information matrix J^T J (robust weights included, first pose
-    pinned): blocks of its inverse, the marginal covariances, solved when asked for."""
+    """A solve's factorized J^T J (robust weights, first pose pinned): blocks of its inverse."""
 
-    factor: Any
-    """``scipy.sparse.linalg.SuperLU`` of J^T J."""
+    factor: Any                   # scipy.sparse.linalg.SuperLU of J^T J
     size: int
     num_poses: int
     solved: np.ndarray
@@ -516,10 +513,8 @@ class Marginals:
         return self.blocks(3 * index, 3, 1)[0]
 
     def landmark_covariances(self, covariances: np.ndarray) -> np.ndarray:
-        """``covariances`` (N, 2, 2) of the refined map with the solved landmarks' replaced by
-        their marginals (``MARGINAL_COLUMNS`` columns of the inverse at a time)."""
-        count, chunk = int(self.solved.sum()), MARGINAL_COLUMNS // 2
-        base = 3 * self.num_poses
+        """The map's ``covariances`` (N, 2, 2), the solved landmarks' replaced by marginals."""
+        count, chunk, base = int(self.solved.sum()), MARGINAL_COLUMNS // 2, 3 * self.num_poses
         result = np.array(covariances, float)
         if count:
             result[self.solved] = np.concatenate([
