@@ -16,7 +16,8 @@ from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core.config import LOGODDS_MAX
 from fastslam_ros.core.existence import (CONFIRMED_MISS_EVIDENCE, EXPLAINED_GATE,
                                          confirmation_logodds, confirmed_evidence,
-                                         detection_evidence, existence_probability,
+                                         detection_evidence, existence_logodds,
+                                         existence_probability,
                                          missed_logodds, observed_logodds, update_logodds)
 from fastslam_ros.core.params import ParameterValueError
 from fastslam_ros.tools.simulation.sim import SimConfig, simulate
@@ -221,3 +222,9 @@ def test_the_room_keeps_every_tube_it_mapped_at_the_start(seed):
     the existence rules, 14 and 12 of 17: the rest removed and founded again)."""
     kept, tubes = room_run(seed, 200.0)
     assert kept == tubes == 17
+
+
+def test_existence_logodds_inverts_the_existence_probability():
+    for p in (0.01, 0.5, 0.73, 0.9, 0.999):
+        assert existence_probability(existence_logodds(p)) == pytest.approx(p, rel=1e-12)
+    assert existence_logodds(0.0) == -math.inf and existence_logodds(1.0) == math.inf

@@ -97,14 +97,17 @@ def in_perceptual_range(ranges: np.ndarray, bearings: np.ndarray, min_range: flo
     return inside
 
 
+def existence_logodds(probability: float) -> float:
+    """l = log(p / (1 - p)), the inverse of ``existence_probability`` (-inf at 0, inf at 1)."""
+    if probability <= 0.0:
+        return -math.inf
+    return math.log(probability / (1.0 - probability)) if probability < 1.0 else math.inf
+
+
 def confirmation_logodds(map_min_existence: float, logodds_remove: float) -> float:
     """l_c: the log-odds from which a landmark is confirmed, logit(map_min_existence), at least
     the removal bound (map_min_existence 0 confirms every landmark; 1 none)."""
-    if map_min_existence >= 1.0:
-        return math.inf
-    if map_min_existence <= 0.0:
-        return logodds_remove
-    return max(math.log(map_min_existence / (1.0 - map_min_existence)), logodds_remove)
+    return max(existence_logodds(map_min_existence), logodds_remove)
 
 
 def confirmed_evidence(logodds_missed: float, confirmed: float, logodds_max: float) -> float:

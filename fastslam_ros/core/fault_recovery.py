@@ -42,7 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import wrap_angle
-from .landmark_clock import LandmarkClock, logodds_of
+from .existence import existence_logodds
+from .landmark_clock import LandmarkClock
 from .landmark_store import WorkingSet
 from .loop_closure import rotate_cov
 from .relocalization import (MAX_RELOCALIZATION_LANDMARKS, find_pose_and_rival,
@@ -87,7 +88,7 @@ class FaultRecovery:
                  clock: LandmarkClock) -> None:
         self.matches = matches
         self.gate = gate
-        self.min_logodds = logodds_of(min_existence)
+        self.min_logodds = existence_logodds(min_existence)
         self.young_travel = YOUNG_RANGES * max_range
         self.max_range = max_range
         self.clock = clock

@@ -10,18 +10,9 @@ because a robot standing still neither leaves landmarks nor comes back to them.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .landmark_store import COV, LOGODDS, WorkingSet
-
-
-def logodds_of(probability: float) -> float:
-    """The log-odds of an existence probability (-inf at 0, inf at 1)."""
-    if probability <= 0.0:
-        return -math.inf
-    return math.log(probability / (1.0 - probability)) if probability < 1.0 else math.inf
 
 
 class LandmarkClock:

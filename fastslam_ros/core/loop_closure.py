@@ -35,7 +35,8 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import rigid_fit, wrap_angle
-from .landmark_clock import LandmarkClock, logodds_of
+from .existence import existence_logodds
+from .landmark_clock import LandmarkClock
 from .landmark_store import WorkingSet
 from .working_cache import WorkingSetCache
 
@@ -111,7 +112,7 @@ class LoopClosure:
     def __init__(self, num_particles: int, matches: int, min_existence: float,
                  max_range: float, clock: LandmarkClock) -> None:
         self.matches = matches
-        self.min_logodds = logodds_of(min_existence)
+        self.min_logodds = existence_logodds(min_existence)
         self.old_after = OLD_AFTER_RANGES * max_range
         self.lifetime = LIFETIME_RANGES * max_range
         self.clock = clock
