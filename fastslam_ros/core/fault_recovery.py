@@ -73,12 +73,10 @@ class Correction:
     copy_keys: np.ndarray
 
     def apply(self, points: np.ndarray) -> np.ndarray:
-        """(..., 2) world points moved by the correction."""
-        c, s = math.cos(self.rotation), math.sin(self.rotation)
-        offset = points - self.pivot
-        return (np.stack([c * offset[..., 0] - s * offset[..., 1],
-                          s * offset[..., 0] + c * offset[..., 1]], axis=-1)
-                + self.pivot + self.shift)
+        """(K, 2) world points moved by the correction: seen from the pivot, placed from the
+        corrected pose (``relocalization.world_points``)."""
+        return world_points(np.append(self.pivot + self.shift, self.rotation),
+                            points - self.pivot)
 
 
 class FaultRecovery:
