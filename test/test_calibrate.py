@@ -221,33 +221,47 @@ def test_split_bag_holds_out_the_second_half_of_every_stream():
                                                               held_out.scans.ids))
 
 
-@pytest.mark.parametrize("start, fitted, status", [(0.10, 0.20, 1), (0.20, 0.10, 0),
-                                                   (0.10, 0.101, 0)])
-def test_a_fit_that_does_worse_on_held_out_data_is_not_written(tmp_path, capsys, monkeypatch,
-                                                                 start, fitted, status):
-    """The verdict decides: the held-out ATE of the starting parameters, then of the fit (here
-    given), and the file is written only when the fit is no worse (within the tolerance)."""
+@pytest.mark.parametrize("start, fitted, status", [
+    ((0.10, 0.12), (0.20, 0.22), 1),      # worse everywhere
+    ((0.20, 0.30), (0.10, 0.20), 0),      # better everywhere
+    ((0.10, 0.12), (0.101, 0.121), 0),    # within the tolerance
+    ((0.20, 0.30), (0.10, 0.40), 1),      # a better mean, a worse worst replay
+])
+def test_a_fit_that_does_worse_on_the_replays_is_not_written(tmp_path, capsys, monkeypatch,
+                                                              start, fitted, status):
+    """The verdict decides: the replays' ATEs with the starting parameters, then with the fit
+    (here given), and the file is written only when the fit's mean and worst are no worse
+    (within the tolerance)."""
     bag = write_schema_bag(tmp_path / "sim", simulate(SimConfig(seed=5, duration=30.0)))
-    scores = iter([start, fitted])
-    monkeypatch.setattr(calibration_check, "held_out_ate", lambda bags, params: next(scores))
+    scores = iter([np.array(start), np.array(fitted)])
+    monkeypatch.setattr(calibration_check, "replay_ates", lambda bags, params: next(scores))
     out = tmp_path / "fit.yaml"
     assert calibrate.main([str(bag), "--out", str(out)]) == status
     captured = capsys.readouterr()
     assert out.exists() == (status == 0)
-    assert f"{start:.4g} m starting parameters, {fitted:.4g} m fitted" in captured.out
+    assert (f"{np.mean(start):.4g} / {max(start):.4g} m starting parameters, "
+            f"{np.mean(fitted):.4g} / {max(fitted):.4g} m fitted") in captured.out
     if status:
         assert "not written" in captured.err and len(captured.err.strip().splitlines()) == 1
 
 
-def test_the_held_out_check_replays_the_second_half(tmp_path, capsys):
-    """End to end on a short simulated bag: both held-out scores are real replays (finite,
-    below the dead reckoning's error), and the file exists exactly when the fit kept."""
-    bag = write_schema_bag(tmp_path / "sim", simulate(SimConfig(seed=5, duration=60.0)))
+def test_the_check_replays_every_bag_whole_for_every_seed(tmp_path, capsys):
+    """End to end on a short simulated bag: the starting parameters' scores are those of the
+    whole bag replayed with each validation seed (a replay is deterministic), and the file
+    exists exactly when the fit is kept."""
+    sim = simulate(SimConfig(seed=5, duration=60.0))
+    bag = write_schema_bag(tmp_path / "sim", sim)
     out = tmp_path / "fit.yaml"
     status = calibrate.main([str(bag), "--out", str(out)])
     printed = capsys.readouterr().out
-    found = re.search(r"([0-9.e-]+) m starting parameters, ([0-9.e-]+) m fitted", printed)
-    start, fitted = float(found.group(1)), float(found.group(2))
-    assert 0.0 < start < 2.0 and 0.0 < fitted < 2.0
-    assert (status == 0) == (fitted <= calibration_check.TOLERANCE * start) == out.exists()
+    found = re.search(r"([0-9.e-]+) / ([0-9.e-]+) m starting parameters, ([0-9.e-]+) / "
+                      r"([0-9.e-]+) m fitted", printed)
+    start, start_worst, fitted, fitted_worst = map(float, found.groups())
+    whole = calibration_check.replay_ates([sim], {})
+    assert len(whole) == len(calibration_check.VALIDATION_SEEDS)
+    assert f"{start:.4g} / {start_worst:.4g}" == calibration_check.Verdict.summary(whole)
+    assert 0.0 < fitted <= fitted_worst
+    keeps = (fitted <= calibration_check.TOLERANCE * start
+             and fitted_worst <= calibration_check.TOLERANCE * start_worst)
+    assert (status == 0) == keeps == out.exists()
 

@@ -419,10 +419,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing --out file (never a folder or an input)")
     parser.add_argument("--no-validate", action="store_true",
-                        help="write --out without checking the fit on held-out data (the "
-                             "check fits on the first half of each bag, replays the second "
-                             "half with the starting and the fitted parameters, and writes "
-                             "only a fit that is no worse)")
+                        help="write --out without checking the fit (the check fits on the "
+                             "first half of each bag, replays every bag whole with the "
+                             "starting and the fitted parameters, seeds 1-5, and writes only "
+                             "a fit no worse in mean and worst ATE)")
     return parser
 
 
@@ -489,20 +489,21 @@ def main(argv: list[str] | None = None) -> int:
                 calibrate_bags(parts, offset, args.step, args.match_radius, args.max_gap)[0],
                 args.motion_model, offset, base))
         except (CalibrationError, ParameterValueError, *cli.BAG_ERRORS) as error:
-            return cli.fail(prog, f"cannot check the fit on held-out data: {error} (see "
+            return cli.fail(prog, f"cannot check the fit on replays: {error} (see "
                                   "--no-validate)", cli.EXIT_FAILURE)
-        print(f"# held-out ATE (second half of each bag, seeds {VALIDATION_SEEDS}): "
-              f"{verdict.start_ate:.4g} m starting parameters, {verdict.fitted_ate:.4g} m "
-              "fitted on the first half")
+        print(f"# ATE of whole replays (every bag, seeds {VALIDATION_SEEDS}), mean / worst: "
+              f"{verdict.summary(verdict.start_ates)} m starting parameters, "
+              f"{verdict.summary(verdict.fitted_ates)} m fitted on the first half")
         changed = {name: value for name, value in values.items()
                    if start.get(name, defaults.get(name)) != value}
         print("# changed: " + ", ".join(f"{name} {start.get(name, defaults.get(name))} -> "
                                         f"{value}" for name, value in changed.items()))
         if not verdict.keeps_fit:
-            return cli.fail(prog, f"not written: the fit does worse on held-out data "
-                                  f"({verdict.fitted_ate:.4g} m against {verdict.start_ate:.4g} "
-                                  "m with the starting parameters); keep those (or "
-                                  "--no-validate)", cli.EXIT_FAILURE)
+            return cli.fail(prog, f"not written: the fit does worse on whole replays "
+                                  f"({verdict.summary(verdict.fitted_ates)} m against "
+                                  f"{verdict.summary(verdict.start_ates)} m with the starting "
+                                  "parameters, mean / worst); keep those (or --no-validate)",
+                            cli.EXIT_FAILURE)
     bag_names = " ".join(str(bag) for bag in args.bags)
     comment = "\n".join(textwrap.fill(line, 96) for line in [
         f"Calibrated by fastslam-calibrate {bag_names} (motion model {args.motion_model}, "

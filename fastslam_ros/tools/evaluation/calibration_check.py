@@ -1,14 +1,16 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
-"""A calibration that never hurts: ``fastslam-calibrate`` checks its fit on data it did not
-see before it writes it.
+"""A calibration that never hurts: ``fastslam-calibrate`` checks its fit on whole runs before it
+writes it.
 
-Each bag is split in time: the noise is fitted on the first part only, and the last part (the
-held-out part) is replayed through the node twice, with the parameters the user started from
-and with the fitted ones, seeds ``VALIDATION_SEEDS``. The fit is written only when its mean
-aligned ATE over the held-out parts is no worse than the starting parameters' (within
-``TOLERANCE``): a fit that rejects more observations, or trusts a sensor more than the
-filter's map can support, shows as a worse estimate there, whatever its residuals say.
+Each bag is split in time and the noise is fitted again on the first part only; then every bag
+is replayed whole through the node with the parameters the user started from and with that
+fit, seeds ``VALIDATION_SEEDS``, so the second part is data the fit never saw and the first
+part holds the start of the run, where the map is built. The fit is written only when both its
+mean and its worst aligned ATE over the replays are no worse than the starting parameters'
+(within ``TOLERANCE``): a fit that rejects more observations, or trusts a sensor more than the
+filter's associations can support, shows as a worse estimate there, whatever its residuals say
+(docs/calibration.md: the second half replayed alone can favour a fit that whole runs reject).
 """
 from __future__ import annotations
 
@@ -23,25 +25,31 @@ from fastslam_ros.tools.bags.bag_schema import LandmarkScans, PoseSeries, Schema
 
 FIT_FRACTION = 0.5
 """Share of each bag's time (from its first odometry stamp) the check fits on; the rest is
-held out."""
-VALIDATION_SEEDS = (1, 2, 3)
-"""Filter seeds of the held-out replays (the ATE of one seed moves with the draws)."""
+data the fit never saw."""
+VALIDATION_SEEDS = (1, 2, 3, 4, 5)
+"""Filter seeds of the replays (the ATE of one seed moves with the draws)."""
 TOLERANCE = 1.02
-"""The fit is kept when its held-out ATE is at most this factor of the starting one."""
+"""The fit is kept when its mean and worst ATE are at most this factor of the starting ones."""
 
 
 @dataclasses.dataclass
 class Verdict:
-    """The held-out comparison: mean aligned ATE (m) with the starting and the fitted
-    parameters, and whether the fit may be written."""
+    """The comparison: aligned ATE (m) of every replay (bag x seed) with the starting and the
+    fitted parameters, and whether the fit may be written."""
 
-    start_ate: float
-    fitted_ate: float
+    start_ates: np.ndarray
+    fitted_ates: np.ndarray
+
+    @staticmethod
+    def summary(ates: np.ndarray) -> str:
+        """'mean / worst' of a set of ATEs (m)."""
+        return f"{float(np.mean(ates)):.4g} / {float(np.max(ates)):.4g}"
 
     @property
     def keeps_fit(self) -> bool:
-        """The fit is no worse than the start on the held-out data."""
-        return self.fitted_ate <= TOLERANCE * self.start_ate
+        """The fit is no worse than the start on the mean and on the worst replay."""
+        return bool(np.mean(self.fitted_ates) <= TOLERANCE * np.mean(self.start_ates)
+                    and np.max(self.fitted_ates) <= TOLERANCE * np.max(self.start_ates))
 
 
 def _cut_poses(series: PoseSeries | None, keep: Callable[[np.ndarray], np.ndarray]
@@ -66,8 +74,8 @@ def split_bag(bag: SchemaBag, fraction: float = FIT_FRACTION) -> tuple[SchemaBag
     return parts[0], parts[1]
 
 
-def held_out_ate(bags: list[SchemaBag], params: dict[str, Any]) -> float:
-    """Mean aligned ATE (m) of the estimate at the time over ``bags`` and VALIDATION_SEEDS,
+def replay_ates(bags: list[SchemaBag], params: dict[str, Any]) -> np.ndarray:
+    """Aligned ATE (m) of the estimate at the time of each bag and VALIDATION_SEED (bag-major),
     each bag replayed through the node with ``params``."""
     from fastslam_ros.tools.bags.bag_schema import write_schema_bag
     from fastslam_ros.tools.bags.replay import replay_bag
@@ -76,19 +84,18 @@ def held_out_ate(bags: list[SchemaBag], params: dict[str, Any]) -> float:
     errors = []
     with tempfile.TemporaryDirectory(prefix="fastslam_calibration_") as folder:
         for index, bag in enumerate(bags):
-            path = write_schema_bag(Path(folder) / f"held_out_{index}", bag)
+            path = write_schema_bag(Path(folder) / f"bag_{index}", bag)
             for seed in VALIDATION_SEEDS:
                 run = Path(folder) / f"run_{index}_{seed}"
                 replay_bag(path, dict(params, seed=seed), out_path=run)
                 metrics = evaluate_run(load_run(run)).metrics
                 errors.append(metrics["estimate"]["aligned"]["rmse"])
-    return float(np.mean(errors))
+    return np.array(errors)
 
 
 def check_fit(bags: list[SchemaBag], start: dict[str, Any],
               fit: Callable[[list[SchemaBag]], dict[str, Any]]) -> Verdict:
     """Fit on the first part of every bag (``fit``: bags -> parameter values), replay the
-    held-out parts with ``start`` and with the fit, and compare."""
-    firsts, held_out = zip(*(split_bag(bag) for bag in bags))
-    fitted = fit(list(firsts))
-    return Verdict(held_out_ate(list(held_out), start), held_out_ate(list(held_out), fitted))
+    whole bags with ``start`` and with the fit, and compare."""
+    fitted = fit([split_bag(bag)[0] for bag in bags])
+    return Verdict(replay_ates(bags, start), replay_ates(bags, fitted))
