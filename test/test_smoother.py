@@ -11,6 +11,7 @@ from scipy.stats import chi2
 
 from fastslam_ros.core import FastSLAM, FastSLAMConfig
 from fastslam_ros.core import map_refinement as mr
+from fastslam_ros.core import smoother as smoother_module
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_angle
 from fastslam_ros.core.observation import SensorOffset
 from fastslam_ros.tools.evaluation.metrics import evaluate_trajectory
@@ -92,6 +93,34 @@ def test_between_solves_the_estimate_follows_the_odometry():
                                atol=1e-12)
     slam.initialize_pose(truth[20], np.eye(3) * 1e-4)
     assert slam.smoothed_pose() is None
+
+
+def test_the_solves_space_out_as_the_log_grows(monkeypatch):
+    """A solve over N logged observations is followed by the next one SOLVE_SPACING x N
+    seconds of data later (``smoothing_period`` when more), at the first reading due: the
+    smoother's share of the time stays bounded however long the log (spacing here 0.05 s per
+    observation, about 8 observations a reading, a reading a second)."""
+    monkeypatch.setattr(smoother_module, "SOLVE_SPACING", 0.05)
+    truth, _, readings = corridor(steps=40)
+    config = dataclasses.replace(CORRIDOR_CONFIG, num_particles=20, max_range=8.0,
+                                 association="known", smoothing_period=1.0, seed=3)
+    slam = FastSLAM(config, initial_pose=truth[0])
+    solves = []
+    original = slam.smoother.solve
+
+    def recorded(filter_, stamp):
+        solves.append((stamp, filter_.readings.num_observations))
+        original(filter_, stamp)
+
+    monkeypatch.setattr(slam.smoother, "solve", recorded)
+    for t in range(1, 40):
+        slam.predict(truth[t - 1], truth[t])
+        slam.update(readings[t].ranges, readings[t].bearings, readings[t].labels, stamp=float(t))
+    assert solves[0][0] == 1.0 and len(solves) >= 5
+    for (stamp, observed), (following, _) in zip(solves, solves[1:]):
+        interval = max(1.0, 0.05 * observed)
+        assert stamp + interval <= following < stamp + interval + 1.0
+    assert solves[-1][0] - solves[-2][0] > 5.0     # from 1 s at the start
 
 
 @pytest.fixture(scope="module", params=[1, 2])

@@ -208,7 +208,9 @@ class FastSLAMConfig:
         "landmarks.", low=0.0, low_exclusive=True, high=10.0)
     smoothing_period: float = parameter(
         0.0, "Seconds of data between solves of the least squares over the reported "
-        "particle's path and map (the map refinement, core/smoother.py); the estimate (~/pose, "
+        "particle's path and map (the map refinement, core/smoother.py), at least; a long log "
+        "spaces them further (smoother.SOLVE_SPACING per logged observation), as a solve's "
+        "cost grows with it; the estimate (~/pose, "
         "map -> odom) is then the latest solved pose moved by the odometry since, in the frame "
         "the filter started in (0: the filter's own pose; SLAM mode only).", low=0.0,
         high=1e6)

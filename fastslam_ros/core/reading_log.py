@@ -47,6 +47,11 @@ class ReadingLog:
     def __len__(self) -> int:
         return self._count
 
+    @property
+    def num_observations(self) -> int:
+        """Observations logged (after any thinning)."""
+        return self._observation_count
+
     def move(self, step) -> None:
         """Odometry increment (dx, dy, dtheta) in the robot frame since the last call."""
         self._odometry_pose = compose_floats(self._odometry_pose, step)
