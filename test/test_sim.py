@@ -244,6 +244,15 @@ def test_recommended_params_are_valid_core_settings():
     assert (narrow["max_range"], narrow["field_of_view"]) == (15.0, math.pi)
 
 
+def test_the_dense_world_is_recommended_neither_loop_closure_nor_the_smoother():
+    """The large world (2,000 landmarks) closes false loops with two agreeing old landmarks
+    (docs/benchmarks.md); the loop world keeps both."""
+    dense = recommended_params(SimConfig(scenario="large"))
+    assert dense["loop_closure_matches"] == 0 and "smoothing_period" not in dense
+    loop = recommended_params(SimConfig(scenario="loop"))
+    assert loop["loop_closure_matches"] == 2 and loop["smoothing_period"] == 2.0
+
+
 def test_odometry_with_turns_not_made_is_recommended_the_fault_recovery():
     assert recommended_params(SimConfig(scenario="faults"))["fault_recovery_matches"] == 3
     assert "fault_recovery_matches" not in recommended_params(SimConfig(scenario="room"))

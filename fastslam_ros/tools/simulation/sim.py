@@ -77,6 +77,11 @@ FAULT_RECOVERY_MATCHES = 3
 """``fault_recovery_matches`` of the recommended parameters when turns are not made
 (``turn_faults``): the faults scenario, seeds 1-5, 3.54 / 3.63 -> 0.296 / 0.371 m with its
 recommended file (docs/benchmarks.md)."""
+DENSE_SCENARIOS = ("large",)
+"""Worlds recommended neither loop closure nor the smoother: 2,000 landmarks over 400 m x 300
+m, 50 in range, where the drift-widened gate of a loop closure holds several old landmarks, so
+two chance agreements close false loops, and the smoother's solves space out to 15-30 s on its
+long log, its estimate following the odometry in between (docs/benchmarks.md, the large world)."""
 SMOOTHING_PERIOD = 2.0
 """``smoothing_period`` of the recommended parameters, except in the room scenarios (the
 filter alone is at the reference there; with odometry faults the smoother follows the
@@ -283,7 +288,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     translation term 2x: with the exact values the particles are too concentrated to close the
     loop on some seeds (landmarks seen at the start are mapped again), which the inflation
     mostly cures. The landmarks that still come back outside the gate close the loop once two
-    of them agree on one rigid correction (``loop_closure_matches``). The pose output is the
+    of them agree on one rigid correction (``loop_closure_matches``; not in the dense worlds,
+    ``DENSE_SCENARIOS``, which get neither it nor the smoother). The pose output is the
     particles' weighted mean, which does not jump between hypotheses as the best particle
     does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time. A
     sensor that misses landmarks without clutter states its detection probability (the
@@ -308,7 +314,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         "alpha3": TRANSLATION_NOISE_INFLATION * translation_variance / travel**2,
         "alpha4": 0.001,
         "pose_estimate": "mean",
-        "loop_closure_matches": LOOP_CLOSURE_MATCHES,
+        "loop_closure_matches": 0 if config.scenario in DENSE_SCENARIOS else LOOP_CLOSURE_MATCHES,
         # Replays run many times faster than real time: throttle the heavy outputs harder
         # than the live defaults (the final map and path are always published).
         "markers_rate": 0.2,
@@ -323,7 +329,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params["sensor_x"] = config.sensor_x
     if config.scenario in ROOM_SCENARIOS:  # a few landmarks seen constantly (docs/benchmarks.md)
         params["persistent_landmarks"] = True
-    else:
+    elif config.scenario not in DENSE_SCENARIOS:
         params["smoothing_period"] = SMOOTHING_PERIOD
     if config.turn_faults > 0.0:
         params["fault_recovery_matches"] = FAULT_RECOVERY_MATCHES
