@@ -249,15 +249,14 @@ def test_the_check_replays_every_bag_whole_for_every_seed(tmp_path, capsys):
     """End to end on a short simulated bag: the starting parameters' scores are those of the
     whole bag replayed with each validation seed (a replay is deterministic), and the file
     exists exactly when the fit is kept."""
-    sim = simulate(SimConfig(seed=5, duration=60.0))
-    bag = write_schema_bag(tmp_path / "sim", sim)
+    bag = write_schema_bag(tmp_path / "sim", simulate(SimConfig(seed=5, duration=60.0)))
     out = tmp_path / "fit.yaml"
     status = calibrate.main([str(bag), "--out", str(out)])
     printed = capsys.readouterr().out
     found = re.search(r"([0-9.e-]+) / ([0-9.e-]+) m starting parameters, ([0-9.e-]+) / "
                       r"([0-9.e-]+) m fitted", printed)
     start, start_worst, fitted, fitted_worst = map(float, found.groups())
-    whole = calibration_check.replay_ates([sim], {})
+    whole = calibration_check.replay_ates([bag], {})
     assert len(whole) == len(calibration_check.VALIDATION_SEEDS)
     assert f"{start:.4g} / {start_worst:.4g}" == calibration_check.Verdict.summary(whole)
     assert 0.0 < fitted <= fitted_worst

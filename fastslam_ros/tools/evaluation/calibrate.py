@@ -485,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
         start = dict(base, sensor_x=offset.x, sensor_y=offset.y, sensor_yaw=offset.yaw)
         defaults = vars(FastSLAMConfig())
         try:
-            verdict = check_fit(bags, start, lambda parts: params_file_values(
+            verdict = check_fit(bags, args.bags, start, lambda parts: params_file_values(
                 calibrate_bags(parts, offset, args.step, args.match_radius, args.max_gap)[0],
                 args.motion_model, offset, base))
         except (CalibrationError, ParameterValueError, *cli.BAG_ERRORS) as error:

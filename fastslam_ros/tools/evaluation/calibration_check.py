@@ -74,17 +74,16 @@ def split_bag(bag: SchemaBag, fraction: float = FIT_FRACTION) -> tuple[SchemaBag
     return parts[0], parts[1]
 
 
-def replay_ates(bags: list[SchemaBag], params: dict[str, Any]) -> np.ndarray:
+def replay_ates(paths: list[str | Path], params: dict[str, Any]) -> np.ndarray:
     """Aligned ATE (m) of the estimate at the time of each bag and VALIDATION_SEED (bag-major),
-    each bag replayed through the node with ``params``."""
-    from fastslam_ros.tools.bags.bag_schema import write_schema_bag
+    each bag (read, never written) replayed through the node with ``params`` into a temporary
+    folder."""
     from fastslam_ros.tools.bags.replay import replay_bag
     from fastslam_ros.tools.evaluation.evaluate import evaluate_run, load_run
 
     errors = []
     with tempfile.TemporaryDirectory(prefix="fastslam_calibration_") as folder:
-        for index, bag in enumerate(bags):
-            path = write_schema_bag(Path(folder) / f"bag_{index}", bag)
+        for index, path in enumerate(paths):
             for seed in VALIDATION_SEEDS:
                 run = Path(folder) / f"run_{index}_{seed}"
                 replay_bag(path, dict(params, seed=seed), out_path=run)
@@ -93,9 +92,10 @@ def replay_ates(bags: list[SchemaBag], params: dict[str, Any]) -> np.ndarray:
     return np.array(errors)
 
 
-def check_fit(bags: list[SchemaBag], start: dict[str, Any],
+def check_fit(bags: list[SchemaBag], paths: list[str | Path], start: dict[str, Any],
               fit: Callable[[list[SchemaBag]], dict[str, Any]]) -> Verdict:
     """Fit on the first part of every bag (``fit``: bags -> parameter values), replay the
-    whole bags with ``start`` and with the fit, and compare."""
+    whole bags (``paths``, where ``bags`` were read from) with ``start`` and with the fit,
+    and compare."""
     fitted = fit([split_bag(bag)[0] for bag in bags])
-    return Verdict(replay_ates(bags, start), replay_ates(bags, fitted))
+    return Verdict(replay_ates(paths, start), replay_ates(paths, fitted))
