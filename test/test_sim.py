@@ -230,9 +230,35 @@ def test_large_world_has_thousands_of_separated_landmarks():
     assert distance.min() >= 4.0
 
 
+def test_clusters_world_groups_its_landmarks_in_twos_and_threes_a_few_decimetres_apart():
+    """Every landmark of the clusters world has a neighbour 0.18-0.25 m away (MRCLAM's
+    barcode tubes) and at most two within 0.5 m; the clusters keep the loop's spacing."""
+    for world_seed in range(5):
+        check_clusters(SimConfig(scenario="clusters", world_seed=world_seed).resolved())
+
+
+def check_clusters(config: SimConfig) -> None:
+    """The clusters world of ``config`` as ``test_clusters_world_...`` states it."""
+    positions = build_world(config).landmarks.positions
+    assert len(positions) == config.num_landmarks == 210
+    distance = np.linalg.norm(positions[:, None] - positions[None], axis=2)
+    np.fill_diagonal(distance, np.inf)
+    assert np.all((distance.min(axis=1) >= 0.18 - 1e-9) & (distance.min(axis=1) <= 0.5))
+    in_cluster = (distance < 0.5).sum(axis=1)
+    assert set(in_cluster.tolist()) == {1, 2}
+    # Union of the within-0.5 m pairs: the clusters, 2-3 each, 4 m apart (min_separation).
+    groups = {frozenset(np.flatnonzero(distance[i] < 0.5).tolist() + [i])
+              for i in range(len(positions))}
+    assert {len(group) for group in groups} <= {2, 3} and sum(map(len, groups)) == 210
+    firsts = np.array([positions[min(group)] for group in groups])
+    apart = np.linalg.norm(firsts[:, None] - firsts[None], axis=2)
+    np.fill_diagonal(apart, np.inf)
+    assert apart.min() >= 4.0 - 2 * 0.25
+
+
 def test_recommended_params_are_valid_core_settings():
     core_fields = {item.name for item in dataclasses.fields(FastSLAMConfig)}
-    for scenario in ("loop", "large", "clutter"):
+    for scenario in ("loop", "large", "clutter", "clusters"):
         params = recommended_params(SimConfig(scenario=scenario))
         FastSLAMConfig(**{k: v for k, v in params.items() if k in core_fields}).validate()
         assert set(params) - core_fields == {"pose_estimate", "markers_rate", "path_rate",

@@ -13,7 +13,8 @@ Scenarios: ``loop`` (one closed loop through a landmark field, 3.5 minutes), ``l
 detections and missed detections), ``room`` (a differential-drive robot at walking speed in a
 6 m x 6 m room with 17 tubes seen constantly for 20 minutes by an accurate laser 0.219 m ahead
 of its centre that misses 40 % of them; the scenario sets its own defaults, ``ROOM_DEFAULTS``),
-``faults`` (the room with odometry faults: commanded turns not executed, wheel slip).
+``faults`` (the room with odometry faults: commanded turns not executed, wheel slip),
+``clusters`` (the loop with 210 landmarks in tight clusters of 2-3, as MRCLAM's stand).
 The vehicles, the sensor and the landmark placement are those of ``simulation/world.py``,
 which the in-memory test worlds share.
 """
@@ -38,7 +39,7 @@ from fastslam_ros.tools.simulation.world import (Car, DifferentialDrive, Odometr
                                                  RangeBearingSensor, distance_to_route,
                                                  scatter_landmarks)
 
-SCENARIOS = ("loop", "large", "clutter", "room", "faults")
+SCENARIOS = ("loop", "large", "clutter", "room", "faults", "clusters")
 LOOP_WAYPOINTS = ((0.0, 0.0), (84.0, 0.0), (140.0, 28.0), (161.0, 84.0), (133.0, 133.0),
                   (63.0, 147.0), (0.0, 119.0), (-28.0, 63.0), (-21.0, 17.0))
 """The loop scenario's route (m); the vehicle starts at the first point heading to the second."""
@@ -66,6 +67,15 @@ FAULTS_DEFAULTS = {"turn_faults": 2.0, "slip_faults": 2.0, "duration": 600.0}
 kind a minute)."""
 ROOM_SCENARIOS = ("room", "faults")
 """Scenarios of the lab robot in the room (a differential drive)."""
+CLUSTER_SIZES = (2, 3)
+"""Landmarks per cluster of the clusters scenario (each cluster draws one)."""
+CLUSTER_SPREAD = (0.18, 0.25)
+"""Range (m) of a cluster member's distance from the cluster's first landmark: MRCLAM's
+barcode tubes stand in clusters 0.18-0.25 m apart, which a sensor with decimetres of range
+noise cannot tell apart from a few metres."""
+CLUSTER_MIN_ANGLE = math.radians(60.0)
+"""Smallest angle (rad) between two members seen from the first, so that the members of a
+cluster of three are at least ``CLUSTER_SPREAD[0]`` apart."""
 HEADING_NOISE_INFLATION = 10.0
 """Variance factor on the heading noise of the recommended parameters (see recommended_params)."""
 TRANSLATION_NOISE_INFLATION = 2.0
@@ -159,7 +169,7 @@ class SimConfig:
             raise ValueError(f"scenario: must be one of {SCENARIOS} (got {self.scenario!r})")
         defaults = {"loop": (85, 1.0, 0.0), "large": (2000, 1.0, 0.0),
                     "clutter": (85, 0.9, 2.0), "room": (17, 0.6, 0.0),
-                    "faults": (17, 0.6, 0.0)}[self.scenario]
+                    "faults": (17, 0.6, 0.0), "clusters": (210, 1.0, 0.0)}[self.scenario]
         config = self
         if self.scenario in ROOM_SCENARIOS:
             unset = {item.name: item.default for item in dataclasses.fields(SimConfig)}
@@ -218,10 +228,41 @@ def build_world(config: SimConfig) -> World:
     def beside_route(points: np.ndarray) -> np.ndarray:
         distance = distance_to_route(points, waypoints)
         return (distance >= near) & (distance <= far)
-    positions = scatter_landmarks(rng, config.num_landmarks, waypoints.min(axis=0) - far,
+    clustered = config.scenario == "clusters"
+    sizes = (cluster_sizes(rng, config.num_landmarks) if clustered
+             else np.ones(config.num_landmarks, np.int64))
+    positions = scatter_landmarks(rng, len(sizes), waypoints.min(axis=0) - far,
                                   waypoints.max(axis=0) + far, config.min_separation,
                                   beside_route)
+    if clustered:
+        positions = cluster_members(rng, positions, sizes)
     return World(waypoints, LandmarkSet(positions, np.arange(len(positions), dtype=np.int32)))
+
+
+def cluster_sizes(rng: np.random.Generator, count: int) -> np.ndarray:
+    """Sizes (2 or 3 each, ``CLUSTER_SIZES``) of clusters that hold ``count`` (> 1) landmarks
+    in all: the last ones are cut to fit, never to a single landmark."""
+    sizes = rng.choice(CLUSTER_SIZES, size=count)
+    sizes = sizes[:int(np.searchsorted(np.cumsum(sizes), count)) + 1]
+    sizes[-1] -= int(sizes.sum()) - count
+    if sizes[-1] == 1:  # 3 + 1 -> 2 + 2, 2 + 1 -> 3
+        sizes = np.append(sizes[:-2], [2, 2] if sizes[-2] == 3 else [3])
+    return sizes
+
+
+def cluster_members(rng: np.random.Generator, firsts: np.ndarray,
+                    sizes: np.ndarray) -> np.ndarray:
+    """(sum(sizes), 2) landmarks: each first landmark (C, 2) and its cluster's other members,
+    ``CLUSTER_SPREAD`` from it, ``CLUSTER_MIN_ANGLE`` or more apart as seen from it."""
+    members = []
+    for first, size in zip(firsts, sizes):
+        members.append(first)
+        angle = rng.uniform(-math.pi, math.pi)
+        for _ in range(int(size) - 1):
+            radius = rng.uniform(*CLUSTER_SPREAD)
+            members.append(first + radius * np.array([math.cos(angle), math.sin(angle)]))
+            angle += rng.uniform(CLUSTER_MIN_ANGLE, math.pi)
+    return np.array(members)
 
 
 def build_room(config: SimConfig, rng: np.random.Generator) -> World:
