@@ -421,10 +421,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         pose = np.append(correction.pivot + correction.shift,
                          wrap_angle(self.poses[best, 2] + correction.rotation))
         indices = np.full(self.num_particles, best)
-        self.landmarks.resample(indices)
-        self.history.resample(indices)
-        if self.loop is not None:
-            self.loop.resample(indices)
+        self._reindex(indices, working=False)
         if self._prior is not None:
             mean, cov = self._settled_prior()
             self._set_prior((np.tile(pose, (self.num_particles, 1)),
@@ -441,11 +438,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         heaviest = self.config.best_particle == "heaviest"
         indices, self.poses, copy = self._backend.resample(weights, self.rng, self.poses,
                                                            self._best)
-        self.landmarks.resample(indices)
-        self.working.resample(indices)
-        self.history.resample(indices)
-        if self.loop is not None:
-            self.loop.resample(indices)
+        self._reindex(indices)
         self.log_weights = np.full(self.num_particles, self._log_uniform)
         if not heaviest:
             self._best = self._select_best()
@@ -454,6 +447,17 @@ class FastSLAM(NumpyReading, Relocalizing):
             # heaviest particle drawn instead.
             self._best = copy if copy >= 0 else int(weights[indices].argmax())
         report.resampled = True
+
+    def _reindex(self, indices: np.ndarray, working: bool = True) -> None:
+        """Every per-particle store but the poses and weights takes particles ``indices``
+        (resampling, repairs); ``working``: the working set too (not after a flush)."""
+        self.landmarks.resample(indices)
+        if working:
+            self.working.resample(indices)
+        self.history.resample(indices)
+        for store in (self.loop, self.smoother):
+            if store is not None:
+                store.resample(indices)
 
     def _select_best(self) -> int:
         """The particle to report (``best_particle``): nearest the weighted mean position
@@ -498,11 +502,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         self.poses = self.poses[indices]
         if self._settled_prior() is not None:
             self._set_prior((self._prior[0][indices], self._prior[1][indices]))
-        self.landmarks.resample(indices)
-        self.working.resample(indices)
-        self.history.resample(indices)
-        if self.loop is not None:
-            self.loop.resample(indices)
+        self._reindex(indices)
         self.log_weights = np.full(count, -np.log(count))
         if bad[self._best]:
             self._best = int(good[0])
@@ -528,7 +528,7 @@ class FastSLAM(NumpyReading, Relocalizing):
         """(3,) the smoother's pose now (``smoothing_period``), None when off or unsolved."""
         if self.smoother is None:
             return None
-        return self.smoother.pose(self.readings.odometry_pose)
+        return self.smoother.pose(self)
 
     def smoothed_covariance(self) -> np.ndarray | None:
         """(3, 3) covariance of ``smoothed_pose`` (the solve's marginal plus the odometry's
@@ -540,7 +540,7 @@ class FastSLAM(NumpyReading, Relocalizing):
     def reported_path(self) -> tuple[np.ndarray, np.ndarray]:
         """(stamps (T,), poses (T, 3)) that go with the reported pose: the smoother's solved
         path when it has one, else the best particle's."""
-        smoothed = None if self.smoother is None else self.smoother.path(self.readings)
+        smoothed = None if self.smoother is None else self.smoother.path(self)
         return self.best_path() if smoothed is None else smoothed
 
     def reported_map(self) -> LandmarkMap:

@@ -7,7 +7,10 @@ moves a landmark once the robot has left it, so the reported pose carries the ma
 jumps when the reported particle changes. Every ``smoothing_period`` seconds of data
 ``OnlineSmoother`` solves the map refinement's least squares (``map_refinement.refine``: the
 logged odometry and observations, the reported particle's associations) and keeps the solved
-pose of the latest reading; between solves it follows the odometry from there. The solve's
+pose of the latest reading; between solves it follows the reported particle's motion from there
+(its pose now against its pose at the solve: the odometry corrected by the filter's observations,
+which late in a long log, with solves tens of seconds apart, keeps the estimate off the odometry's
+drift). The solve's
 frame is the one the filter started in (the log's origin), so solves agree with each other
 whichever particle is reported, and the solve's map is the one reported with that pose. The
 filter itself is unchanged: the particles and their maps are the filter's.
@@ -34,7 +37,7 @@ not in CPU time, so that a replay gives the same estimate on any machine."""
 
 
 class OnlineSmoother:
-    """The latest solved pose and the odometry it was solved at."""
+    """The latest solved pose, and every particle's pose and the odometry it was solved at."""
 
     def __init__(self, period: float) -> None:
         self.period = float(period)
@@ -53,6 +56,7 @@ class OnlineSmoother:
         self._map = None
         self._marginals: Marginals | None = None
         self._solved_odometry = np.zeros(3)
+        self._anchors = np.zeros((0, 3))
         self._covariance = np.zeros((3, 3))
         self._last = -math.inf
         self._interval = self.period
@@ -101,20 +105,30 @@ class OnlineSmoother:
         self._covariance = report.latest_covariance
         # No motion has come since the reading just logged: the log's odometry is its own.
         self._solved, self._solved_odometry = latest, log.odometry_pose
+        self._anchors = slam.particle_poses()
         self.solves += 1
 
-    def path(self, log) -> tuple[np.ndarray, np.ndarray] | None:
+    def resample(self, indices: np.ndarray) -> None:
+        """Each particle takes the solve-time pose of the particle it copies (resampling)."""
+        if len(self._anchors):
+            self._anchors = self._anchors[indices]
+
+    def _moved(self, particle: int, poses: np.ndarray) -> np.ndarray:
+        """(n, 3) the solved pose moved as ``particle`` moved from the solve to ``poses``."""
+        return compose(np.broadcast_to(self._solved, poses.shape),
+                       relative_pose(self._anchors[particle][None], poses))
+
+    def path(self, slam) -> tuple[np.ndarray, np.ndarray] | None:
         """(stamps (T,), poses (T, 3)): the latest solve's poses of the readings it solved,
-        then the readings ``log`` recorded since, moved by their odometry (None before the
-        first solve)."""
+        then the reported particle's poses since, moved with it (None before the first
+        solve)."""
         if self._solution is None:
             return None
-        stamps, odometry = log.poses()
+        stamps, poses = slam.best_path()
         later = stamps > self._solution.stamps[-1]
-        moved = compose(np.broadcast_to(self._solved, (int(later.sum()), 3)),
-                        relative_pose(self._solved_odometry[None], odometry[later]))
         return (np.concatenate([self._solution.stamps, stamps[later]]),
-                np.concatenate([self._solution.poses, moved]))
+                np.concatenate([self._solution.poses,
+                                self._moved(slam.best_index(), poses[later])]))
 
     def covariance(self, odometry_now: np.ndarray, config) -> np.ndarray | None:
         """(3, 3) the pose's covariance now: the solved pose's marginal (relative to the first
@@ -129,10 +143,9 @@ class OnlineSmoother:
         turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         return self._covariance + turn @ noise @ turn.T
 
-    def pose(self, odometry_now: np.ndarray) -> np.ndarray | None:
-        """(3,) the pose now: the latest solved pose moved by the odometry since (None before
-        the first solve)."""
+    def pose(self, slam) -> np.ndarray | None:
+        """(3,) the pose now: the latest solved pose moved as the reported particle moved
+        since (None before the first solve)."""
         if self._solved is None:
             return None
-        return compose(self._solved[None], relative_pose(self._solved_odometry[None],
-                                                         np.asarray(odometry_now)[None]))[0]
+        return self._moved(slam.best_index(), slam.best_pose()[None])[0]
