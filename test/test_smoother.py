@@ -237,7 +237,15 @@ def test_a_solve_that_fails_is_counted_and_keeps_the_previous_pose(monkeypatch):
     slam.predict(truth[9], truth[10])
     slam.update(readings[10].ranges, readings[10].bearings, readings[10].labels, stamp=10.0)
     assert slam.smoother.failures == 1 and slam.smoother.solves == solves
-    # The previous solve's pose, moved as the reported particle moved since (its own path).
-    stamps, path = slam.best_path()
-    step = relative_pose(path[stamps == 9.0], slam.best_pose()[None])
-    np.testing.assert_allclose(slam.smoothed_pose(), compose(solved[None], step)[0], atol=1e-12)
+    # The previous solve's pose, moved by the particles' weighted mean motion since, each
+    # from its own path's pose at that solve (which resampling may have copied).
+    then = []
+    for particle in range(slam.num_particles):
+        stamps, path = slam.history.path(particle)
+        then.append(path[stamps == 9.0][0])
+    motion = relative_pose(np.array(then), slam.particle_poses())
+    weights = slam.weights() / slam.weights().sum()
+    mean = [weights @ motion[:, 0], weights @ motion[:, 1],
+            np.angle(weights @ np.exp(1j * motion[:, 2]))]
+    np.testing.assert_allclose(slam.smoothed_pose(), compose(solved[None], np.array([mean]))[0],
+                               atol=1e-12)

@@ -7,10 +7,10 @@ moves a landmark once the robot has left it, so the reported pose carries the ma
 jumps when the reported particle changes. Every ``smoothing_period`` seconds of data
 ``OnlineSmoother`` solves the map refinement's least squares (``map_refinement.refine``: the
 logged odometry and observations, the reported particle's associations) and keeps the solved
-pose of the latest reading; between solves it follows the reported particle's motion from there
-(its pose now against its pose at the solve: the odometry corrected by the filter's observations,
-which late in a long log, with solves tens of seconds apart, keeps the estimate off the odometry's
-drift). The solve's
+pose of the latest reading; between solves it follows the particles' mean motion from there
+(each particle's pose now against its pose at the solve: the odometry as the filter's
+observations corrected it, which late in a long log, with solves tens of seconds apart, keeps
+the estimate off the odometry's drift). The solve's
 frame is the one the filter started in (the log's origin), so solves agree with each other
 whichever particle is reported, and the solve's map is the one reported with that pose. The
 filter itself is unchanged: the particles and their maps are the filter's.
@@ -144,8 +144,14 @@ class OnlineSmoother:
         return self._covariance + turn @ noise @ turn.T
 
     def pose(self, slam) -> np.ndarray | None:
-        """(3,) the pose now: the latest solved pose moved as the reported particle moved
-        since (None before the first solve)."""
+        """(3,) the pose now: the latest solved pose moved by the particles' weighted mean
+        motion since the solve, each particle's from its own pose then (the mean, not one
+        particle's, as a FastSLAM 2.0 particle's pose carries its proposal's sampling
+        noise); None before the first solve."""
         if self._solved is None:
             return None
-        return self._moved(slam.best_index(), slam.best_pose()[None])[0]
+        motion = relative_pose(self._anchors, slam.particle_poses())
+        weights = slam.weights() / slam.weights().sum()
+        heading = math.atan2(weights @ np.sin(motion[:, 2]), weights @ np.cos(motion[:, 2]))
+        mean = np.append(weights @ motion[:, :2], heading)
+        return compose(self._solved[None], mean[None])[0]
