@@ -13,10 +13,12 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core import FastSLAMConfig
+from fastslam_ros.tools.bags.bag_schema import LandmarkSet
 from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.core.observation import inverse_observe
 from fastslam_ros.tools.simulation import crowd as crowd_model
-from fastslam_ros.tools.simulation.sim import SimConfig, build_world, recommended_params, simulate
+from fastslam_ros.tools.simulation.sim import (SimConfig, World, build_world, landmarks_in_range,
+                                               recommended_params, simulate)
 from fastslam_ros.tools.simulation.synthetic import make_world
 from fastslam_ros.tools.simulation.world import (RangeBearingSensor, circle_path,
                                                  odometry_with_noise, scatter_landmarks)
@@ -270,13 +272,28 @@ def test_recommended_params_are_valid_core_settings():
     assert (narrow["max_range"], narrow["field_of_view"]) == (15.0, math.pi)
 
 
-def test_the_dense_world_is_recommended_neither_loop_closure_nor_the_smoother():
-    """The large world (2,000 landmarks) closes false loops with two agreeing old landmarks
-    (docs/benchmarks.md); the loop world keeps both."""
-    dense = recommended_params(SimConfig(scenario="large"))
-    assert dense["loop_closure_matches"] == 0 and "smoothing_period" not in dense
-    loop = recommended_params(SimConfig(scenario="loop"))
-    assert loop["loop_closure_matches"] == 2 and loop["smoothing_period"] == 2.0
+def test_a_dense_world_is_recommended_neither_loop_closure_nor_the_smoother():
+    """Worlds with more than ``DENSE_IN_RANGE`` landmarks in sensor range close false loops
+    (the large world: docs/benchmarks.md) whatever their scenario: the loop with 600
+    landmarks 1.5 m apart is dense too; the loop and the clusters world keep both. The count
+    against a closed form: a route of one straight segment there and back, landmarks on a
+    line beside it."""
+    for dense_config in (SimConfig(scenario="large"),
+                         SimConfig(num_landmarks=600, min_separation=1.5)):
+        dense = recommended_params(dense_config)
+        assert dense["loop_closure_matches"] == 0 and "smoothing_period" not in dense
+    for scenario in ("loop", "clusters"):
+        params = recommended_params(SimConfig(scenario=scenario))
+        assert params["loop_closure_matches"] == 2 and params["smoothing_period"] == 2.0
+    # Route 0 -> 100 m and back, sampled every 5 m: 40 points at x = 0, 5, ..., 100, ..., 5.
+    # Landmarks at x = 0, 1, ..., 100, 3 m off the route: within 5.5 m of a point at x, those
+    # with |dx| <= 4 (9, fewer near the ends; 4.6 at most, away from any rounding).
+    line = np.column_stack([np.arange(101.0), np.full(101, 3.0)])
+    world = World(np.array([[0.0, 0.0], [100.0, 0.0]]),
+                  LandmarkSet(line, np.arange(101, dtype=np.int32)))
+    xs = np.concatenate([np.arange(0.0, 100.0, 5.0), np.arange(100.0, 0.0, -5.0)])
+    expected = np.mean([np.count_nonzero(np.abs(line[:, 0] - x) <= 4.0) for x in xs])
+    assert landmarks_in_range(world, 5.5) == pytest.approx(expected)
 
 
 def test_odometry_with_turns_not_made_is_recommended_the_fault_recovery():

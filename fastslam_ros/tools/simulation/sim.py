@@ -87,12 +87,14 @@ FAULT_RECOVERY_MATCHES = 3
 """``fault_recovery_matches`` of the recommended parameters when turns are not made
 (``turn_faults``): the faults scenario, seeds 1-5, 3.54 / 3.63 -> 0.296 / 0.371 m with its
 recommended file (docs/benchmarks.md)."""
-DENSE_SCENARIOS = ("large",)
-"""Worlds recommended neither loop closure nor the smoother: 2,000 landmarks over 400 m x 300
-m, 50 in range, where the drift-widened gate of a loop closure holds several old landmarks, so
-two chance agreements close false loops, and the smoother's solves space out to 15-30 s on its
-long log, where its estimate is worse than the filter's (seeds 1-2: 0.486 / 0.496 m against
-0.347 / 0.266; docs/benchmarks.md, the large world)."""
+DENSE_IN_RANGE = 30.0
+"""Landmarks within sensor range, on average along the route (``landmarks_in_range``), above
+which a world is recommended neither loop closure nor the smoother. The large world (52: 2,000
+landmarks over 400 m x 300 m) closed false loops, as the drift-widened gate of a loop closure
+holds several old landmarks there and two chance agreements close; and the smoother's solves
+space out to 15-30 s on its long log, where its estimate is worse than the filter's (seeds
+1-2: 0.486 / 0.496 m against 0.347 / 0.266; docs/benchmarks.md, the large world). The loop
+(8) and the clusters world (20) close true loops with both."""
 SMOOTHING_PERIOD = 2.0
 """``smoothing_period`` of the recommended parameters, except in the room scenarios (the
 filter alone is at the reference there; with odometry faults the smoother follows the
@@ -320,6 +322,20 @@ def simulate(config: SimConfig) -> SchemaBag:
 # ---------------------------------------------------------------- filter settings
 
 
+def landmarks_in_range(world: World, max_range: float, spacing: float = 5.0) -> float:
+    """Mean number of landmarks within ``max_range`` (m) of the route's points, taken every
+    ``spacing`` m along the closed route: how many a full-turn sensor holds at a time."""
+    route = np.vstack([world.waypoints, world.waypoints[:1]])
+    points = []
+    for start, end in zip(route[:-1], route[1:]):
+        length = float(np.linalg.norm(end - start))
+        points.append(start + (end - start) * (np.arange(0.0, length, spacing) / length)[:, None])
+    points = np.concatenate(points)
+    positions = world.landmarks.positions
+    near = [np.count_nonzero(np.hypot(*(positions - point).T) <= max_range) for point in points]
+    return float(np.mean(near))
+
+
 def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     """Node parameters matched to the simulated sensor and control noise.
 
@@ -331,7 +347,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     loop on some seeds (landmarks seen at the start are mapped again), which the inflation
     mostly cures. The landmarks that still come back outside the gate close the loop once two
     of them agree on one rigid correction (``loop_closure_matches``; not in the dense worlds,
-    ``DENSE_SCENARIOS``, which get neither it nor the smoother). The pose output is the
+    ``DENSE_IN_RANGE``, which get neither it nor the smoother). The pose output is the
     particles' weighted mean, which does not jump between hypotheses as the best particle
     does. Markers, path and particles are published at 0.2, 0.2 and 1 Hz of bag time. A
     sensor that misses landmarks without clutter states its detection probability (the
@@ -340,6 +356,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     (``fault_recovery_matches``).
     """
     config = config.resolved()
+    dense = landmarks_in_range(build_world(config), config.max_range) > DENSE_IN_RANGE
     dt = 1.0 / config.control_rate
     steps = config.control_rate / config.observation_rate
     travel = config.speed * steps * dt
@@ -356,7 +373,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         "alpha3": TRANSLATION_NOISE_INFLATION * translation_variance / travel**2,
         "alpha4": 0.001,
         "pose_estimate": "mean",
-        "loop_closure_matches": 0 if config.scenario in DENSE_SCENARIOS else LOOP_CLOSURE_MATCHES,
+        "loop_closure_matches": 0 if dense else LOOP_CLOSURE_MATCHES,
         # Replays run many times faster than real time: throttle the heavy outputs harder
         # than the live defaults (the final map and path are always published).
         "markers_rate": 0.2,
@@ -371,7 +388,7 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
         params["sensor_x"] = config.sensor_x
     if config.scenario in ROOM_SCENARIOS:  # a few landmarks seen constantly (docs/benchmarks.md)
         params["persistent_landmarks"] = True
-    elif config.scenario not in DENSE_SCENARIOS:
+    elif not dense:
         params["smoothing_period"] = SMOOTHING_PERIOD
     if config.turn_faults > 0.0:
         params["fault_recovery_matches"] = FAULT_RECOVERY_MATCHES
