@@ -98,7 +98,7 @@ space out to 15-30 s on its long log, where its estimate is worse than the filte
 SMOOTHING_PERIOD = 2.0
 """``smoothing_period`` of the recommended parameters, except in the room scenarios (the
 filter alone is at the reference there; with odometry faults the smoother follows the
-odometry's turns): default world 0.410 / 0.612 -> 0.221 / 0.226 m, clutter world 0.398 /
+odometry's turns): default world 0.410 / 0.612 -> 0.219 / 0.223 m, clutter world 0.398 /
 0.620 -> 0.360 / 0.439 (docs/benchmarks.md)."""
 
 
