@@ -99,7 +99,7 @@ SMOOTHING_PERIOD = 2.0
 """``smoothing_period`` of the recommended parameters, except in the room scenarios (the
 filter alone is at the reference there; with odometry faults the smoother follows the
 odometry's turns): default world 0.410 / 0.612 -> 0.219 / 0.223 m, clutter world 0.398 /
-0.620 -> 0.360 / 0.439 (docs/benchmarks.md)."""
+0.620 -> 0.360 / 0.437 (docs/benchmarks.md)."""
 
 
 def setting(default: float | int | str, help_text: str):
