@@ -60,18 +60,19 @@ def _cut_poses(series: PoseSeries | None, keep: Callable[[np.ndarray], np.ndarra
     return dataclasses.replace(series, stamps=series.stamps[mask], poses=series.poses[mask])
 
 
-def split_bag(bag: SchemaBag, fraction: float = FIT_FRACTION) -> tuple[SchemaBag, SchemaBag]:
-    """(first part, held-out part) of ``bag``, cut at ``fraction`` of its odometry's span."""
+def first_part(bag: SchemaBag, fraction: float = FIT_FRACTION) -> SchemaBag:
+    """The messages of ``bag`` before ``fraction`` of its odometry's span (what the check fits
+    on; the rest is data the fit never saw)."""
     stamps = bag.odometry.stamps
     cut = stamps[0] + fraction * (stamps[-1] - stamps[0])
-    parts = []
-    for keep in (lambda t: t < cut, lambda t: t >= cut):
-        chosen = np.flatnonzero(keep(bag.scans.stamps))
-        scans = LandmarkScans(bag.scans.stamps[chosen], [bag.scans.points[i] for i in chosen],
-                              [bag.scans.ids[i] for i in chosen], bag.scans.frame_id)
-        parts.append(SchemaBag(_cut_poses(bag.odometry, keep), scans,
-                               _cut_poses(bag.ground_truth, keep), bag.landmarks_truth))
-    return parts[0], parts[1]
+
+    def keep(t: np.ndarray) -> np.ndarray:
+        return t < cut
+    chosen = np.flatnonzero(keep(bag.scans.stamps))
+    scans = LandmarkScans(bag.scans.stamps[chosen], [bag.scans.points[i] for i in chosen],
+                          [bag.scans.ids[i] for i in chosen], bag.scans.frame_id)
+    return SchemaBag(_cut_poses(bag.odometry, keep), scans, _cut_poses(bag.ground_truth, keep),
+                     bag.landmarks_truth)
 
 
 def replay_ates(paths: list[str | Path], params: dict[str, Any]) -> np.ndarray:
@@ -97,5 +98,5 @@ def check_fit(bags: list[SchemaBag], paths: list[str | Path], start: dict[str, A
     """Fit on the first part of every bag (``fit``: bags -> parameter values), replay the
     whole bags (``paths``, where ``bags`` were read from) with ``start`` and with the fit,
     and compare."""
-    fitted = fit([split_bag(bag)[0] for bag in bags])
+    fitted = fit([first_part(bag) for bag in bags])
     return Verdict(replay_ates(paths, start), replay_ates(paths, fitted))
