@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
-from fastslam_ros.people.detection import LegModel, Scan, detect_legs, segment_scan
+from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, dynamic_beams,
+                                           segment_scan)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
@@ -247,6 +248,25 @@ def test_a_person_against_a_wall_is_seen_by_the_expected_range():
 
 def test_the_walls_alone_are_not_people_by_the_expected_range():
     assert len(_people_seen(0.15, np.zeros((0, 2)))) == 0
+
+
+def test_a_beam_that_clips_a_corner_is_not_dynamic_one_two_cells_beside_it_is():
+    # a 0.4 m block, x and y in [4.0, 4.4]; a beam from below left that passes just above
+    # its top left corner and ends (range noise) in the free cell diagonal to the corner cell:
+    # the map predicts no obstacle beyond that end, yet it is the corner. The same beam
+    # ending one cell farther from the corner (a leg beside the block) is dynamic.
+    centres = (np.arange(160) + 0.5) * 0.05
+    x, y = np.meshgrid(centres, centres)
+    occupied = (x > 4.0) & (x < 4.4) & (y > 4.0) & (y < 4.4)
+    grid = OccupancyMap(occupied, ~occupied, 0.05)
+    sensor = np.array([[3.0, 3.6, 0.0]])
+    ends = np.array([[[3.99, 4.41], [3.93, 4.36]]])
+    angles = np.arctan2(ends[0, :, 1] - 3.6, ends[0, :, 0] - 3.0)
+    distances = grid.distance_at(ends)
+    np.testing.assert_allclose(distances[0], [0.05 * math.sqrt(2.0), 0.1], atol=1e-6)
+    assert np.isinf(grid.cast(ends[0], angles, 0.15)).all()   # nothing beyond either end
+    dynamic = dynamic_beams(grid, sensor, ends, distances, angles, 0.3, 0.15)
+    np.testing.assert_array_equal(dynamic, [[False, True]])
 
 
 def test_two_legs_are_published_at_once_one_leg_after_two_detections():

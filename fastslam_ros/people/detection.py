@@ -19,10 +19,11 @@ import numpy as np
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 
-SHORT_FLOOR_CELLS = 1.4
-"""A beam ending in the cell next to a mapped obstacle (its centre within this many cells of
-an occupied one: the four side neighbours) is never dynamic by the expected-range rule: at a
-grazing angle along a wall the map's expected range is not meaningful."""
+SHORT_FLOOR_CELLS = 1.5
+"""A beam ending in a cell next to a mapped obstacle (its centre within this many cells of an
+occupied one: the eight neighbours) is never dynamic by the expected-range rule: at a grazing
+angle along a wall, or past a corner it clipped (its range noise puts its end in the free cell
+diagonal to the corner), the map's expected range is not meaningful."""
 
 
 @dataclass(frozen=True)
