@@ -8,7 +8,10 @@ import pytest
 
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.bags.bag_schema import bag_topics
-from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot, hidden_by_people
+from fastslam_ros.people import OccupancyMap
+from fastslam_ros.people.detection import Scan
+from fastslam_ros.tools.evaluation.people_eval import (Frame, LaserView, clear_mot,
+                                                      hidden_by_people, in_view)
 
 
 def frame(ids, positions) -> Frame:
@@ -60,6 +63,29 @@ def test_hidden_by_people():
     pose = np.array([0.0, 0.0, 0.0])
     hidden = hidden_by_people(pose, np.array([[2.0, 0.0], [4.0, 0.1], [4.0, 3.0]]))
     np.testing.assert_array_equal(hidden, [False, True, False])
+
+
+def test_a_track_of_a_person_just_out_of_view_is_neither_a_hit_nor_a_false_positive():
+    # a 270-degree laser facing +x in the middle of an empty 10 m room: person 1 ahead, person
+    # 2 with its centre 0.04 rad behind the span's right edge; a track of each a few cm off
+    # (person 2's inside the span) and one in view where nobody is
+    walls = np.zeros((200, 200), bool)
+    walls[[0, -1], :] = walls[:, [0, -1]] = True
+    grid = OccupancyMap(walls, ~walls, 0.05)
+    span = 1.5 * np.pi
+    view = LaserView(12.0, Scan(np.zeros(540), -span / 2, span / 540))
+    pose = np.array([5.0, 5.0, 0.0])
+    at = lambda bearing, distance: pose[:2] + distance * np.array([np.cos(bearing),
+                                                                   np.sin(bearing)])
+    truth = Frame(0.0, np.array([1, 2]), np.array([at(0.3, 2.0), at(-span / 2 - 0.04, 2.0)]))
+    tracks = Frame(0.0, np.array([10, 20, 30]),
+                   np.array([at(0.32, 2.0), at(-span / 2 + 0.02, 2.0), at(1.5, 3.0)]),
+                   np.ones(3))
+    gt, kept = in_view(grid, pose, truth, tracks, view, 0.5)
+    np.testing.assert_array_equal(gt.ids, [1])
+    np.testing.assert_array_equal(kept.ids, [10, 30])
+    result = clear_mot([gt], [kept])
+    assert (result["matches"], result["false_positives"], result["misses"]) == (1, 1, 0)
 
 
 def test_simulate_replay_and_score_a_short_people_run(tmp_path):

@@ -133,9 +133,10 @@ def hidden_by_people(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
                    radius: float = MATCH_RADIUS) -> tuple[Frame, Frame]:
-    """Frames with the hidden truth people left out, and with them every estimate within the
-    match radius of one of them and nearer to it than to any other truth person (a track kept
-    through an occlusion is then neither a hit nor a false positive)."""
+    """Frames with the truth people ``hidden`` (not scored) left out, and with them every
+    estimate within the match radius of one of them and nearer to it than to any other truth
+    person (a track kept through an occlusion, or of a person whose centre is just out of
+    view while a leg is in it, is then neither a hit nor a false positive)."""
     if not hidden.any():
         return gt, est
     keep_est = np.ones(len(est.ids), dtype=bool)
@@ -146,6 +147,19 @@ def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
     shown = ~hidden
     return (Frame(gt.stamp, gt.ids[shown], gt.positions[shown]),
             Frame(est.stamp, est.ids[keep_est], est.positions[keep_est]))
+
+
+def in_view(grid: OccupancyMap, pose: np.ndarray, truth: Frame, estimate: Frame,
+            view: LaserView, min_existence: float) -> tuple[Frame, Frame]:
+    """The truth people in view from ``pose`` and the published tracks (existence at least
+    ``min_existence``) in view, but a track of a truth person out of view: the view is judged
+    at a person's centre, and a track of a person whose centre is just out of it (one leg in
+    the scan's span or past a door jamb) is neither a hit nor a false positive."""
+    keep_est = visible(grid, pose, estimate.positions, view)
+    if estimate.existence is not None:
+        keep_est &= estimate.existence >= min_existence
+    kept = Frame(estimate.stamp, estimate.ids[keep_est], estimate.positions[keep_est])
+    return without_hidden(truth, kept, ~visible(grid, pose, truth.positions, view))
 
 
 def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_RADIUS
@@ -265,12 +279,7 @@ def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: Occupa
             continue
         index = min(np.searchsorted(ground_truth.stamps, frame.stamp), len(ground_truth.stamps) - 1)
         pose = ground_truth.poses[index]
-        keep_gt = visible(grid, pose, frame.positions, view)
-        keep_est = visible(grid, pose, est.positions, view)
-        if est.existence is not None:
-            keep_est &= est.existence >= min_existence
-        gt = Frame(frame.stamp, frame.ids[keep_gt], frame.positions[keep_gt])
-        kept = Frame(est.stamp, est.ids[keep_est], est.positions[keep_est])
+        gt, kept = in_view(grid, pose, frame, est, view, min_existence)
         truths.append(gt)
         estimates.append(kept)
         ospas.append(ospa(kept.positions, gt.positions, OSPA_CUTOFF, OSPA_ORDER))
