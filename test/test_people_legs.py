@@ -11,12 +11,12 @@ import pytest
 
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, dynamic_beams,
-                                           segment_scan)
+                                           mixed_pixels, segment_scan, without_mixed_pixels)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
 from fastslam_ros.tools.simulation.crowd import build_map
-from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, simulate_people
+from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, mix_edges, simulate_people
 
 
 def test_circle_ranges_match_the_closed_form():
@@ -123,6 +123,19 @@ def test_plain_world_is_unchanged_by_the_legs_option():
         np.testing.assert_array_equal(x, y)
 
 
+def test_mixed_pixels_lie_between_the_two_surfaces_of_an_edge():
+    ranges = np.array([1.0, 1.0, 1.0, 5.0, 5.0, 5.0, 1.2, 1.2, np.inf, 3.0])
+    rng = np.random.default_rng(0)
+    np.testing.assert_array_equal(mix_edges(ranges, 0.0, rng), ranges)
+    mixed = [mix_edges(ranges, 1.0, rng) for _ in range(2000)]
+    for r in mixed:     # the nearer beam of each edge; a beam beside no return is no edge
+        assert set(np.flatnonzero(r != ranges).tolist()) <= {2, 6}
+        assert 1.0 <= r[2] <= 5.0 and 1.2 <= r[6] <= 5.0
+    assert np.mean([r[2] for r in mixed]) == pytest.approx(3.0, abs=0.1)   # uniform
+    changed = np.mean([(mix_edges(ranges, 0.5, rng) != ranges).sum() for _ in range(2000)])
+    assert changed == pytest.approx(1.0, abs=0.1)    # two edges, each at one half
+
+
 def test_clear_mot_counts_at_the_benchmark_radius():
     truth = [Frame(0.0, np.array([1]), np.array([[0.0, 0.0]]))]
     track = [Frame(0.0, np.array([5]), np.array([[0.6, 0.0]]))]
@@ -179,6 +192,30 @@ def test_two_people_side_by_side_are_two_people():
     assert people.shape == (2, 2)
     order = np.argsort(-people[:, 1])
     np.testing.assert_allclose(people[order], [[4.05, 0.31], [3.95, -0.46]], atol=0.02)
+
+
+def test_mixed_pixels_beside_mapped_objects_or_far_behind_a_leg_are_not_dynamic():
+    ranges = np.array([1.0, 1.0, 3.0, 5.0, 5.0, 3.2, 1.2, 1.25, np.inf, 2.0, np.inf, 4.0,
+                       4.2, 6.0])
+    np.testing.assert_array_equal(np.flatnonzero(mixed_pixels(ranges, 0.3)), [2, 5])
+    # a wall at 8 m, 0.5-degree beams (a leg spans two of them up to 6.9 m); lone returns
+    # (free space: dynamic by the map) beside a mapped post at 5 m, 0.4 m behind a leg (its
+    # other leg), 3 m behind a leg at 3 m (mixed) and 0.6 m behind a leg at 7 m (a leg there
+    # returns a single beam)
+    increment = 2.0 * math.pi / 720
+    ranges = np.full(720, np.inf)
+    ranges[300:500] = 8.0
+    ranges[329:332] = [5.5, 5.0, 5.9]
+    ranges[389:392] = [5.0, 5.0, 5.4]
+    ranges[429:432] = [3.0, 3.0, 6.0]
+    ranges[469:472] = [7.0, 7.0, 7.6]
+    scan = Scan(ranges, -math.pi + 0.5 * increment, increment, 12.0)
+    segments = segment_scan(scan, scan.returns(0.05, 12.0), 0.3)
+    dynamic = [329, 331, 389, 390, 391, 429, 430, 431, 469, 470, 471]
+    far = np.isin(segments.beams, dynamic)[None]
+    kept = without_mixed_pixels(far, segments, ranges, 0.3, 0.5, 0.06 / increment)
+    np.testing.assert_array_equal(segments.beams[kept[0]],
+                                  [389, 390, 391, 429, 430, 469, 470, 471])
 
 
 def test_a_round_body_is_one_person_at_its_centre():
@@ -303,3 +340,5 @@ def test_a_270_degree_laser_at_7_5_hz_is_simulated_and_scored_within_its_span():
                                   [True, True, False])
     with pytest.raises(ValueError, match="field_of_view"):
         PeopleSimConfig(field_of_view=7.0).validate()
+    with pytest.raises(ValueError, match="mixed_pixels"):
+        PeopleSimConfig(mixed_pixels=1.5).validate()

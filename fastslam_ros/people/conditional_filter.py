@@ -64,7 +64,8 @@ from fastslam_ros.core.motion import OdometryControl, control_variances, sample_
 from fastslam_ros.core.resampling import (batched_systematic_resample, effective_sample_size,
                                           normalize_log_weights, systematic_resample)
 from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
-                                           detectable_range, dynamic_beams, segment_scan)
+                                           detectable_range, dynamic_beams, segment_scan,
+                                           without_mixed_pixels)
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
@@ -249,6 +250,10 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
         far = dynamic_beams(self.grid, sensors, ends, distances, angles,
                             s.min_obstacle_distance, s.short_margin)
+        if s.mixed_pixel_filter:
+            far = without_mixed_pixels(far, segments, np.where(returns, scan.ranges, np.inf),
+                                       s.segment_jump, s.max_leg_spacing,
+                                       s.leg_radius / abs(scan.angle_increment))
         if s.person_model == "legs":
             detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
                                      self._leg_model)

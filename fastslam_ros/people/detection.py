@@ -89,6 +89,46 @@ class Segments:
     angles: np.ndarray
 
 
+def mixed_pixels(ranges: np.ndarray, jump: float) -> np.ndarray:
+    """(B,) returns that lie alone between a nearer and a farther neighbour, each more than
+    ``jump`` away in range: a real laser's mixed pixels (its spot straddling an object's
+    silhouette and the background behind it returns a range between them, in free space)."""
+    before, after = np.roll(ranges, 1), np.roll(ranges, -1)
+    with np.errstate(invalid="ignore"):
+        step_before, step_after = ranges - before, after - ranges
+        mixed = (((step_before > jump) & (step_after > jump))
+                 | ((step_before < -jump) & (step_after < -jump)))
+    mixed[[0, -1]] = False     # at a partial scan's ends (a full turn's: rarely one)
+    return mixed & np.isfinite(ranges)
+
+
+def without_mixed_pixels(far: np.ndarray, segments: Segments, ranges: np.ndarray, jump: float,
+                         reach: float, lone_range: float) -> np.ndarray:
+    """The dynamic beams ``far`` (M, K) but a real laser's mixed pixels: a lone return between
+    a nearer and a farther neighbour (``mixed_pixels`` of the scan's ``ranges`` (B,), inf
+    where no return) stays dynamic for a particle only if that particle takes its nearer
+    neighbour for dynamic (at a chair leg's or a door jamb's silhouette it is a mixed pixel)
+    and it is within ``reach`` (m) behind it (the other leg of the same person), or beyond
+    ``lone_range`` (m), where a leg returns a single beam (partly hidden by a nearer person);
+    a mixed pixel at a person's silhouette lies anywhere between the person and the
+    background, mostly farther."""
+    lone = np.flatnonzero(mixed_pixels(ranges, jump)[segments.beams])
+    if len(lone) == 0:
+        return far
+    count = len(ranges)
+    beam = segments.beams[lone]
+    before, after = (beam - 1) % count, (beam + 1) % count
+    nearer = np.where(ranges[before] < ranges[after], before, after)
+    position = np.full(count, -1)
+    position[segments.beams] = np.arange(len(segments.beams))
+    index = position[nearer]
+    plausible = (index >= 0) & ((ranges[beam] - ranges[nearer] <= reach)
+                                | (ranges[beam] > lone_range))
+    far = far.copy()
+    far[:, lone] &= plausible & far[:, np.maximum(index, 0)]
+    return far
+
+
 def segment_scan(scan: Scan, returns: np.ndarray, jump: float) -> Segments:
     """Cut the returning beams into runs of neighbours closer than ``jump`` in range.
 

@@ -165,6 +165,12 @@ class TrackerSettings:
     confirm_pairs: bool = parameter(
         True, "A new person seen as two legs apart is confirmed (published) at its first "
               "detection; one leg alone, or legs seen as one, at logodds_confirm.")
+    mixed_pixel_filter: bool = parameter(
+        False, "A lone return between a nearer and a farther neighbour (each more than "
+               "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
+               "is dynamic and it lies within max_leg_spacing behind it or where a leg returns "
+               "one beam: for lasers that return ranges between an object's silhouette and the "
+               "background (it also hides a few people partly hidden behind furniture).")
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "

@@ -80,6 +80,8 @@ class PeopleSimConfig:
     legs: bool = False
     """The real-laser world (``people_legs``): people as two swinging legs, tables and chairs
     on thin legs in the map, people walking close to walls and furniture."""
+    mixed_pixels: float = 0.0
+    """Probability that a beam at a depth edge returns a mixed pixel (``mix_edges``)."""
 
     def validate(self) -> "PeopleSimConfig":
         for name in ("duration", "scan_rate", "odometry_rate", "max_range", "speed",
@@ -89,6 +91,8 @@ class PeopleSimConfig:
         for name in ("range_noise", "speed_noise", "turn_noise"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(self, name)})")
+        if not 0.0 <= self.mixed_pixels <= 1.0:
+            raise ValueError(f"mixed_pixels: must be in [0, 1] (got {self.mixed_pixels})")
         if self.people < 0 or self.beams < 8:
             raise ValueError("people: must be >= 0 and beams >= 8")
         if not 0.0 < self.field_of_view <= 2.0 * math.pi:
@@ -100,6 +104,27 @@ class PeopleSimConfig:
 
 
 # ---------------------------------------------------------------- robot and laser
+
+MIXED_PIXEL_JUMP = 0.3
+"""A depth edge: neighbouring beams whose true ranges differ by more than this (m)."""
+
+
+def mix_edges(ranges: np.ndarray, probability: float, rng: np.random.Generator) -> np.ndarray:
+    """Ranges (B,) with mixed pixels: at each depth edge (neighbours MIXED_PIXEL_JUMP or more
+    apart, both returning), with ``probability``, the nearer beam's spot straddles both
+    surfaces and returns a range drawn uniformly between them, in free space (as a real
+    laser's does at an object's silhouette)."""
+    ranges = ranges.copy()
+    near, far = ranges[:-1], ranges[1:]
+    edge = np.flatnonzero(np.isfinite(near) & np.isfinite(far)
+                          & (np.abs(far - near) > MIXED_PIXEL_JUMP))
+    edge = edge[rng.random(len(edge)) < probability]
+    beam = np.where(ranges[edge] < ranges[edge + 1], edge, edge + 1)
+    low = np.minimum(ranges[edge], ranges[edge + 1])
+    high = np.maximum(ranges[edge], ranges[edge + 1])
+    ranges[beam] = low + rng.random(len(edge)) * (high - low)
+    return ranges
+
 
 
 def cast_scan(grid: OccupancyMap, sensor: np.ndarray, angles: np.ndarray, people: np.ndarray,
@@ -142,6 +167,7 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
     rng_world = np.random.default_rng([config.seed, 0])
     rng_odometry = np.random.default_rng([config.seed, 1])
     rng_laser = np.random.default_rng([config.seed, 2])
+    rng_edges = np.random.default_rng([config.seed, 3])
     world = None
     if config.legs:
         from fastslam_ros.tools.simulation.people_legs import LATERAL, LegWorld
@@ -176,6 +202,8 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
                 ranges, _ = world.cast(pose, angles, [p.ident for p in crowd.people], positions,
                                        np.array([p.velocity for p in crowd.people]).reshape(-1, 2),
                                        1.0 / config.scan_rate, config.max_range)
+            if config.mixed_pixels > 0.0:
+                ranges = mix_edges(ranges, config.mixed_pixels, rng_edges)
             noisy = ranges + rng_laser.normal(0.0, config.range_noise, len(ranges))
             scans.append(np.where(np.isfinite(ranges), np.maximum(noisy, 0.0), np.inf))
             scan_stamps.append(config.start_time + t)
@@ -345,6 +373,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--legs", action="store_true",
                         help="the real-laser world: people as two swinging legs, tables and "
                              "chairs on thin legs, people close to walls and furniture")
+    parser.add_argument("--mixed-pixels", type=float, default=defaults.mixed_pixels,
+                        help="probability that a beam at a depth edge returns a range between "
+                             "the two surfaces, in free space (a real laser's mixed pixels)")
     args = parser.parse_args(argv)
     params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
     try:
@@ -352,7 +383,8 @@ def main(argv: list[str] | None = None) -> int:
                                  initial_pose=not args.no_initial_pose, legs=args.legs,
                                  beams=args.beams, field_of_view=args.field_of_view,
                                  scan_rate=args.scan_rate,
-                                 odometry_rate=args.odometry_rate).validate()
+                                 odometry_rate=args.odometry_rate,
+                                 mixed_pixels=args.mixed_pixels).validate()
         cli.output_folder(args.out, "--out")
         cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any
