@@ -75,8 +75,10 @@ def test_a_track_of_a_person_just_out_of_view_is_neither_a_hit_nor_a_false_posit
     span = 1.5 * np.pi
     view = LaserView(12.0, Scan(np.zeros(540), -span / 2, span / 540))
     pose = np.array([5.0, 5.0, 0.0])
-    at = lambda bearing, distance: pose[:2] + distance * np.array([np.cos(bearing),
-                                                                   np.sin(bearing)])
+
+    def at(bearing: float, distance: float) -> np.ndarray:
+        return pose[:2] + distance * np.array([np.cos(bearing), np.sin(bearing)])
+
     truth = Frame(0.0, np.array([1, 2]), np.array([at(0.3, 2.0), at(-span / 2 - 0.04, 2.0)]))
     tracks = Frame(0.0, np.array([10, 20, 30]),
                    np.array([at(0.32, 2.0), at(-span / 2 + 0.02, 2.0), at(1.5, 3.0)]),

@@ -110,7 +110,7 @@ MIXED_PIXEL_JUMP = 0.3
 
 
 def mix_edges(ranges: np.ndarray, probability: float, rng: np.random.Generator) -> np.ndarray:
-    """Ranges (B,) with mixed pixels: at each depth edge (neighbours MIXED_PIXEL_JUMP or more
+    """Ranges (B,) with mixed pixels: at each depth edge (neighbours more than MIXED_PIXEL_JUMP
     apart, both returning), with ``probability``, the nearer beam's spot straddles both
     surfaces and returns a range drawn uniformly between them, in free space (as a real
     laser's does at an object's silhouette)."""
@@ -124,7 +124,6 @@ def mix_edges(ranges: np.ndarray, probability: float, rng: np.random.Generator) 
     high = np.maximum(ranges[edge], ranges[edge + 1])
     ranges[beam] = low + rng.random(len(edge)) * (high - low)
     return ranges
-
 
 
 def cast_scan(grid: OccupancyMap, sensor: np.ndarray, angles: np.ndarray, people: np.ndarray,
