@@ -356,8 +356,8 @@ class FastSLAMNode(FilterNode):
         if failures_now > failures:
             self.stats["smoother_failures"] += failures_now - failures
             self._warn("smoother_failures", "the online least squares (smoothing_period) gave "
-                       "no pose: the estimate follows the reported particle from the last solve "
-                       "[smoother_failures]")
+                       "no pose: the estimate follows the particles' mean motion from the last "
+                       "solve [smoother_failures]")
         self._note_lag(observation.stamp)
         if check_ids:
             checked, correct = association_score(observation.ids, report.is_new,

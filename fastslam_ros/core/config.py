@@ -211,9 +211,9 @@ class FastSLAMConfig:
         "particle's path and map (the map refinement, core/smoother.py), at least; a long log "
         "spaces them further (smoother.SOLVE_SPACING per logged observation), as a solve's "
         "cost grows with it; the estimate (~/pose, "
-        "map -> odom) is then the latest solved pose moved as the reported particle moved "
-        "since, in the frame the filter started in (0: the filter's own pose; SLAM mode "
-        "only).", low=0.0, high=1e6)
+        "map -> odom) is then the latest solved pose moved by the particles' weighted mean "
+        "motion since, in the frame the filter started in (0: the filter's own pose; SLAM "
+        "mode only).", low=0.0, high=1e6)
     resampling: str = parameter("systematic", "Resampling scheme.", choices=RESAMPLING_SCHEMES)
     resample_threshold: float = parameter(
         0.5, "Resample when N_eff < resample_threshold * M (1.0: every update).",
