@@ -330,10 +330,9 @@ def landmarks_in_range(world: World, max_range: float, spacing: float = 5.0) -> 
     for start, end in zip(route[:-1], route[1:]):
         length = float(np.linalg.norm(end - start))
         points.append(start + (end - start) * (np.arange(0.0, length, spacing) / length)[:, None])
-    points = np.concatenate(points)
-    positions = world.landmarks.positions
-    near = [np.count_nonzero(np.hypot(*(positions - point).T) <= max_range) for point in points]
-    return float(np.mean(near))
+    offsets = np.concatenate(points)[:, None, :] - world.landmarks.positions[None]
+    return float(np.mean(np.count_nonzero(np.hypot(offsets[..., 0], offsets[..., 1])
+                                          <= max_range, axis=1)))
 
 
 def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
