@@ -95,6 +95,31 @@ def test_between_solves_the_estimate_moves_with_the_reported_particle():
     assert slam.smoothed_pose() is None
 
 
+def test_the_published_path_ends_at_the_published_pose_between_solves():
+    """Between solves ``~/pose`` follows the particles' weighted mean motion and the path's
+    tail the reported particle's; the tail is bent to end at the pose, from the solved pose
+    on, without a jump."""
+    truth, landmarks, readings = corridor(steps=30)
+    config = dataclasses.replace(CORRIDOR_CONFIG, num_particles=20, max_range=8.0,
+                                 association="known", smoothing_period=5.0, seed=3,
+                                 alpha1=0.05, alpha3=0.05)
+    slam = FastSLAM(config, initial_pose=truth[0])
+    for t in range(1, 25):
+        slam.predict(truth[t - 1], truth[t])
+        slam.update(readings[t].ranges, readings[t].bearings, readings[t].labels, stamp=float(t))
+    solved_at = slam.smoother._solution.stamps[-1]
+    assert 20.0 <= solved_at < 24.0          # a tail of readings since the solve
+    stamps, path = slam.reported_path()
+    tail_start = np.searchsorted(stamps, solved_at)
+    np.testing.assert_allclose(path[-1], slam.smoothed_pose(), atol=1e-12)
+    np.testing.assert_allclose(path[tail_start], slam.smoother._solution.poses[-1])
+    best = slam.smoother._moved(slam.best_index(), slam.best_path()[1][-1:])[0]
+    assert np.linalg.norm(best[:2] - path[-1, :2]) > 1e-4    # the particle's own end differs
+    steps = np.linalg.norm(np.diff(path[tail_start:, :2], axis=0), axis=1)
+    travelled = np.linalg.norm(np.diff(truth[int(solved_at):25, :2], axis=0), axis=1)
+    np.testing.assert_allclose(steps, travelled, atol=0.05)    # as the robot moved, no jump
+
+
 def test_the_solves_space_out_as_the_log_grows(monkeypatch):
     """A solve over N logged observations is followed by the next one SOLVE_SPACING x N
     seconds of data later (``smoothing_period`` when more), at the first reading due: the

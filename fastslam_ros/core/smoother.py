@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .geometry import compose, relative_pose
+from .geometry import compose, relative_pose, wrap_angle
 from .map_refinement import Marginals, Solution, odometry_covariances, refine
 
 SOLVE_POSES = 1024
@@ -120,15 +120,23 @@ class OnlineSmoother:
 
     def path(self, slam) -> tuple[np.ndarray, np.ndarray] | None:
         """(stamps (T,), poses (T, 3)): the latest solve's poses of the readings it solved,
-        then the reported particle's poses since, moved with it (None before the first
-        solve)."""
+        then the reported particle's poses since, moved with it and bent linearly in time to
+        end at ``pose`` (the published path ends where the published pose is; None before the
+        first solve)."""
         if self._solution is None:
             return None
         stamps, poses = slam.best_path()
-        later = stamps > self._solution.stamps[-1]
+        solved_at = self._solution.stamps[-1]
+        later = stamps > solved_at
+        tail = self._moved(slam.best_index(), poses[later])
+        if len(tail):
+            gap = self.pose(slam) - tail[-1]
+            gap[2] = wrap_angle(gap[2])
+            share = (stamps[later] - solved_at) / (stamps[later][-1] - solved_at)
+            tail = tail + share[:, None] * gap
+            tail[:, 2] = wrap_angle(tail[:, 2])
         return (np.concatenate([self._solution.stamps, stamps[later]]),
-                np.concatenate([self._solution.poses,
-                                self._moved(slam.best_index(), poses[later])]))
+                np.concatenate([self._solution.poses, tail]))
 
     def covariance(self, odometry_now: np.ndarray, config) -> np.ndarray | None:
         """(3, 3) the pose's covariance now: the solved pose's marginal (relative to the first
