@@ -280,10 +280,11 @@ def build_room(config: SimConfig, rng: np.random.Generator) -> World:
     return World(waypoints, LandmarkSet(positions, np.arange(len(positions), dtype=np.int32)))
 
 
-def simulate(config: SimConfig) -> SchemaBag:
-    """Drive the scenario's route and return the schema bag (odometry, scans, ground truth)."""
+def simulate(config: SimConfig, world: World | None = None) -> SchemaBag:
+    """Drive the scenario's route and return the schema bag (odometry, scans, ground truth);
+    ``world``: ``build_world(config)``'s, when the caller has it."""
     config = config.resolved()
-    world = build_world(config)
+    world = build_world(config) if world is None else world
     # Separate streams: the odometry noise does not change with the sensor settings or the world.
     control_rng = np.random.default_rng([config.seed, 0])
     sensor_rng = np.random.default_rng([config.seed, 1])
@@ -335,8 +336,10 @@ def landmarks_in_range(world: World, max_range: float, spacing: float = 5.0) -> 
                                           <= max_range, axis=1)))
 
 
-def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
-    """Node parameters matched to the simulated sensor and control noise.
+def recommended_params(config: SimConfig, world: World | None = None
+                       ) -> dict[str, float | int | str]:
+    """Node parameters matched to the simulated sensor and control noise (``world``:
+    ``build_world(config)``'s, when the caller has it).
 
     The motion-noise alphas start from the control noise accumulated over one observation
     interval (per-step speed and steering noise integrated through the bicycle model, or the
@@ -355,7 +358,8 @@ def recommended_params(config: SimConfig) -> dict[str, float | int | str]:
     (``fault_recovery_matches``).
     """
     config = config.resolved()
-    dense = landmarks_in_range(build_world(config), config.max_range) > DENSE_IN_RANGE
+    world = build_world(config) if world is None else world
+    dense = landmarks_in_range(world, config.max_range) > DENSE_IN_RANGE
     dt = 1.0 / config.control_rate
     steps = config.control_rate / config.observation_rate
     travel = config.speed * steps * dt
@@ -464,11 +468,12 @@ def main(argv: list[str] | None = None) -> int:
         cli.output_file(params_out, "--params-out")
         check_output(out, args.overwrite, "bag")  # both outputs checked before either is written
         check_output(params_out, args.overwrite, "file", inputs=[out])
-        bag = simulate(config)
-        extra = (laser_sim.scan_records(config, build_world(config), bag,
-                                        people=args.laser_people) if args.laser else ())
+        world = build_world(config)
+        bag = simulate(config, world)
+        extra = (laser_sim.scan_records(config, world, bag, people=args.laser_people)
+                 if args.laser else ())
         write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite, extra=extra)
-        write_params_yaml(params_out, recommended_params(config),
+        write_params_yaml(params_out, recommended_params(config, world),
                           f"Recommended fastslam parameters for {out.name} "
                           f"(fastslam-sim --scenario {config.scenario} --seed {config.seed}).",
                           overwrite=args.overwrite)
