@@ -403,6 +403,9 @@ class PeopleTrackerNode(FilterNode):
                  KeyValue(key="map_received", value=str(tracker.grid is not None))]
         if tracker.ready:
             state.append(KeyValue(key="people", value=str(len(tracker.published_people().keys))))
+        monitor = tracker.mixed_pixels
+        state += [KeyValue(key="mixed_pixel_edges", value=f"{monitor.bridged}/{monitor.edges}"),
+                  KeyValue(key="mixed_pixel_filtering", value=str(monitor.filtering))]
         return state
 
     def _standing_problems(self) -> list[str]:

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
-from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, dynamic_beams,
-                                           mixed_pixels, segment_scan, without_mixed_pixels)
+from fastslam_ros.people.detection import (MIXED_PIXEL_EDGES, LegModel, MixedPixelMonitor, Scan,
+                                           detect_legs, dynamic_beams, mixed_pixels,
+                                           segment_scan, static_edges, without_mixed_pixels)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
@@ -218,6 +219,44 @@ def test_mixed_pixels_beside_mapped_objects_or_far_behind_a_leg_are_not_dynamic(
                                   [389, 390, 391, 429, 430, 469, 470, 471])
 
 
+def test_static_edges_count_depth_edges_and_the_lone_returns_in_free_space_that_bridge_them():
+    # static surfaces at 1 m and 5 m; a lone dynamic return at 3 m bridges one edge, a leg
+    # (two dynamic beams) in front of the far wall bridges nothing, a 0.5 m step is no edge
+    ranges = np.array([1.0, 1.0, 3.0, 5.0, 5.0, 2.0, 2.0, 5.0, 5.0, 1.0, 1.0, 1.5, 1.5])
+    dynamic = np.zeros(len(ranges), bool)
+    dynamic[[2, 5, 6]] = True
+    # edges: 1|3|5 (bridged), 5|1 at beams 8-9 (direct); 5|2 and 2|5 touch the leg
+    assert static_edges(ranges, dynamic, 0.3) == (2, 1)
+    # the same lone return taken for static (a mapped post at 3 m) makes two edges of one
+    assert static_edges(ranges, np.isin(np.arange(len(ranges)), [5, 6]), 0.3) == (3, 0)
+
+
+@pytest.mark.parametrize("probability", [0.0, 0.1, 0.5])
+def test_the_mixed_pixel_monitor_measures_the_simulated_lasers_rate(probability):
+    """Edges between 1 m and 5 m surfaces, each nearer beam a mixed pixel (uniform between
+    the surfaces) with probability P (``mix_edges``). A mixed pixel within ``jump`` of either
+    surface joins it and its edge is counted in neither sum, so the share is
+    0.85 P / (1 - 0.15 P) (0.6 m of the 4 m between them). ``auto`` filters until it has
+    seen MIXED_PIXEL_EDGES edges, then above MIXED_PIXEL_SHARE only."""
+    rng = np.random.default_rng(7)
+    ranges = np.tile(np.repeat([1.0, 5.0], 10), 36)
+    monitor = MixedPixelMonitor()
+    for _ in range(200):
+        mixed = mix_edges(ranges, probability, rng)
+        segments = segment_scan(Scan(mixed, 0.0, 2.0 * math.pi / len(ranges), 12.0),
+                                np.ones(len(ranges), bool), 0.3)
+        monitor.observe(mixed, segments, ~np.isin(mixed[segments.beams], [1.0, 5.0]), 0.3)
+    expected = 0.85 * probability / (1.0 - 0.15 * probability)
+    assert monitor.edges > 10_000
+    assert monitor.share == pytest.approx(expected, abs=0.01)
+    assert monitor.filtering == (probability > 0.0)
+    fresh, few = MixedPixelMonitor(), mixed[:40]
+    segments = segment_scan(Scan(few, 0.0, 0.01, 12.0), np.ones(40, bool), 0.3)
+    fresh.observe(few, segments, ~np.isin(few[segments.beams], [1.0, 5.0]), 0.3)
+    assert fresh.edges < MIXED_PIXEL_EDGES and fresh.filtering    # too few edges to judge
+    assert MixedPixelMonitor("always").filtering and not MixedPixelMonitor("never").filtering
+
+
 def test_a_round_body_is_one_person_at_its_centre():
     people = _detect([(2.5, 1.0, 0.2)])
     assert people.shape == (1, 2)
@@ -342,3 +381,43 @@ def test_a_270_degree_laser_at_7_5_hz_is_simulated_and_scored_within_its_span():
         PeopleSimConfig(field_of_view=7.0).validate()
     with pytest.raises(ValueError, match="mixed_pixels"):
         PeopleSimConfig(mixed_pixels=1.5).validate()
+
+
+def test_auto_filters_mixed_pixels_only_for_a_laser_that_returns_them():
+    """Posts (mapped furniture) before the walls of a room, and a laser whose every depth
+    edge returns a mixed pixel (``mix_edges`` at P = 1): with ``never`` the lone points in
+    free space are tracked as people; ``auto`` measures the laser's share of bridged edges
+    and filters as ``always`` does. With a clean laser ``auto`` measures no mixed pixel and
+    stops filtering after its first scans: it tracks what ``never`` tracks."""
+    centres = (np.arange(160) + 0.5) * 0.05
+    x, y = np.meshgrid(centres, centres)
+    occupied = (x < 0.15) | (x > 7.85) | (y < 0.15) | (y > 7.85)
+    for post in [(2.0, 2.0), (2.0, 6.0), (6.0, 2.0), (6.0, 6.0), (1.5, 4.0)]:
+        occupied |= np.hypot(x - post[0], y - post[1]) < 0.15
+    grid = OccupancyMap(occupied, ~occupied, 0.05)
+    pose = np.array([4.0, 4.0, 0.0])
+
+    def published(mode: str, probability: float, legs) -> tuple[list[int], PeopleTracker]:
+        """People published after each of 20 scans."""
+        rng = np.random.default_rng(3)
+        tracker = PeopleTracker(TrackerSettings(num_particles=5, people_particles=30, seed=1,
+                                                mixed_pixel_filter=mode), grid)
+        tracker.reset(pose, np.diag([1e-8, 1e-8, 1e-10]))
+        counts = []
+        for k in range(20):
+            scan = _legs_scan(grid, pose, legs)
+            scan = Scan(mix_edges(scan.ranges, probability, rng), scan.angle_min,
+                        scan.angle_increment, 12.0)
+            tracker.update(0.1 * k, scan)
+            counts.append(len(tracker.published_people().keys))
+        return counts, tracker
+
+    never, _ = published("never", 1.0, [])
+    auto, tracker = published("auto", 1.0, [])
+    assert auto == published("always", 1.0, [])[0]
+    assert sum(never) > 3 * sum(auto) and max(never[5:]) >= 3
+    assert tracker.mixed_pixels.share > 0.5 and tracker.mixed_pixels.filtering
+    person = [(5.0, 3.0), (5.0, 3.2)]
+    auto, tracker = published("auto", 0.0, person)
+    assert auto == published("never", 0.0, person)[0] and auto[-1] == 1
+    assert tracker.mixed_pixels.share == 0.0 and not tracker.mixed_pixels.filtering

@@ -63,9 +63,9 @@ from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, 
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
 from fastslam_ros.core.resampling import (batched_systematic_resample, effective_sample_size,
                                           normalize_log_weights, systematic_resample)
-from fastslam_ros.people.detection import (LegModel, Scan, detect_legs, detect_people,
-                                           detectable_range, dynamic_beams, segment_scan,
-                                           without_mixed_pixels)
+from fastslam_ros.people.detection import (LegModel, MixedPixelMonitor, Scan, detect_legs,
+                                           detect_people, detectable_range, dynamic_beams,
+                                           segment_scan, without_mixed_pixels)
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
@@ -131,6 +131,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self._first_published: dict[int, float] = {}
         self._last_published = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self.last_stamp: float | None = None
+        self.mixed_pixels = MixedPixelMonitor(settings.mixed_pixel_filter)  # kept over resets
         self._allocate(np.zeros((0, 3)))
         if grid is not None:
             self.set_map(grid)
@@ -250,10 +251,12 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             distances[:, weighed], s.sigma_hit, s.z_hit, max_range)
         far = dynamic_beams(self.grid, sensors, ends, distances, angles,
                             s.min_obstacle_distance, s.short_margin)
-        if s.mixed_pixel_filter:
-            far = without_mixed_pixels(far, segments, np.where(returns, scan.ranges, np.inf),
-                                       s.segment_jump, s.max_leg_spacing,
-                                       s.leg_radius / abs(scan.angle_increment))
+        ranges = np.where(returns, scan.ranges, np.inf)
+        self.mixed_pixels.observe(ranges, segments, far[np.argmax(self.log_weights)],
+                                  s.segment_jump)
+        if self.mixed_pixels.filtering:
+            far = without_mixed_pixels(far, segments, ranges, s.segment_jump,
+                                       s.max_leg_spacing, s.leg_radius / abs(scan.angle_increment))
         if s.person_model == "legs":
             detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
                                      self._leg_model)

@@ -129,6 +129,66 @@ def without_mixed_pixels(far: np.ndarray, segments: Segments, ranges: np.ndarray
     return far
 
 
+MIXED_PIXEL_SHARE = 0.05
+"""``mixed_pixel_filter: auto`` filters while more than this share of the static
+depth edges seen are bridged by a lone return in free space (``static_edges``): a laser that
+returns mixed pixels (a tenth or more of the edges at P = 0.2 in the simulator), where people's
+legs alone bridge fewer than one in a hundred."""
+MIXED_PIXEL_EDGES = 50
+"""Static depth edges ``auto`` counts before it judges the laser (a few scans in a room)."""
+
+
+def static_edges(ranges: np.ndarray, dynamic: np.ndarray, jump: float) -> tuple[int, int]:
+    """(depth edges between two static returns, of them bridged by a lone dynamic return) in
+    one scan: ``ranges`` (B,) (inf where no return), ``dynamic`` (B,) the beams one robot pose
+    takes for dynamic. An edge is two static returns more than twice ``jump`` apart in range,
+    next to each other or with one lone return between them that lies in free space between
+    the two (``mixed_pixels``): the share bridged is the laser's mixed-pixel rate."""
+    static = np.isfinite(ranges) & ~dynamic
+    before, after = np.roll(static, 1), np.roll(static, -1)
+    bridged = mixed_pixels(ranges, jump) & dynamic & before & after
+    with np.errstate(invalid="ignore"):
+        gap = np.abs(np.diff(ranges)) > 2.0 * jump
+    direct = int((static[:-1] & static[1:] & gap).sum())
+    count = int(bridged.sum())
+    return direct + count, count
+
+
+class MixedPixelMonitor:
+    """Whether the laser returns mixed pixels, from every static depth edge seen so far
+    (``static_edges``: a property of the laser, so counted over the whole run), and whether
+    to filter them (``mode``: the ``mixed_pixel_filter`` parameter)."""
+
+    def __init__(self, mode: str = "auto") -> None:
+        self.mode = mode
+        self.edges = 0
+        self.bridged = 0
+
+    def observe(self, ranges: np.ndarray, segments: Segments, far: np.ndarray,
+                jump: float) -> None:
+        """Count one scan's edges (``ranges`` (B,), inf where no return) as one robot pose
+        sees them (``far`` (K,): its dynamic beams, in the order of ``segments.beams``)."""
+        dynamic = np.zeros(len(ranges), dtype=bool)
+        dynamic[segments.beams] = far
+        edges, bridged = static_edges(ranges, dynamic, jump)
+        self.edges += edges
+        self.bridged += bridged
+
+    @property
+    def share(self) -> float:
+        """Share of the static depth edges bridged by a lone return (0 before any edge)."""
+        return self.bridged / self.edges if self.edges else 0.0
+
+    @property
+    def filtering(self) -> bool:
+        """Whether to filter: ``always``, never with ``never``; with ``auto`` until
+        MIXED_PIXEL_EDGES edges were seen (the first scans' ghosts would be tracked for
+        seconds), then while the share exceeds MIXED_PIXEL_SHARE."""
+        if self.mode != "auto":
+            return self.mode == "always"
+        return self.edges < MIXED_PIXEL_EDGES or self.share > MIXED_PIXEL_SHARE
+
+
 def segment_scan(scan: Scan, returns: np.ndarray, jump: float) -> Segments:
     """Cut the returning beams into runs of neighbours closer than ``jump`` in range.
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from fastslam_ros.core.existence import LOGODDS_MAX
 from fastslam_ros.core.params import check_fields, parameter
+from fastslam_ros.people.detection import MIXED_PIXEL_EDGES, MIXED_PIXEL_SHARE
 
 INF = math.inf
 
@@ -165,12 +166,17 @@ class TrackerSettings:
     confirm_pairs: bool = parameter(
         True, "A new person seen as two legs apart is confirmed (published) at its first "
               "detection; one leg alone, or legs seen as one, at logodds_confirm.")
-    mixed_pixel_filter: bool = parameter(
-        False, "A lone return between a nearer and a farther neighbour (each more than "
-               "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
-               "is dynamic and it lies within max_leg_spacing behind it or where a leg returns "
-               "one beam: for lasers that return ranges between an object's silhouette and the "
-               "background (it also hides a few people partly hidden behind furniture).")
+    mixed_pixel_filter: str = parameter(
+        "auto", "A lone return between a nearer and a farther neighbour (each more than "
+                "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
+                "is dynamic and it lies within max_leg_spacing behind it or where a leg returns "
+                "one beam: 'always' for lasers that return ranges between an object's silhouette "
+                "and the background (it also hides a few people partly hidden behind "
+                "furniture), 'never', or 'auto': on while over "
+                f"{MIXED_PIXEL_SHARE:.0%} of the depth edges between mapped objects seen so far "
+                f"(and until {MIXED_PIXEL_EDGES} were seen) were bridged by such a return, as "
+                "they are for a laser that returns mixed pixels.",
+        choices=("auto", "always", "never"))
     publish_spread: float = parameter(
         0.3, "A confirmed person whose particles' position standard deviation (m, per axis) "
              "exceeds this is tracked but not published (unseen for a while, its position is "
