@@ -20,7 +20,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io, ros_markers
 from fastslam_ros.core import geometry
-from fastslam_ros.people.conditional_filter import PeopleEstimate
+from fastslam_ros.people.report import PeopleEstimate
 from fastslam_ros.people.detection import Scan
 from fastslam_ros.people.grid import OccupancyMap
 

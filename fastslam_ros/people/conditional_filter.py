@@ -40,12 +40,13 @@ people are estimated conditioned on the robot's pose, as FastSLAM's landmarks ar
 8. resample the robot particles when N_eff is low: one index array gathers the poses and the
    whole people arrays, so each robot particle's people follow it (the conditional structure).
 
-Published (``published_people``) are the best robot particle's confirmed people whose
-particles' position standard deviation is at most ``publish_spread``: a person unseen for a
-while is still tracked, but where it is has become too uncertain to report. A person within
-PUBLISHED_GATE of one published at the previous reading keeps that one's published id,
-whatever key the (new) best particle gives it, and of two people within PUBLISHED_GATE of
-each other only one is reported (the one continuing, else the one published longer).
+Published (``published_people``, in ``identity.py``) are the best robot particle's confirmed
+people whose particles' position standard deviation is at most ``publish_spread``: a person
+unseen for a while is still tracked, but where it is has become too uncertain to report. A
+person within PUBLISHED_GATE of one published at the previous reading keeps that one's
+published id, whatever key the (new) best particle gives it, and of two people within
+PUBLISHED_GATE of each other only one is reported (the one continuing, else the one published
+longer).
 
 Without an initial pose the robot particles start uniform over the free space and are
 localized globally (``global_localization.py``).
@@ -53,12 +54,10 @@ localized globally (``global_localization.py``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from fastslam_ros.core.existence import (existence_probability, in_perceptual_range, removed,
-                                         update_logodds)
+from fastslam_ros.core.existence import in_perceptual_range, removed, update_logodds
 from fastslam_ros.core.geometry import mean_pose_and_covariance, relative_pose, wrap_angle
 from fastslam_ros.core.motion import OdometryControl, control_variances, sample_motion
 from fastslam_ros.core.resampling import (batched_systematic_resample, effective_sample_size,
@@ -68,9 +67,9 @@ from fastslam_ros.people.detection import (LegModel, MixedPixelMonitor, Scan, de
                                            segment_scan, without_mixed_pixels)
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
-from fastslam_ros.people.identity import PUBLISHED_GATE, PeopleIdentities
+from fastslam_ros.people.identity import PeopleIdentities
 from fastslam_ros.people.person_motion import PersonMotion
-from fastslam_ros.people.report import UpdateReport
+from fastslam_ros.people.report import PeopleEstimate, UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
                                               sample_free_poses,
                                               sample_gaussian_poses, sensor_poses)
@@ -90,17 +89,6 @@ SEEN_FREE_LIKELIHOOD = 0.1
 beam passed through it: no person there), against 1 for one the laser could not see. A
 particle left there k readings weighs 0.1^k; soft, the weight keeps more particles of a
 narrow shadow apart than a near-zero one (which gave as much MOTA, more identity switches)."""
-
-
-@dataclass
-class PeopleEstimate:
-    """People of one robot particle: stable ``keys`` (N,), ``means`` (N, 2), ``covariances``
-    (N, 2, 2) of their position particles, existence probabilities (N,)."""
-
-    keys: np.ndarray
-    means: np.ndarray
-    covariances: np.ndarray
-    existence: np.ndarray
 
 
 class PeopleTracker(GlobalLocalization, PeopleIdentities):
@@ -554,55 +542,3 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
     def mean_pose_and_covariance(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean pose (circular mean heading) and covariance of the robot particles."""
         return mean_pose_and_covariance(self.poses, np.exp(self.log_weights))
-
-    def published_people(self) -> PeopleEstimate:
-        """The people to publish: the best robot particle's confirmed people but those whose
-        particles' position standard deviation exceeds ``publish_spread`` or who lie outside a
-        partial scan's span (behind a 270-degree laser: kept, not observed). Unseen for a while
-        (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
-        stale track would be a false positive, and catch whoever walks by. The ids are the
-        published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
-        other (two tracks on one person) only one is reported: the one that continues a
-        person published at the previous reading, else the one whose id was published first.
-        Computed once per reading."""
-        if self._published is not None and self._published[0] == self._updates:
-            return self._published[1]
-        people = self.people_of()
-        keep = np.flatnonzero(np.trace(people.covariances, axis1=1, axis2=2)
-                              <= 2.0 * self.settings.publish_spread ** 2)
-        if self._span is not None and len(keep):
-            # Outside a partial scan's span (behind a 270-degree laser) a person is kept, not
-            # reported: nothing observes it there.
-            sensor = sensor_poses(self.poses[self.best_index][None], self.offset)[0]
-            offset = people.means[keep] - sensor[:2]
-            keep = keep[self._span.covers(np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2])]
-        ids, kept = self._published_ids(people.keys[keep], people.means[keep])
-        now = self.last_stamp if self.last_stamp is not None else 0.0
-        for i in ids.tolist():
-            self._first_published.setdefault(i, now)
-        first = np.array([self._first_published[i] for i in ids.tolist()])
-        shown: list[int] = []
-        for i in np.lexsort((first, ~kept)):
-            if all(np.linalg.norm(people.means[keep[i]] - people.means[keep[j]])
-                   >= PUBLISHED_GATE for j in shown):
-                shown.append(int(i))
-        shown.sort(key=lambda i: ids[i])
-        rows = keep[shown]
-        self._last_published = (ids[shown], people.means[rows])
-        estimate = PeopleEstimate(ids[shown], people.means[rows], people.covariances[rows],
-                                  people.existence[rows])
-        self._published = (self._updates, estimate)
-        return estimate
-
-    def people_of(self, particle: int | None = None) -> PeopleEstimate:
-        """The confirmed people of one robot particle (the best by default); tentative ones
-        (log-odds not yet at ``logodds_confirm``) are left out."""
-        m = self.best_index if particle is None else particle
-        slots = np.flatnonzero(self.alive[m] & self.confirmed[m])
-        particles = self.people[m, slots]
-        means = particles.mean(axis=1) if len(slots) else np.zeros((0, 2))
-        centred = particles - means[:, None, :]
-        covariances = np.einsum("npi,npj->nij", centred, centred) / max(particles.shape[1], 1)
-        order = np.argsort(self.keys[m, slots], kind="stable")
-        return PeopleEstimate(self.keys[m, slots][order], means[order], covariances[order],
-                              existence_probability(self.logodds[m, slots][order]))

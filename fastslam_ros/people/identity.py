@@ -1,12 +1,16 @@
 # SPDX-License-Identifier: Apache-2.0
 # Copyright 2026 fastslam_ros maintainers
 """Who is who among the tracked people: a hidden or recently removed person re-identified by
-position (``max_person_speed``), keys voted across the robot particles, and the ids
-published, kept by position from one reading to the next."""
+position (``max_person_speed``), keys voted across the robot particles, and the people
+published with their ids, kept by position from one reading to the next."""
 from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+
+from fastslam_ros.core.existence import existence_probability
+from fastslam_ros.people.localization import sensor_poses
+from fastslam_ros.people.report import PeopleEstimate
 
 PUBLISHED_GATE = 0.4
 """Two people to publish within this distance (m) of each other are one person (two tracks on
@@ -133,3 +137,55 @@ class PeopleIdentities:
         in_use = set(self._id_of_key.values())
         self._first_published = {i: s for i, s in self._first_published.items() if i in in_use}
         return ids, kept
+
+    def published_people(self) -> PeopleEstimate:
+        """The people to publish: the best robot particle's confirmed people but those whose
+        particles' position standard deviation exceeds ``publish_spread`` or who lie outside a
+        partial scan's span (behind a 270-degree laser: kept, not observed). Unseen for a while
+        (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
+        stale track would be a false positive, and catch whoever walks by. The ids are the
+        published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
+        other (two tracks on one person) only one is reported: the one that continues a
+        person published at the previous reading, else the one whose id was published first.
+        Computed once per reading."""
+        if self._published is not None and self._published[0] == self._updates:
+            return self._published[1]
+        people = self.people_of()
+        keep = np.flatnonzero(np.trace(people.covariances, axis1=1, axis2=2)
+                              <= 2.0 * self.settings.publish_spread ** 2)
+        if self._span is not None and len(keep):
+            # Outside a partial scan's span (behind a 270-degree laser) a person is kept, not
+            # reported: nothing observes it there.
+            sensor = sensor_poses(self.poses[self.best_index][None], self.offset)[0]
+            offset = people.means[keep] - sensor[:2]
+            keep = keep[self._span.covers(np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2])]
+        ids, kept = self._published_ids(people.keys[keep], people.means[keep])
+        now = self.last_stamp if self.last_stamp is not None else 0.0
+        for i in ids.tolist():
+            self._first_published.setdefault(i, now)
+        first = np.array([self._first_published[i] for i in ids.tolist()])
+        shown: list[int] = []
+        for i in np.lexsort((first, ~kept)):
+            if all(np.linalg.norm(people.means[keep[i]] - people.means[keep[j]])
+                   >= PUBLISHED_GATE for j in shown):
+                shown.append(int(i))
+        shown.sort(key=lambda i: ids[i])
+        rows = keep[shown]
+        self._last_published = (ids[shown], people.means[rows])
+        estimate = PeopleEstimate(ids[shown], people.means[rows], people.covariances[rows],
+                                  people.existence[rows])
+        self._published = (self._updates, estimate)
+        return estimate
+
+    def people_of(self, particle: int | None = None) -> PeopleEstimate:
+        """The confirmed people of one robot particle (the best by default); tentative ones
+        (log-odds not yet at ``logodds_confirm``) are left out."""
+        m = self.best_index if particle is None else particle
+        slots = np.flatnonzero(self.alive[m] & self.confirmed[m])
+        particles = self.people[m, slots]
+        means = particles.mean(axis=1) if len(slots) else np.zeros((0, 2))
+        centred = particles - means[:, None, :]
+        covariances = np.einsum("npi,npj->nij", centred, centred) / max(particles.shape[1], 1)
+        order = np.argsort(self.keys[m, slots], kind="stable")
+        return PeopleEstimate(self.keys[m, slots][order], means[order], covariances[order],
+                              existence_probability(self.logodds[m, slots][order]))
