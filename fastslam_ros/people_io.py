@@ -52,7 +52,8 @@ count."""
 def read_scan(msg, max_beams: int | None = None) -> Scan:
     """``sensor_msgs/LaserScan`` -> ``Scan`` (REP 117): +inf is nothing within range_max (kept
     as inf: the beam saw free space); NaN, -inf and every range outside [range_min,
-    range_max] carry no evidence at all (NaN in the Scan). ``OversizedError`` beyond
+    range_max] carry no evidence at all (NaN in the Scan); time_increment is kept (a
+    non-finite one is malformed). ``OversizedError`` beyond
     ``max_beams`` (checked before the ranges are read)."""
     count = len(msg.ranges)
     if count == 0:
@@ -79,7 +80,10 @@ def read_scan(msg, max_beams: int | None = None) -> Scan:
     with np.errstate(invalid="ignore"):
         evidence = (ranges >= range_min) & (ranges <= range_max)
     ranges = np.where(evidence | (ranges == math.inf), ranges, math.nan)
-    return Scan(ranges, angle_min, increment, range_max)
+    time_increment = float(msg.time_increment)
+    if not math.isfinite(time_increment):
+        raise MalformedScanError(f"time_increment {time_increment} is not finite")
+    return Scan(ranges, angle_min, increment, range_max, time_increment)
 
 
 def _check_origin(x: float, y: float, yaw: float) -> None:

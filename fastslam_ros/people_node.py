@@ -38,7 +38,9 @@ from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
+from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
+from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
 
@@ -115,6 +117,11 @@ def parameter_specs() -> dict:
     return {**CORE_PARAMETERS, **NODE_PARAMETERS}
 
 
+YAW_RATE_WINDOW = 0.5
+"""A scan is deskewed at the odometry's yaw rate since the previous scan when that came at most
+this long (s) before it (``_deskewed``)."""
+
+
 @dataclass
 class PendingScan:
     """A scan waiting for odometry that covers its stamp."""
@@ -145,6 +152,8 @@ class PeopleTrackerNode(FilterNode):
         self._relocalizing = False
         self._last_exact: tuple[int, int] = (0, 0)
         self._exact_header: tuple[Any, Header | None] = (None, None)
+        self._previous_yaw: tuple[float, float] | None = None
+        """(stamp, odometry yaw) of the previous scan, for the yaw rate of ``_deskewed``."""
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._particles_pub = self.create_publisher(PoseArray, "~/particles", LATEST_QOS)
@@ -292,10 +301,11 @@ class PeopleTrackerNode(FilterNode):
         if not self.tracker.ready:
             return self._drop("no_map", "scan dropped: no map yet")
         self._predict_to(pending.stamp, "late_scans")
+        scan = self._deskewed(pending)
         self._repaired()
         localizing = self.tracker.globally_localizing
         try:
-            report = self.tracker.update(pending.stamp, pending.scan)
+            report = self.tracker.update(pending.stamp, scan)
         except (ValueError, ArithmeticError, IndexError) as error:
             if not self._repaired():  # not a broken state: a real bug, reported as such
                 raise
@@ -312,8 +322,21 @@ class PeopleTrackerNode(FilterNode):
         self._last_reading_stamp = pending.stamp
         self._last_exact = pending.exact
         self._publish_estimate()
-        if self._lost_watch.lost(self.tracker, pending.scan):
+        if self._lost_watch.lost(self.tracker, scan):
             self._relocalize()
+
+    def _deskewed(self, pending: PendingScan) -> Scan:
+        """The scan as taken all at once at its stamp (``detection.deskewed``), at the
+        odometry's yaw rate since the previous scan (the rate of the sweep just before this
+        one), when that came at most YAW_RATE_WINDOW s before; else as it is."""
+        anchor = self._odometry.anchor_pose
+        previous = self._previous_yaw
+        self._previous_yaw = None if anchor is None else (pending.stamp, float(anchor[2]))
+        if (self._previous_yaw is None or previous is None or pending.scan.time_increment == 0.0
+                or not 0.0 < pending.stamp - previous[0] <= YAW_RATE_WINDOW):
+            return pending.scan
+        turned = wrap_angle(self._previous_yaw[1] - previous[1])
+        return deskewed(pending.scan, turned / (pending.stamp - previous[0]))
 
     def _repaired(self) -> bool:
         """Self-check before and after an update: repair a non-finite state (counted,
@@ -339,6 +362,7 @@ class PeopleTrackerNode(FilterNode):
     def reset(self) -> None:
         """Forget odometry, queued scans and people; keep the map and restart the particles."""
         self._reset_inputs()
+        self._previous_yaw = None
         if self.tracker.grid is not None:
             self._start_filter()
 

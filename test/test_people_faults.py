@@ -197,6 +197,8 @@ DROPPED = {  # name -> (message builder, callback, counter)
                            "dropped_malformed_scan"),
     "scan range_max NaN": (lambda: scan_with(range_max=math.nan), "on_scan",
                            "dropped_malformed_scan"),
+    "scan time_increment NaN": (lambda: scan_with(time_increment=math.nan), "on_scan",
+                                "dropped_malformed_scan"),
     # 9: caps
     "scan of 500 beams": (lambda: scan_with(
         ranges=[1.0] * 500, angle_min=-1.0, angle_increment=0.004,

@@ -11,13 +11,14 @@ import pytest
 
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import (MIXED_PIXEL_EDGES, LegModel, MixedPixelMonitor, Scan,
-                                           detect_legs, dynamic_beams, mixed_pixels,
+                                           deskewed, detect_legs, dynamic_beams, mixed_pixels,
                                            segment_scan, static_edges, without_mixed_pixels)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
 from fastslam_ros.tools.simulation.crowd import build_map
-from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, mix_edges, simulate_people
+from fastslam_ros.tools.simulation.people_sim import (PeopleSimConfig, cast_scan, mix_edges,
+                                                     simulate_people, sweep_poses)
 
 
 def test_circle_ranges_match_the_closed_form():
@@ -421,3 +422,49 @@ def test_auto_filters_mixed_pixels_only_for_a_laser_that_returns_them():
     auto, tracker = published("auto", 0.0, person)
     assert auto == published("never", 0.0, person)[0] and auto[-1] == 1
     assert tracker.mixed_pixels.share == 0.0 and not tracker.mixed_pixels.filtering
+
+
+def test_a_swept_scan_deskewed_puts_each_beam_where_it_ended():
+    """A laser turning at 0.8 rad/s in place (``sweep_poses``) takes its 540 beams over
+    270 degrees at 7.5 Hz, each from its own heading. Seen from the first beam's pose with
+    the scan's own bearings, the last beam ends land a quarter metre off where they hit;
+    ``deskewed`` at the turn rate puts every one where it ended."""
+    room = np.zeros((160, 160), bool)
+    room[[0, -1], :] = room[:, [0, -1]] = True
+    grid = OccupancyMap(room, ~room, 0.05)
+    config = PeopleSimConfig(beams=540, field_of_view=1.5 * math.pi, scan_rate=7.5, sweep=True)
+    angles = -0.75 * math.pi + (np.arange(540) + 0.5) * (1.5 * math.pi / 540)
+    start = np.array([3.0, 5.0, 0.4])
+    poses = sweep_poses(start, 0.0, 0.8, 540, config.time_increment)
+    assert config.time_increment * 540 == pytest.approx(0.1)    # 270 of 360 degrees, 7.5 Hz
+    ranges = cast_scan(grid, poses, angles, np.zeros((0, 2)), 12.0)
+    true_ends = poses[:, :2] + ranges[:, None] * np.stack(
+        [np.cos(poses[:, 2] + angles), np.sin(poses[:, 2] + angles)], axis=1)
+    scan = Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0,
+                config.time_increment)
+
+    def ends(seen: Scan) -> np.ndarray:
+        heading = start[2] + seen.angles
+        return start[:2] + seen.ranges[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1)
+    assert np.linalg.norm(ends(scan) - true_ends, axis=1).max() > 0.2
+    np.testing.assert_allclose(ends(deskewed(scan, 0.8)), true_ends, atol=1e-9)
+    assert deskewed(Scan(ranges, scan.angle_min, scan.angle_increment), 0.8).angle_increment \
+        == scan.angle_increment                                     # no timing: as it is
+
+
+def test_sweep_poses_follow_the_unicycle_and_circles_are_cast_from_each_beams_pose():
+    start = np.array([1.0, 2.0, 0.3])
+    poses = sweep_poses(start, 0.5, 0.8, 11, 0.01)
+    pose, dt = start.copy(), 1e-5                    # the unicycle integrated finely
+    for _ in range(10_000):
+        pose += dt * np.array([0.5 * math.cos(pose[2]), 0.5 * math.sin(pose[2]), 0.8])
+    np.testing.assert_allclose(poses[-1], pose, atol=1e-5)
+    straight = sweep_poses(start, 0.5, 0.0, 3, 0.1)[:, :2]
+    np.testing.assert_allclose(straight, start[:2] + np.outer([0.0, 0.05, 0.1],
+                                                              [math.cos(0.3), math.sin(0.3)]))
+    angles = np.linspace(-0.5, 0.5, 50)
+    centres = np.array([[4.0, 2.5], [3.0, 1.2]])
+    one = people_legs.circle_ranges(start, start[2] + angles, centres, 0.2)
+    each = people_legs.circle_ranges(np.tile(start, (50, 1)), start[2] + angles, centres, 0.2)
+    np.testing.assert_allclose(each, one, atol=1e-12)
+    assert np.isfinite(one).sum() > 5

@@ -30,12 +30,14 @@ diagonal to the corner), the map's expected range is not meaningful."""
 class Scan:
     """One planar laser reading in the sensor frame: ``ranges`` (B,) m (inf: no return, the
     beam saw free space; NaN: no evidence at all) at ``angles`` (B,) rad, evenly spaced from
-    ``angle_min`` by ``angle_increment``."""
+    ``angle_min`` by ``angle_increment``; beam i taken ``i * time_increment`` s after the
+    first (``LaserScan.time_increment``; 0: all at once)."""
 
     ranges: np.ndarray
     angle_min: float
     angle_increment: float
     range_max: float = np.inf
+    time_increment: float = 0.0
 
     @property
     def angles(self) -> np.ndarray:
@@ -75,6 +77,17 @@ class Scan:
         if full_turn:
             return np.ones(steps.shape, bool)
         return (steps <= len(self.ranges) - 0.5) | (steps >= turn - 0.5)
+
+
+def deskewed(scan: Scan, yaw_rate: float) -> Scan:
+    """The scan as the laser would have seen it all at once from where it was at the first
+    beam, for a laser turning at ``yaw_rate`` (rad/s) while it swept the beams: beam i was
+    taken ``yaw_rate * i * time_increment`` rad further round, so the bearings stay evenly
+    spaced, by ``angle_increment + yaw_rate * time_increment``. The travel during the sweep
+    (speed x sweep time: a few centimetres) is not corrected."""
+    return Scan(scan.ranges, scan.angle_min,
+                scan.angle_increment + yaw_rate * scan.time_increment, scan.range_max,
+                scan.time_increment)
 
 
 @dataclass

@@ -68,15 +68,21 @@ def furniture_legs() -> np.ndarray:
 
 def circle_ranges(sensor: np.ndarray, world_angles: np.ndarray, centres: np.ndarray,
                   radius: float) -> np.ndarray:
-    """Range (B,) from ``sensor`` (x, y) along each world angle to the nearest of the circles
-    ``centres`` (K, 2) of ``radius``; inf where none is hit (a sensor inside a circle sees
-    nothing of it)."""
+    """Range (B,) from ``sensor`` (x, y, ...), or one sensor per beam (B, >= 2), along each
+    world angle to the nearest of the circles ``centres`` (K, 2) of ``radius``; inf where
+    none is hit (a sensor inside a circle sees nothing of it)."""
     if len(centres) == 0:
         return np.full(len(world_angles), np.inf)
     direction = np.stack([np.cos(world_angles), np.sin(world_angles)], axis=1)
-    centre = np.asarray(centres, dtype=float) - sensor[:2]
-    along = direction @ centre.T                                       # (B, K)
-    across_sq = np.sum(centre ** 2, axis=1)[None, :] - along ** 2
+    centres = np.asarray(centres, dtype=float)
+    if np.ndim(sensor) == 1:
+        centre = centres - sensor[:2]
+        along = direction @ centre.T                                   # (B, K)
+        across_sq = np.sum(centre ** 2, axis=1)[None, :] - along ** 2
+    else:
+        centre = centres[None, :, :] - sensor[:, None, :2]            # (B, K, 2)
+        along = np.einsum("bi,bki->bk", direction, centre)
+        across_sq = np.sum(centre ** 2, axis=2) - along ** 2
     hit = along - np.sqrt(np.clip(radius ** 2 - across_sq, 0.0, None))
     return np.where((across_sq < radius ** 2) & (hit > 0.0), hit, np.inf).min(axis=1)
 
@@ -140,11 +146,11 @@ class LegWorld:
     def cast(self, sensor: np.ndarray, angles: np.ndarray, idents: list[int],
              positions: np.ndarray, velocities: np.ndarray, dt: float, max_range: float
              ) -> tuple[np.ndarray, np.ndarray]:
-        """True ranges (B,) from ``sensor`` (x, y, theta) against walls, furniture legs and
-        the people's legs (advanced by ``dt`` s of gait), inf beyond ``max_range``; and the
-        legs (2K, 2)."""
-        world = sensor[2] + angles
-        ranges = self.walls.cast(np.broadcast_to(sensor[:2], (len(angles), 2)), world,
+        """True ranges (B,) from ``sensor`` (x, y, theta), or one pose per beam (B, 3), against
+        walls, furniture legs and the people's legs (advanced by ``dt`` s of gait), inf beyond
+        ``max_range``; and the legs (2K, 2)."""
+        world = sensor[..., 2] + angles
+        ranges = self.walls.cast(np.broadcast_to(sensor[..., :2], (len(angles), 2)), world,
                                  max_range)
         ranges = np.minimum(ranges, circle_ranges(sensor, world, self.furniture,
                                                   FURNITURE_LEG_RADIUS))

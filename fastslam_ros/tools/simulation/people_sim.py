@@ -31,6 +31,7 @@ import numpy as np
 from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools.simulation.crowd import PERSON_RADIUS, Crowd, build_map
+from fastslam_ros.tools.simulation.people_legs import circle_ranges
 from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
                                            PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
                                            yaw_to_quaternion)
@@ -82,6 +83,16 @@ class PeopleSimConfig:
     on thin legs in the map, people walking close to walls and furniture."""
     mixed_pixels: float = 0.0
     """Probability that a beam at a depth edge returns a mixed pixel (``mix_edges``)."""
+    sweep: bool = False
+    """A laser whose beams are taken one after the other as its mirror turns (a full turn per
+    scan period, ``time_increment`` apart), each from where the robot is then, as a real
+    laser's are; False: every beam at the scan's stamp."""
+
+    @property
+    def time_increment(self) -> float:
+        """Seconds between two beams (``LaserScan.time_increment``; 0 without ``sweep``)."""
+        return (self.field_of_view / self.beams) / (2.0 * math.pi * self.scan_rate) \
+            if self.sweep else 0.0
 
     def validate(self) -> "PeopleSimConfig":
         for name in ("duration", "scan_rate", "odometry_rate", "max_range", "speed",
@@ -128,20 +139,27 @@ def mix_edges(ranges: np.ndarray, probability: float, rng: np.random.Generator) 
 
 def cast_scan(grid: OccupancyMap, sensor: np.ndarray, angles: np.ndarray, people: np.ndarray,
               max_range: float) -> np.ndarray:
-    """True ranges (B,) from ``sensor`` (x, y, theta) against the walls and people (K, 2)
-    (cylinders of PERSON_RADIUS); inf where nothing is hit within ``max_range``."""
-    world = sensor[2] + angles
-    ranges = grid.cast(np.broadcast_to(sensor[:2], (len(angles), 2)), world, max_range)
-    if len(people):
-        direction = np.stack([np.cos(world), np.sin(world)], axis=1)
-        centre = people - sensor[:2]
-        along = direction @ centre.T                                   # (B, K)
-        across_sq = np.sum(centre ** 2, axis=1)[None, :] - along ** 2
-        inside = (across_sq < PERSON_RADIUS ** 2) & (along > 0.0)
-        hit = along - np.sqrt(np.clip(PERSON_RADIUS ** 2 - across_sq, 0.0, None))
-        hit = np.where(inside & (hit > 0.0), hit, np.inf).min(axis=1)
-        ranges = np.minimum(ranges, hit)
+    """True ranges (B,) from ``sensor`` (x, y, theta), or one sensor pose per beam (B, 3),
+    against the walls and people (K, 2) (cylinders of PERSON_RADIUS); inf where nothing is
+    hit within ``max_range``."""
+    world = sensor[..., 2] + angles
+    ranges = grid.cast(np.broadcast_to(sensor[..., :2], (len(angles), 2)), world, max_range)
+    ranges = np.minimum(ranges, circle_ranges(sensor, world, people, PERSON_RADIUS))
     return np.where(ranges <= max_range, ranges, np.inf)
+
+
+def sweep_poses(pose: np.ndarray, speed: float, turn: float, beams: int,
+                time_increment: float) -> np.ndarray:
+    """(B, 3) poses of a robot at ``pose`` driving at ``speed`` (m/s) and ``turn`` (rad/s),
+    ``time_increment`` s apart from the first beam on (a unicycle: exact arcs)."""
+    t = np.arange(beams) * time_increment
+    heading = pose[2] + turn * t
+    if abs(turn) > 1e-9:
+        x = pose[0] + speed / turn * (np.sin(heading) - math.sin(pose[2]))
+        y = pose[1] - speed / turn * (np.cos(heading) - math.cos(pose[2]))
+    else:
+        x, y = pose[0] + speed * t * math.cos(pose[2]), pose[1] + speed * t * math.sin(pose[2])
+    return np.stack([x, y, heading], axis=1)
 
 
 @dataclass
@@ -192,13 +210,24 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
         stamps.append(config.start_time + t)
         true_poses.append(pose.copy())
         odometry_poses.append(odometry.copy())
+        # unicycle towards the next route point
+        goal = route[target]
+        if np.hypot(*(goal - pose[:2])) < 0.3:
+            target = (target + 1) % len(route)
+            goal = route[target]
+        error = wrap_angle(math.atan2(goal[1] - pose[1], goal[0] - pose[0]) - pose[2])
+        turn = float(np.clip(2.0 * error, -config.max_turn_rate, config.max_turn_rate))
+        speed = config.speed * max(0.0, math.cos(error)) ** 2
         if step % per_scan == 0:
             positions = (np.array([p.position for p in crowd.people])
                          if crowd.people else np.zeros((0, 2)))
+            sensor = (sweep_poses(pose, speed, turn, config.beams, config.time_increment)
+                      if config.sweep else pose)
             if world is None:
-                ranges = cast_scan(grid, pose, angles, positions, config.max_range)
+                ranges = cast_scan(grid, sensor, angles, positions, config.max_range)
             else:
-                ranges, _ = world.cast(pose, angles, [p.ident for p in crowd.people], positions,
+                ranges, _ = world.cast(sensor, angles, [p.ident for p in crowd.people],
+                                       positions,
                                        np.array([p.velocity for p in crowd.people]).reshape(-1, 2),
                                        1.0 / config.scan_rate, config.max_range)
             if config.mixed_pixels > 0.0:
@@ -209,14 +238,6 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
             people.append((np.array([p.ident for p in crowd.people], dtype=np.int32), positions))
         if step == steps:
             break
-        # unicycle towards the next route point
-        goal = route[target]
-        if np.hypot(*(goal - pose[:2])) < 0.3:
-            target = (target + 1) % len(route)
-            goal = route[target]
-        error = wrap_angle(math.atan2(goal[1] - pose[1], goal[0] - pose[0]) - pose[2])
-        turn = float(np.clip(2.0 * error, -config.max_turn_rate, config.max_turn_rate))
-        speed = config.speed * max(0.0, math.cos(error)) ** 2
         heading = pose[2] + 0.5 * turn * dt
         pose = np.array([pose[0] + speed * dt * math.cos(heading),
                          pose[1] + speed * dt * math.sin(heading), wrap_angle(pose[2] + turn * dt)])
@@ -267,12 +288,13 @@ def occupancy_grid_message(grid: OccupancyMap, stamp: float, frame_id: str = "ma
 
 def laser_scan_message(stamp: float, ranges: np.ndarray, angles: np.ndarray, max_range: float,
                        frame_id: str = "laser", rate: float = 10.0,
-                       intensities: np.ndarray | None = None):
+                       intensities: np.ndarray | None = None, time_increment: float = 0.0):
     """A rosbags ``sensor_msgs/LaserScan`` (no return: inf, as REP 117 asks)."""
     increment = float(angles[1] - angles[0])
     return TYPESTORE.types["sensor_msgs/msg/LaserScan"](
         header=_header(stamp, frame_id), angle_min=float(angles[0]),
-        angle_max=float(angles[-1]), angle_increment=increment, time_increment=0.0,
+        angle_max=float(angles[-1]), angle_increment=increment,
+        time_increment=time_increment,
         scan_time=1.0 / rate, range_min=0.05, range_max=float(max_range),
         ranges=np.asarray(ranges, dtype=np.float32),
         intensities=np.asarray(() if intensities is None else intensities, dtype=np.float32))
@@ -324,7 +346,8 @@ def write_people_bag(path: str | Path, run: PeopleRun, config: PeopleSimConfig,
     for stamp, ranges in zip(run.scan_stamps, run.scans):
         extra.append(_record(SCAN_TOPIC, "sensor_msgs/msg/LaserScan", float(stamp),
                              laser_scan_message(float(stamp), ranges, run.angles,
-                                                config.max_range, rate=config.scan_rate)))
+                                                config.max_range, rate=config.scan_rate,
+                                                time_increment=config.time_increment)))
     for stamp, (ids, positions) in zip(run.people_stamps, run.people):
         extra.append(_record(PEOPLE_TRUTH_TOPIC, "sensor_msgs/msg/PointCloud2", float(stamp),
                              people_cloud_message(float(stamp), ids, positions)))
@@ -372,6 +395,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--legs", action="store_true",
                         help="the real-laser world: people as two swinging legs, tables and "
                              "chairs on thin legs, people close to walls and furniture")
+    parser.add_argument("--sweep", action="store_true",
+                        help="beams taken one after the other as the mirror turns (a full turn "
+                             "per scan), each from where the robot is then; LaserScan's "
+                             "time_increment says how far apart")
     parser.add_argument("--mixed-pixels", type=float, default=defaults.mixed_pixels,
                         help="probability that a beam at a depth edge returns a range between "
                              "the two surfaces, in free space (a real laser's mixed pixels)")
@@ -383,7 +410,7 @@ def main(argv: list[str] | None = None) -> int:
                                  beams=args.beams, field_of_view=args.field_of_view,
                                  scan_rate=args.scan_rate,
                                  odometry_rate=args.odometry_rate,
-                                 mixed_pixels=args.mixed_pixels).validate()
+                                 mixed_pixels=args.mixed_pixels, sweep=args.sweep).validate()
         cli.output_folder(args.out, "--out")
         cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any
