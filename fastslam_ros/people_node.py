@@ -18,6 +18,7 @@ carries the scan's exact ``header.stamp``. See docs/people.md.
 """
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 from typing import Any
@@ -38,7 +39,7 @@ from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
-from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
 from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
@@ -118,7 +119,7 @@ def parameter_specs() -> dict:
 
 
 YAW_RATE_WINDOW = 0.5
-"""A scan is deskewed at the odometry's yaw rate since the previous scan when that came at most
+"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
 this long (s) before it (``_deskewed``)."""
 
 
@@ -152,8 +153,8 @@ class PeopleTrackerNode(FilterNode):
         self._relocalizing = False
         self._last_exact: tuple[int, int] = (0, 0)
         self._exact_header: tuple[Any, Header | None] = (None, None)
-        self._previous_yaw: tuple[float, float] | None = None
-        """(stamp, odometry yaw) of the previous scan, for the yaw rate of ``_deskewed``."""
+        self._previous_odometry: tuple[float, np.ndarray] | None = None
+        """(stamp, odometry pose) of the previous scan, for the motion of ``_deskewed``."""
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._particles_pub = self.create_publisher(PoseArray, "~/particles", LATEST_QOS)
@@ -327,16 +328,24 @@ class PeopleTrackerNode(FilterNode):
 
     def _deskewed(self, pending: PendingScan) -> Scan:
         """The scan as taken all at once at its stamp (``detection.deskewed``), at the
-        odometry's yaw rate since the previous scan (the rate of the sweep just before this
-        one), when that came at most YAW_RATE_WINDOW s before; else as it is."""
+        odometry's turn rate and velocity since the previous scan (the motion just before
+        this sweep), when that came at most YAW_RATE_WINDOW s before; else as it is."""
         anchor = self._odometry.anchor_pose
-        previous = self._previous_yaw
-        self._previous_yaw = None if anchor is None else (pending.stamp, float(anchor[2]))
-        if (self._previous_yaw is None or previous is None or pending.scan.time_increment == 0.0
+        previous = self._previous_odometry
+        self._previous_odometry = None if anchor is None else (pending.stamp, anchor.copy())
+        if (anchor is None or previous is None or pending.scan.time_increment == 0.0
                 or not 0.0 < pending.stamp - previous[0] <= YAW_RATE_WINDOW):
             return pending.scan
-        turned = wrap_angle(self._previous_yaw[1] - previous[1])
-        return deskewed(pending.scan, turned / (pending.stamp - previous[0]))
+        elapsed = pending.stamp - previous[0]
+        step = relative_pose(previous[1], anchor)         # in the previous scan's frame
+        yaw_rate = step[2] / elapsed
+        c, n = math.cos(step[2]), math.sin(step[2])      # into the robot's frame now
+        s = self.tracker_settings
+        # the laser's velocity: the robot's, plus the turn's about the robot's centre
+        vx = (c * step[0] + n * step[1]) / elapsed - yaw_rate * s.sensor_y
+        vy = (-n * step[0] + c * step[1]) / elapsed + yaw_rate * s.sensor_x
+        c, n = math.cos(s.sensor_yaw), math.sin(s.sensor_yaw)
+        return deskewed(pending.scan, yaw_rate, (c * vx + n * vy, -n * vx + c * vy))
 
     def _repaired(self) -> bool:
         """Self-check before and after an update: repair a non-finite state (counted,
@@ -362,7 +371,7 @@ class PeopleTrackerNode(FilterNode):
     def reset(self) -> None:
         """Forget odometry, queued scans and people; keep the map and restart the particles."""
         self._reset_inputs()
-        self._previous_yaw = None
+        self._previous_odometry = None
         if self.tracker.grid is not None:
             self._start_filter()
 

@@ -452,6 +452,41 @@ def test_a_swept_scan_deskewed_puts_each_beam_where_it_ended():
         == scan.angle_increment                                     # no timing: as it is
 
 
+def test_a_scan_swept_while_driving_deskewed_puts_each_return_within_half_a_beam_of_its_point():
+    """The same laser driving at 0.5 m/s while it turns: its travel in the sweep (5 cm)
+    moves the returns off the evenly spaced bearings. ``deskewed`` with the velocity places
+    every return at its point, in the nearest beam: within half a beam's spacing of where it
+    ended, where the turn alone leaves up to the travel."""
+    from scipy.spatial import cKDTree
+    room = np.zeros((160, 160), bool)
+    room[[0, -1], :] = room[:, [0, -1]] = True
+    room[60:64, 70:74] = True                        # a post 2 m ahead: a near depth edge
+    grid = OccupancyMap(room, ~room, 0.05)
+    increment = 1.5 * math.pi / 540
+    time_increment = PeopleSimConfig(beams=540, field_of_view=1.5 * math.pi, scan_rate=7.5,
+                                     sweep=True).time_increment
+    angles = -0.75 * math.pi + (np.arange(540) + 0.5) * increment
+    start = np.array([1.6, 3.0, 0.0])
+    poses = sweep_poses(start, 0.5, 0.8, 540, time_increment)
+    ranges = cast_scan(grid, poses, angles, np.zeros((0, 2)), 12.0)
+    hit = np.isfinite(ranges)
+    true_ends = (poses[:, :2] + ranges[:, None] * np.stack(
+        [np.cos(poses[:, 2] + angles), np.sin(poses[:, 2] + angles)], axis=1))[hit]
+    scan = Scan(ranges, float(angles[0]), increment, 12.0, time_increment)
+
+    def worst(seen: Scan) -> float:
+        kept = np.isfinite(seen.ranges)
+        heading = start[2] + seen.angles[kept]
+        ends = start[:2] + seen.ranges[kept, None] * np.stack([np.cos(heading),
+                                                               np.sin(heading)], 1)
+        distance, _ = cKDTree(true_ends).query(ends)
+        bound = 0.5 * abs(seen.angle_increment) * seen.ranges[kept] + 0.005
+        return float(np.max(distance / bound))
+    assert worst(deskewed(scan, 0.8)) > 2.0
+    assert worst(deskewed(scan, 0.8, (0.5, 0.0))) < 1.0
+    assert np.isfinite(deskewed(scan, 0.8, (0.5, 0.0)).ranges).sum() > 0.9 * hit.sum()
+
+
 def test_sweep_poses_follow_the_unicycle_and_circles_are_cast_from_each_beams_pose():
     start = np.array([1.0, 2.0, 0.3])
     poses = sweep_poses(start, 0.5, 0.8, 11, 0.01)

@@ -79,15 +79,33 @@ class Scan:
         return (steps <= len(self.ranges) - 0.5) | (steps >= turn - 0.5)
 
 
-def deskewed(scan: Scan, yaw_rate: float) -> Scan:
+def deskewed(scan: Scan, yaw_rate: float, velocity: tuple[float, float] = (0.0, 0.0)) -> Scan:
     """The scan as the laser would have seen it all at once from where it was at the first
-    beam, for a laser turning at ``yaw_rate`` (rad/s) while it swept the beams: beam i was
-    taken ``yaw_rate * i * time_increment`` rad further round, so the bearings stay evenly
-    spaced, by ``angle_increment + yaw_rate * time_increment``. The travel during the sweep
-    (speed x sweep time: a few centimetres) is not corrected."""
-    return Scan(scan.ranges, scan.angle_min,
-                scan.angle_increment + yaw_rate * scan.time_increment, scan.range_max,
-                scan.time_increment)
+    beam, for a laser turning at ``yaw_rate`` (rad/s) and moving at ``velocity`` (m/s, in its
+    own frame) while it swept the beams ``time_increment`` apart. The turn alone keeps the
+    bearings evenly spaced, ``angle_increment + yaw_rate * time_increment`` apart; the travel
+    moves each return by up to speed x sweep time, so every return is placed at its point
+    seen from the first beam's pose, in the nearest beam of that spacing (the nearer return
+    where two meet; a beam left with none carries no evidence)."""
+    increment = scan.angle_increment + yaw_rate * scan.time_increment
+    moved = Scan(scan.ranges, scan.angle_min, increment, scan.range_max, scan.time_increment)
+    if velocity == (0.0, 0.0) or scan.time_increment == 0.0:
+        return moved
+    count = len(scan.ranges)
+    elapsed = np.arange(count) * scan.time_increment
+    bearing = scan.angle_min + increment * np.arange(count)
+    hit = np.isfinite(scan.ranges)
+    x = velocity[0] * elapsed + scan.ranges * np.cos(bearing)
+    y = velocity[1] * elapsed + scan.ranges * np.sin(bearing)
+    beam = np.rint((np.arctan2(y, x) - scan.angle_min) / increment
+                   + np.rint((bearing - np.arctan2(y, x)) / (2.0 * np.pi))
+                   * (2.0 * np.pi / increment)).astype(np.intp)
+    inside = hit & (beam >= 0) & (beam < count)
+    ranges = np.where(hit, np.nan, scan.ranges)
+    placed = np.full(count, np.inf)
+    np.minimum.at(placed, beam[inside], np.hypot(x, y)[inside])
+    ranges = np.where(np.isfinite(placed), placed, ranges)
+    return Scan(ranges, scan.angle_min, increment, scan.range_max, scan.time_increment)
 
 
 @dataclass
