@@ -91,6 +91,10 @@ class NodeSettings:
                                     low=0.0, high=1000.0)
     max_observation_wait: float = parameter(
         0.5, "How long (s) a scan waits for odometry covering its stamp.", low=0.0, high=60.0)
+    deskew_scans: bool = parameter(
+        True, "Correct each scan for the robot's motion while the laser swept it (its "
+              "time_increment, the odometry's turn rate and velocity since the previous "
+              "scan); false for a driver whose time_increment is wrong.")
     publish_tf: bool = parameter(True, "Broadcast map -> odom on /tf (when tf2_ros is "
                                        "installed).")
     max_speed: float = max_speed_parameter()
@@ -334,6 +338,7 @@ class PeopleTrackerNode(FilterNode):
         previous = self._previous_odometry
         self._previous_odometry = None if anchor is None else (pending.stamp, anchor.copy())
         if (anchor is None or previous is None or pending.scan.time_increment == 0.0
+                or not self.settings["deskew_scans"]
                 or not 0.0 < pending.stamp - previous[0] <= YAW_RATE_WINDOW):
             return pending.scan
         elapsed = pending.stamp - previous[0]

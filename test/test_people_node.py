@@ -377,3 +377,40 @@ def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
         assert node.get_parameter("map_file").value == ""
     finally:
         node.destroy_node()
+
+
+@pytest.mark.parametrize("deskew", [True, False])
+def test_node_deskews_a_swept_scan_by_the_odometrys_turn(context, deskew):
+    """Odometry turning at 0.5 rad/s and scans whose beams are 1 ms apart: the tracker gets
+    each scan with its bearings 0.5 x 0.001 rad further apart (``deskew_scans``), or as
+    sent."""
+    grid = room()
+    node = make_node(context, deskew_scans=deskew)
+    seen = []
+    update = node.tracker.update
+
+    def spy(stamp, scan):
+        seen.append(scan)
+        return update(stamp, scan)
+    node.tracker.update = spy
+    try:
+        node.on_map(map_message(grid))
+        node.on_initial_pose(initial_pose_message(POSE))
+        clock = node.get_clock()
+        for k in range(6):
+            stamp = 0.1 * k
+            clock.set_ros_time_override(Time(nanoseconds=int(stamp * 1e9)))
+            for t in (stamp, stamp + 0.05):
+                node.on_odometry(odometry_message(t, (0.0, 0.0, 0.5 * t)))
+            scan = scan_message(stamp + 0.02, cast_scan(grid, POSE, ANGLES, np.zeros((0, 2)),
+                                                        12.0))
+            scan.time_increment = 0.001
+            node.on_scan(scan)
+        node.flush()
+    finally:
+        node.destroy_node()
+    increment = float(ANGLES[1] - ANGLES[0])
+    assert len(seen) >= 4
+    np.testing.assert_allclose([s.angle_increment for s in seen[1:]],
+                               increment + (0.5 * 0.001 if deskew else 0.0), rtol=1e-6)
+    assert seen[0].angle_increment == pytest.approx(increment)    # no previous scan: as sent
