@@ -92,18 +92,18 @@ def deskewed(scan: Scan, yaw_rate: float, velocity: tuple[float, float] = (0.0, 
     if velocity == (0.0, 0.0) or scan.time_increment == 0.0:
         return moved
     count = len(scan.ranges)
-    elapsed = np.arange(count) * scan.time_increment
-    bearing = scan.angle_min + increment * np.arange(count)
-    hit = np.isfinite(scan.ranges)
-    x = velocity[0] * elapsed + scan.ranges * np.cos(bearing)
-    y = velocity[1] * elapsed + scan.ranges * np.sin(bearing)
-    beam = np.rint((np.arctan2(y, x) - scan.angle_min) / increment
-                   + np.rint((bearing - np.arctan2(y, x)) / (2.0 * np.pi))
-                   * (2.0 * np.pi / increment)).astype(np.intp)
-    inside = hit & (beam >= 0) & (beam < count)
-    ranges = np.where(hit, np.nan, scan.ranges)
+    hit = np.flatnonzero(np.isfinite(scan.ranges))
+    bearing = scan.angle_min + increment * hit
+    x = velocity[0] * scan.time_increment * hit + scan.ranges[hit] * np.cos(bearing)
+    y = velocity[1] * scan.time_increment * hit + scan.ranges[hit] * np.sin(bearing)
+    seen = np.arctan2(y, x)
+    seen += 2.0 * np.pi * np.rint((bearing - seen) / (2.0 * np.pi))   # unwrapped near its beam
+    beam = np.rint((seen - scan.angle_min) / increment).astype(np.intp)
+    inside = (beam >= 0) & (beam < count)
     placed = np.full(count, np.inf)
     np.minimum.at(placed, beam[inside], np.hypot(x, y)[inside])
+    ranges = scan.ranges.astype(float)
+    ranges[hit] = np.nan
     ranges = np.where(np.isfinite(placed), placed, ranges)
     return Scan(ranges, scan.angle_min, increment, scan.range_max, scan.time_increment)
 
