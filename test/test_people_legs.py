@@ -17,7 +17,8 @@ from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
 from fastslam_ros.tools.evaluation.people_eval import Frame, clear_mot
 from fastslam_ros.tools.simulation.crowd import build_map
-from fastslam_ros.tools.simulation.people_sim import (PeopleSimConfig, cast_scan, mix_edges,
+from fastslam_ros.tools.simulation.people_sim import (PeopleSimConfig, cast_scan,
+                                                     laser_scan_message, mix_edges,
                                                      simulate_people, sweep_poses)
 
 
@@ -503,3 +504,21 @@ def test_sweep_poses_follow_the_unicycle_and_circles_are_cast_from_each_beams_po
     each = people_legs.circle_ranges(np.tile(start, (50, 1)), start[2] + angles, centres, 0.2)
     np.testing.assert_allclose(each, one, atol=1e-12)
     assert np.isfinite(one).sum() > 5
+
+
+def test_a_swept_simulated_scan_takes_its_first_beam_at_the_stamp_and_says_how_far_apart():
+    """``--sweep``: the first beam of each scan is the one taken all at once, the others are
+    taken from where the driving robot is later (so they differ), and the LaserScan carries
+    the time between beams: a full turn of the mirror per scan period."""
+    swept = simulate_people(PeopleSimConfig(seed=1, duration=1.0, people=0, sweep=True))
+    still = simulate_people(PeopleSimConfig(seed=1, duration=1.0, people=0))
+    config = PeopleSimConfig(sweep=True)
+    assert config.time_increment == pytest.approx(1.0 / (10.0 * 360))
+    for a, b in zip(swept.scans[1:], still.scans[1:]):
+        assert a[0] == b[0]                  # the same beam, the same noise drawn
+        both = np.isfinite(a) & np.isfinite(b)
+        later = np.abs(a[both] - b[both])[both.sum() // 2:]
+        assert later.max() > 0.01                     # the later beams, from farther on
+    message = laser_scan_message(0.0, swept.scans[0], swept.angles, 12.0,
+                                 time_increment=config.time_increment)
+    assert message.time_increment == pytest.approx(config.time_increment)
