@@ -18,7 +18,6 @@ carries the scan's exact ``header.stamp``. See docs/people.md.
 """
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass
 from typing import Any
@@ -39,9 +38,8 @@ from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
-from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.people.detection import deskewed
+from fastslam_ros.people.detection import deskewed, sweep_motion
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
 
@@ -341,16 +339,9 @@ class PeopleTrackerNode(FilterNode):
                 or not self.settings["deskew_scans"]
                 or not 0.0 < pending.stamp - previous[0] <= YAW_RATE_WINDOW):
             return pending.scan
-        elapsed = pending.stamp - previous[0]
-        step = relative_pose(previous[1], anchor)         # in the previous scan's frame
-        yaw_rate = step[2] / elapsed
-        c, n = math.cos(step[2]), math.sin(step[2])      # into the robot's frame now
-        s = self.tracker_settings
-        # the laser's velocity: the robot's, plus the turn's about the robot's centre
-        vx = (c * step[0] + n * step[1]) / elapsed - yaw_rate * s.sensor_y
-        vy = (-n * step[0] + c * step[1]) / elapsed + yaw_rate * s.sensor_x
-        c, n = math.cos(s.sensor_yaw), math.sin(s.sensor_yaw)
-        return deskewed(pending.scan, yaw_rate, (c * vx + n * vy, -n * vx + c * vy))
+        yaw_rate, velocity = sweep_motion(previous[1], anchor, pending.stamp - previous[0],
+                                          self.tracker.offset)
+        return deskewed(pending.scan, yaw_rate, velocity)
 
     def _repaired(self) -> bool:
         """Self-check before and after an update: repair a non-finite state (counted,

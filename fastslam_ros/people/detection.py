@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.geometry import relative_pose, wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 
 SHORT_FLOOR_CELLS = 1.5
@@ -77,6 +77,21 @@ class Scan:
         if full_turn:
             return np.ones(steps.shape, bool)
         return (steps <= len(self.ranges) - 0.5) | (steps >= turn - 0.5)
+
+
+def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
+                 offset: np.ndarray) -> tuple[float, tuple[float, float]]:
+    """(yaw rate (rad/s), the laser's velocity (m/s) in its own frame) of a robot that moved
+    from odometry pose ``previous`` to ``now`` in ``elapsed`` s, its laser mounted at
+    ``offset`` (x, y, yaw) on it: the motion ``deskewed`` corrects a sweep for. The laser
+    moves with the robot, plus the turn's velocity about the robot's centre."""
+    step = relative_pose(previous, now)                  # in the frame of ``previous``
+    yaw_rate = float(step[2]) / elapsed
+    c, s = math.cos(step[2]), math.sin(step[2])          # into the robot's frame now
+    vx = (c * step[0] + s * step[1]) / elapsed - yaw_rate * offset[1]
+    vy = (-s * step[0] + c * step[1]) / elapsed + yaw_rate * offset[0]
+    c, s = math.cos(offset[2]), math.sin(offset[2])      # into the laser's frame
+    return yaw_rate, (c * vx + s * vy, -s * vx + c * vy)
 
 
 def deskewed(scan: Scan, yaw_rate: float, velocity: tuple[float, float] = (0.0, 0.0)) -> Scan:
