@@ -240,14 +240,13 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         far = dynamic_beams(self.grid, sensors, ends, distances, angles,
                             s.min_obstacle_distance, s.short_margin)
         ranges = np.where(returns, scan.ranges, np.inf)
-        self.mixed_pixels.observe(ranges, segments, far[np.argmax(self.log_weights)],
-                                  s.segment_jump)
+        best = self.best_index     # weighed by this scan, before its people are associated
+        self.mixed_pixels.observe(ranges, segments, far[best], s.segment_jump)
         if self.mixed_pixels.filtering:
             far = without_mixed_pixels(far, segments, ranges, s.segment_jump,
                                        s.max_leg_spacing, s.leg_radius / abs(scan.angle_increment))
         if s.person_model == "legs":
-            detections = detect_legs(segments, far, int(np.argmax(self.log_weights)),
-                                     self._leg_model)
+            detections = detect_legs(segments, far, best, self._leg_model)
         else:
             detections = detect_people(segments, far, s.min_detection_beams,
                                        s.max_person_width, s.person_radius)
