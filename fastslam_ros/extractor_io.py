@@ -33,7 +33,8 @@ class MalformedScanError(ValueError):
 
 
 def read_scan(msg) -> RawScan:
-    """``sensor_msgs/LaserScan`` -> ``RawScan``, ranges as sent (REP 117 meanings kept)."""
+    """``sensor_msgs/LaserScan`` -> ``RawScan``, ranges as sent (REP 117 meanings kept), its
+    ``time_increment`` too (a non-finite one is malformed)."""
     ranges = np.asarray(msg.ranges, dtype=float)
     intensities = np.asarray(msg.intensities, dtype=float)
     increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
@@ -45,10 +46,14 @@ def read_scan(msg) -> RawScan:
         raise MalformedScanError(f"{ranges.size} beams of {increment} rad span more than a turn")
     if intensities.size not in (0, ranges.size):
         raise MalformedScanError(f"{intensities.size} intensities for {ranges.size} beams")
+    time_increment = float(msg.time_increment)
+    if not math.isfinite(time_increment):
+        raise MalformedScanError(f"time_increment {time_increment} is not finite")
     range_min = float(msg.range_min) if math.isfinite(msg.range_min) else 0.0
     range_max = float(msg.range_max) if math.isfinite(msg.range_max) and msg.range_max > 0 \
         else math.inf
-    return RawScan(ranges, angle_min, increment, max(range_min, 0.0), range_max, intensities)
+    return RawScan(ranges, angle_min, increment, max(range_min, 0.0), range_max, intensities,
+                   time_increment)
 
 
 def landmark_cloud(header: Header, landmarks: Landmarks) -> PointCloud2:

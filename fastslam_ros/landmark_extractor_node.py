@@ -9,9 +9,16 @@ the scan's exact header: x y z float32, id int32 = -1, radius and intensity floa
 ``fastslam_node`` reads as it is, and ``~/markers`` for RViz (throttled). Parameters (the
 extractor's, see ``fastslam_ros.extractor.ExtractorSettings``, fixed at start; the node's
 frame and marker rate), the stamp and frame gates, the counters and ``/diagnostics`` are the
-other nodes' (``node_base.FilterNode``). With ``static_window`` > 0 the node also reads
-``nav_msgs/Odometry`` on ``odom``: a scan waits, like the SLAM node's clouds, for odometry
-covering its stamp, and the landmarks that ``extractor.static_filter`` finds moved (where an
+other nodes' (``node_base.FilterNode``).
+
+With ``deskew_scans`` (default) or ``static_window`` > 0 the node also reads
+``nav_msgs/Odometry`` on ``odom``, and a scan waits, like the SLAM node's clouds, for odometry
+covering its stamp. ``deskew_scans``: a scan swept while the robot moved
+(``time_increment`` > 0) has its landmarks brought back to where the laser was at the first
+beam, the stamp's pose (``core.sweep``), at the odometry's motion since the previous scan;
+without that motion (no odometry yet, none covering the stamp in ``max_observation_wait``, the
+previous scan too long ago) they are published as seen and counted (``scans_not_deskewed``).
+``static_window``: the landmarks that ``extractor.static_filter`` finds moved (where an
 earlier scan saw free space, or displaced: walking people) are not published; a scan with no
 odometry pose at its stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
 """
@@ -31,8 +38,9 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
+from fastslam_ros.core.sweep import sweep_motion
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
-from fastslam_ros.extractor.extract import REJECTIONS
+from fastslam_ros.extractor.extract import REJECTIONS, Landmarks
 from fastslam_ros.extractor.static_filter import StaticFilter
 from fastslam_ros.node_base import INPUT_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
@@ -45,10 +53,14 @@ COUNTERS = (
     "reflectors", *(f"rejected_{reason}" for reason in REJECTIONS), "rejected_moving",
     "dropped_malformed_scan", "dropped_wrong_frame", "dropped_invalid_stamp",
     "dropped_outlier_stamp", "dropped_duplicate_stamp", "dropped_internal_error",
+    "scans_not_deskewed",
 )
 THROTTLED_OUTPUTS = ("markers_rate",)
-DIAGNOSED = (("time_jumps", "time jumps"),)
+DIAGNOSED = (("time_jumps", "time jumps"), ("scans_not_deskewed", "swept scans not deskewed"))
 """Counters whose growth /diagnostics reports (after drops, lost messages, silence and lag)."""
+SWEEP_WINDOW = 0.5
+"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
+this long (s) before it."""
 
 
 @dataclass(frozen=True)
@@ -59,13 +71,17 @@ class NodeSettings:
     scan_frame: str = parameter("", "Frame the scans must be in; '' accepts any.")
     markers_rate: float = parameter(5.0, "Maximum rate of ~/markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
-    odom_frame: str = parameter("odom", "With static_window: odometry frame (REP 105); '' "
+    odom_frame: str = parameter("odom", "With deskew_scans or static_window: odometry frame "
+                                        "(REP 105); '' "
                                         "accepts any.")
-    base_frame: str = parameter("base_link", "With static_window: odometry's child_frame_id; "
+    base_frame: str = parameter("base_link", "With deskew_scans or static_window: odometry's "
+                                             "child_frame_id; "
                                              "'' accepts any.")
     max_observation_wait: float = parameter(
-        0.5, "With static_window: how long (s of node time) a scan waits for odometry that "
-             "covers its stamp; after that it is dropped (dropped_stale).", low=0.0, high=60.0)
+        0.5, "With deskew_scans or static_window: how long (s of node time) a scan waits for "
+             "odometry that covers its stamp; after that it is dropped (dropped_stale) or, "
+             "deskew_scans only, published as seen (scans_not_deskewed).",
+        low=0.0, high=60.0)
     max_speed: float = max_speed_parameter()
     max_yaw_rate: float = max_yaw_rate_parameter()
 
@@ -88,7 +104,7 @@ def parameter_specs() -> dict:
 
 @dataclass
 class PendingScan:
-    """A scan's extraction waiting for the odometry that covers its stamp (static filter)."""
+    """A scan's extraction waiting for the odometry that covers its stamp."""
 
     stamp: float
     arrival: float
@@ -114,7 +130,15 @@ class LandmarkExtractorNode(FilterNode):
         if s.static_window > 0.0:
             self.static_filter = StaticFilter(s.static_window, s.static_tolerance,
                                               s.static_heading_tolerance)
-            self._sensor = np.array([s.sensor_x, s.sensor_y, s.sensor_yaw])
+        self.reads_odometry = s.deskew_scans or self.static_filter is not None
+        if self.static_filter is None:     # a scan whose odometry is late is published as seen
+            self._stale_counter = "scans_not_deskewed"
+        self._sensor = np.array([s.sensor_x, s.sensor_y, s.sensor_yaw])
+        self._previous_pose: tuple[float, np.ndarray] | None = None
+        """(stamp, odometry pose) of the previous scan that had one (the sweep's motion)."""
+        self._sweeping = False
+        """Whether the last scan was swept (time_increment > 0)."""
+        if self.reads_odometry:
             self._start_odometry(map_to_odom=False)
             self.create_subscription(Odometry, "odom", self.on_odometry, INPUT_QOS)
         self._last: tuple[Header, Extraction] | None = None
@@ -125,8 +149,9 @@ class LandmarkExtractorNode(FilterNode):
         self.create_timer(DIAGNOSTICS_PERIOD, self._on_timer)
         self.get_logger().info(f"landmark extractor: detector {s.detector}, ranges "
                                f"[{s.min_range}, {s.max_range}) m" + (
-                                   f", static over {s.static_window} s (odometry on odom)"
-                                   if self.static_filter else ""))
+                                   f", static over {s.static_window} s" if self.static_filter
+                                   else "") + (", deskewed" if s.deskew_scans else "") + (
+                                   " (odometry on odom)" if self.reads_odometry else ""))
 
     def on_scan(self, msg: LaserScan) -> None:
         """Subscription callback: extract the scan's landmarks and publish them."""
@@ -150,11 +175,18 @@ class LandmarkExtractorNode(FilterNode):
         for reason, count in extraction.rejected.items():
             self.stats[f"rejected_{reason}"] += count
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
-        if self.static_filter is not None:  # waits for the odometry at its stamp
+        self._sweeping = scan.time_increment != 0.0
+        if self.static_filter is not None or (self._deskews(scan)
+                                              and self._odometry.latest_stamp is not None):
             return self._queue(PendingScan(stamp, now, header, extraction, scan), now)
+        self.stats["scans_not_deskewed"] += self._deskews(scan)   # no odometry yet
         self._last_reading_stamp = stamp
         self._publish_landmarks(stamp, header, extraction)
         self._publish_throttled(now)
+
+    def _deskews(self, scan: RawScan) -> bool:
+        """Whether ``scan`` is to be deskewed (swept, and deskew_scans)."""
+        return self.extractor_settings.deskew_scans and scan.time_increment != 0.0
 
     def _publish_landmarks(self, stamp: float, header: Header, extraction: Extraction) -> None:
         """The ``landmarks`` cloud of one scan, counted."""
@@ -166,25 +198,48 @@ class LandmarkExtractorNode(FilterNode):
         self._note_lag(stamp)
 
     def _update(self, pending: "PendingScan") -> None:
-        """A queued scan (static filter on): its landmarks but those that moved, at the
-        odometry pose of its stamp; dropped (dropped_stale) when odometry gives no such pose."""
+        """A queued scan: its landmarks deskewed and, with the static filter, but those that
+        moved, at the odometry pose of its stamp. Without such a pose the static filter drops
+        the scan (dropped_stale); deskewing alone publishes it as seen."""
         self._last_reading_stamp = pending.stamp
-        if not self._odometry.covers(pending.stamp):  # counted by _process_ready
+        covered = self._odometry.covers(pending.stamp)     # if not, counted by _process_ready
+        late = covered and pending.stamp < self._odometry.anchor_stamp
+        if self.static_filter is None and (late or not covered):
+            self.stats["scans_not_deskewed"] += late
+            return self._publish_landmarks(pending.stamp, pending.header, pending.extraction)
+        if not covered:
             return self._warn("dropped_stale", f"scan dropped: no odometry covered its stamp "
                                                f"{pending.stamp:.3f} in max_observation_wait "
                                                "[dropped_stale]")
-        if pending.stamp < self._odometry.anchor_stamp:
+        if late:
             return self._drop("stale", f"scan dropped: stamped {pending.stamp:.3f}, before the "
                                        f"odometry kept ({self._odometry.anchor_stamp:.3f})")
         self._odometry.advance(pending.stamp)
-        landmarks = pending.extraction.landmarks
-        keep = self.static_filter.update(pending.stamp,
-                                         compose(self._odometry.anchor_pose, self._sensor),
-                                         landmarks.x, landmarks.y, pending.scan)
-        self.stats["rejected_moving"] += int(np.count_nonzero(~keep))
+        landmarks = self._deskewed(pending)
+        if self.static_filter is not None:
+            keep = self.static_filter.update(pending.stamp,
+                                             compose(self._odometry.anchor_pose, self._sensor),
+                                             landmarks.x, landmarks.y, pending.scan)
+            self.stats["rejected_moving"] += int(np.count_nonzero(~keep))
+            landmarks = landmarks.subset(keep)
         self._publish_landmarks(pending.stamp, pending.header,
-                                dataclasses.replace(pending.extraction,
-                                                    landmarks=landmarks.subset(keep)))
+                                dataclasses.replace(pending.extraction, landmarks=landmarks))
+
+    def _deskewed(self, pending: "PendingScan") -> Landmarks:
+        """The scan's landmarks where the laser at its first beam (the stamp's pose) saw them
+        (``Landmarks.at_first_beam``), at the odometry's turn rate and velocity since the
+        previous scan when that came at most SWEEP_WINDOW s before; else as seen (counted)."""
+        landmarks = pending.extraction.landmarks
+        previous = self._previous_pose
+        self._previous_pose = (pending.stamp, self._odometry.anchor_pose.copy())
+        if not self._deskews(pending.scan):
+            return landmarks
+        if previous is None or not 0.0 < pending.stamp - previous[0] <= SWEEP_WINDOW:
+            self.stats["scans_not_deskewed"] += 1
+            return landmarks
+        yaw_rate, velocity = sweep_motion(previous[1], self._odometry.anchor_pose,
+                                          pending.stamp - previous[0], self._sensor)
+        return landmarks.at_first_beam(yaw_rate, velocity)
 
     def _predict(self, pose_from: np.ndarray, pose_to: np.ndarray) -> None:
         """Nothing to move: the extractor keeps odometry only for the scans' poses."""
@@ -192,13 +247,14 @@ class LandmarkExtractorNode(FilterNode):
     def reset(self) -> None:
         """Forget the input time (a looped bag), the odometry and the static filter's scans."""
         self._reset_inputs()
+        self._previous_pose = None
         if self.static_filter is not None:
             self.static_filter.clear()
 
     def flush(self) -> None:
         """Run the queued scans, publish the markers of the last scan and the diagnostics now
         (end of a bag)."""
-        if self.static_filter is not None:
+        if self.reads_odometry:
             self._process_ready(self._now(), force=True)
         if self._last is not None and self._throttles["markers_rate"].rate > 0.0:
             self._publish_markers()
@@ -227,10 +283,15 @@ class LandmarkExtractorNode(FilterNode):
     def _standing_problems(self) -> list[str]:
         if self.stats["used_scan"] == 0:
             return ["waiting for a usable scan"]
+        problems = []
         if self._no_intensities and self.extractor_settings.detector != "circles":
-            return [f"detector '{self.extractor_settings.detector}' needs intensities; the "
-                    "scans carry none (no reflectors can be found)"]
-        return []
+            problems.append(f"detector '{self.extractor_settings.detector}' needs intensities; "
+                            "the scans carry none (no reflectors can be found)")
+        if (self.extractor_settings.deskew_scans and self._sweeping
+                and self._odometry.latest_stamp is None):
+            problems.append("the scans are swept (time_increment > 0) but no odometry has "
+                            "arrived on odom: landmarks are not deskewed (deskew_scans)")
+        return problems
 
 
 USAGE = """Landmark extractor: sensor_msgs/LaserScan on scan in; point landmarks (poles, trunks,

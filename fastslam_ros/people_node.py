@@ -39,7 +39,8 @@ from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.people.detection import deskewed, sweep_motion
+from fastslam_ros.core.sweep import sweep_motion
+from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
 

@@ -34,8 +34,8 @@ def generate_launch_description():
         DeclareLaunchArgument("scan_topic", default_value="scan",
                               description="sensor_msgs/LaserScan input of the extractor"),
         DeclareLaunchArgument("odom_topic", default_value="odom",
-                              description="nav_msgs/Odometry input of the SLAM node (and of "
-                                          "the extractor, with its static_window)"),
+                              description="nav_msgs/Odometry input of the SLAM node and of "
+                                          "the extractor (deskew_scans, static_window)"),
     ]
     clock = {"use_sim_time": ParameterValue(LaunchConfiguration("use_sim_time"), value_type=bool)}
     nodes = [

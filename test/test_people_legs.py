@@ -9,11 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from fastslam_ros.core.geometry import compose, relative_pose
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import (MIXED_PIXEL_EDGES, LegModel, MixedPixelMonitor, Scan,
                                            deskewed, detect_legs, dynamic_beams, mixed_pixels,
-                                           segment_scan, static_edges, sweep_motion,
+                                           segment_scan, static_edges,
                                            without_mixed_pixels)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
@@ -524,26 +523,3 @@ def test_a_swept_simulated_scan_takes_its_first_beam_at_the_stamp_and_says_how_f
     message = laser_scan_message(0.0, swept.scans[0], swept.angles, 12.0,
                                  time_increment=config.time_increment)
     assert message.time_increment == pytest.approx(config.time_increment)
-
-
-def test_sweep_motion_is_the_lasers_own_velocity_by_finite_differences():
-    """The laser's velocity from two odometry poses: turning in place at 0.5 rad/s, a laser
-    0.2 m ahead moves sideways at 0.1 m/s; driving straight at 0.4 m/s, a laser facing left
-    sees the world go by at -0.4 m/s along its y. Any motion: the laser's own displacement
-    over a short step, seen from its frame (finite differences of the composed poses)."""
-    rate, velocity = sweep_motion(np.array([1.0, 2.0, 0.3]), np.array([1.0, 2.0, 0.35]), 0.1,
-                                  np.array([0.2, 0.0, 0.0]))
-    assert rate == pytest.approx(0.5)
-    np.testing.assert_allclose(velocity, [0.0, 0.1], atol=3e-3)   # the chord of 0.05 rad
-    rate, velocity = sweep_motion(np.zeros(3), np.array([0.04, 0.0, 0.0]), 0.1,
-                                  np.array([0.0, 0.0, math.pi / 2]))
-    assert rate == 0.0
-    np.testing.assert_allclose(velocity, [0.0, -0.4], atol=1e-12)
-    start, offset, dt = np.array([3.0, -1.0, 2.0]), np.array([0.3, -0.1, 0.4]), 1e-5
-    end = start + dt * np.array([0.7 * math.cos(2.0), 0.7 * math.sin(2.0), -0.9])
-    laser_start, laser_end = compose(start[None], offset[None])[0], \
-        compose(end[None], offset[None])[0]
-    expected = relative_pose(laser_start, laser_end)[:2] / dt
-    rate, velocity = sweep_motion(start, end, dt, offset)
-    assert rate == pytest.approx(-0.9)
-    np.testing.assert_allclose(velocity, expected, atol=1e-4)

@@ -20,10 +20,12 @@ Every step is a numpy operation over all beams or all segments at once.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from fastslam_ros.core.sweep import at_first_beam
 from fastslam_ros.extractor.circle_fit import fit_circles, segment_means
 from fastslam_ros.extractor.scan import RETURN, RawScan, Segments, occluded, segment
 from fastslam_ros.extractor.settings import ExtractorSettings
@@ -38,14 +40,16 @@ REJECTIONS = ("few_beams", "occluded", "long", "straight", "diameter", "residual
 @dataclass
 class Landmarks:
     """Landmarks of one scan in the sensor frame, (N,) each: centre ``x``, ``y`` (m),
-    ``radius`` (m), mean ``intensity`` of their returns (0 without intensities) and whether
-    each is a ``reflector`` (else a fitted circle)."""
+    ``radius`` (m), mean ``intensity`` of their returns (0 without intensities), whether
+    each is a ``reflector`` (else a fitted circle) and ``beam_time``, when (s after the scan's
+    first beam) the laser took its middle beam."""
 
     x: np.ndarray = field(default_factory=lambda: np.zeros(0))
     y: np.ndarray = field(default_factory=lambda: np.zeros(0))
     radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
     intensity: np.ndarray = field(default_factory=lambda: np.zeros(0))
     reflector: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    beam_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __len__(self) -> int:
         return len(self.x)
@@ -53,13 +57,21 @@ class Landmarks:
     def subset(self, keep: np.ndarray) -> "Landmarks":
         """The landmarks where ``keep`` is True."""
         return Landmarks(self.x[keep], self.y[keep], self.radius[keep], self.intensity[keep],
-                         self.reflector[keep])
+                         self.reflector[keep], self.beam_time[keep])
+
+    def at_first_beam(self, yaw_rate: float, velocity: tuple[float, float]) -> "Landmarks":
+        """The landmarks where the laser at its first beam sees them, for a laser turning at
+        ``yaw_rate`` (rad/s) and moving at ``velocity`` (m/s, its frame) while it swept
+        (``core.sweep.at_first_beam``)."""
+        x, y = at_first_beam(self.x, self.y, self.beam_time, yaw_rate, velocity)
+        return dataclasses.replace(self, x=x, y=y)
 
     @staticmethod
     def concatenate(parts: list["Landmarks"]) -> "Landmarks":
         """All landmarks of ``parts``, in order."""
         return Landmarks(*(np.concatenate([getattr(part, name) for part in parts])
-                           for name in ("x", "y", "radius", "intensity", "reflector")))
+                           for name in ("x", "y", "radius", "intensity", "reflector",
+                                        "beam_time")))
 
 
 @dataclass
@@ -108,6 +120,13 @@ def _mean_intensity(scan: RawScan, segments: Segments) -> np.ndarray:
     return segment_means(values, segments.starts, segments.counts)
 
 
+def _beam_times(scan: RawScan, segments: Segments) -> np.ndarray:
+    """When (s after the first beam) the laser took each segment's middle beam (a segment
+    across a full turn's first beam is taken at both ends of the sweep: its middle beam's
+    time is one of them)."""
+    return segments.beams[segments.starts + segments.counts // 2] * scan.time_increment
+
+
 def _reject(result: Extraction, reason: str, mask: np.ndarray) -> np.ndarray:
     """Count the segments of ``mask`` under ``reason``; return ~mask."""
     result.rejected[reason] += int(np.count_nonzero(mask))
@@ -141,7 +160,8 @@ def _circles(scan: RawScan, ranges: np.ndarray, kinds: np.ndarray, angles: np.nd
     keep[keep] = _reject(result, "residual", fits.residual[keep] > s.max_residual)
     keep[keep] = _reject(result, "concave", ~behind[keep])
     return Landmarks(fits.x[keep], fits.y[keep], fits.radius[keep],
-                     _mean_intensity(scan, segments)[keep], np.zeros(int(keep.sum()), bool))
+                     _mean_intensity(scan, segments)[keep], np.zeros(int(keep.sum()), bool),
+                     _beam_times(scan, segments)[keep])
 
 
 def reflector_threshold(intensities: np.ndarray, mads: float) -> float:
@@ -183,4 +203,4 @@ def _reflectors(scan: RawScan, ranges: np.ndarray, kinds: np.ndarray, angles: np
     reach = segment_means(r, starts, counts) + s.reflector_radius
     return Landmarks(reach * np.cos(bearing), reach * np.sin(bearing),
                      np.full(len(starts), s.reflector_radius), _mean_intensity(scan, clusters),
-                     np.ones(len(starts), bool))
+                     np.ones(len(starts), bool), _beam_times(scan, clusters))

@@ -25,7 +25,8 @@ NO_NEIGHBOUR = -1
 @dataclass(frozen=True)
 class RawScan:
     """One ``sensor_msgs/LaserScan`` as arrays: ``ranges`` (B,) m as sent (inf, NaN kept),
-    ``intensities`` (B,) or empty, beam k at ``angle_min + k * angle_increment`` rad."""
+    ``intensities`` (B,) or empty, beam k at ``angle_min + k * angle_increment`` rad, taken
+    ``k * time_increment`` s after the first beam (0: all at once)."""
 
     ranges: np.ndarray
     angle_min: float
@@ -33,6 +34,7 @@ class RawScan:
     range_min: float = 0.0
     range_max: float = math.inf
     intensities: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    time_increment: float = 0.0
 
     @property
     def full_turn(self) -> bool:

@@ -78,8 +78,14 @@ class ExtractorSettings:
         0.01, "Moving objects: static_tolerance grows by this much per metre of range (rad: the "
              "odometry's heading error over static_window moves far landmarks most).",
         low=0.0, high=1.0)
+    deskew_scans: bool = parameter(
+        True, "Correct each landmark for the robot's motion while the laser swept the scan (its "
+              "time_increment; the odometry's turn rate and velocity since the previous scan, "
+              "read on odom; a scan with time_increment 0 is taken at once). False for a "
+              "driver whose time_increment is wrong.")
     sensor_x: float = parameter(0.0, "Sensor position on the robot, forward (m) (static_window "
-                                     "puts landmarks in the odometry frame).",
+                                     "puts landmarks in the odometry frame; deskew_scans moves "
+                                     "them with the laser).",
                                 low=-100.0, high=100.0)
     sensor_y: float = parameter(0.0, "Sensor position on the robot, left (m).",
                                 low=-100.0, high=100.0)

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fastslam_ros.core.geometry import relative_pose, wrap_angle
+from fastslam_ros.core.geometry import wrap_angle
+from fastslam_ros.core.sweep import at_first_beam
 from fastslam_ros.people.grid import OccupancyMap
 
 SHORT_FLOOR_CELLS = 1.5
@@ -79,21 +80,6 @@ class Scan:
         return (steps <= len(self.ranges) - 0.5) | (steps >= turn - 0.5)
 
 
-def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
-                 offset: np.ndarray) -> tuple[float, tuple[float, float]]:
-    """(yaw rate (rad/s), the laser's velocity (m/s) in its own frame) of a robot that moved
-    from odometry pose ``previous`` to ``now`` in ``elapsed`` s, its laser mounted at
-    ``offset`` (x, y, yaw) on it: the motion ``deskewed`` corrects a sweep for. The laser
-    moves with the robot, plus the turn's velocity about the robot's centre."""
-    step = relative_pose(previous, now)                  # in the frame of ``previous``
-    yaw_rate = float(step[2]) / elapsed
-    c, s = math.cos(step[2]), math.sin(step[2])          # into the robot's frame now
-    vx = (c * step[0] + s * step[1]) / elapsed - yaw_rate * offset[1]
-    vy = (-s * step[0] + c * step[1]) / elapsed + yaw_rate * offset[0]
-    c, s = math.cos(offset[2]), math.sin(offset[2])      # into the laser's frame
-    return yaw_rate, (c * vx + s * vy, -s * vx + c * vy)
-
-
 def deskewed(scan: Scan, yaw_rate: float, velocity: tuple[float, float] = (0.0, 0.0)) -> Scan:
     """The scan as the laser would have seen it all at once from where it was at the first
     beam, for a laser turning at ``yaw_rate`` (rad/s) and moving at ``velocity`` (m/s, in its
@@ -108,9 +94,10 @@ def deskewed(scan: Scan, yaw_rate: float, velocity: tuple[float, float] = (0.0, 
         return moved
     count = len(scan.ranges)
     hit = np.flatnonzero(np.isfinite(scan.ranges))
-    bearing = scan.angle_min + increment * hit
-    x = velocity[0] * scan.time_increment * hit + scan.ranges[hit] * np.cos(bearing)
-    y = velocity[1] * scan.time_increment * hit + scan.ranges[hit] * np.sin(bearing)
+    taken = scan.angle_min + scan.angle_increment * hit            # as the laser took them
+    x, y = at_first_beam(scan.ranges[hit] * np.cos(taken), scan.ranges[hit] * np.sin(taken),
+                         scan.time_increment * hit, yaw_rate, velocity)
+    bearing = scan.angle_min + increment * hit                     # their beams, deskewed
     seen = np.arctan2(y, x)
     seen += 2.0 * np.pi * np.rint((bearing - seen) / (2.0 * np.pi))   # unwrapped near its beam
     beam = np.rint((seen - scan.angle_min) / increment).astype(np.intp)

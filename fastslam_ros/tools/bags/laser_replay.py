@@ -7,8 +7,8 @@ node with a ``LandmarkExtractorNode`` in the same context. Every scan goes to th
 the SLAM node's time; each cloud it publishes goes to the SLAM node's ``on_landmarks`` as a
 live ``landmarks`` subscription would hand it over, and, with every other output of the
 extractor, to the replay's recorder; at the end its counters join the SLAM node's
-(``extractor_<name>``). Odometry goes to the extractor too when its ``static_window`` asks
-for it. Parameters of both nodes come from one file: its ``/**``
+(``extractor_<name>``). Odometry goes to the extractor too when it reads it
+(``deskew_scans``, ``static_window``). Parameters of both nodes come from one file: its ``/**``
 section, the ``landmark_extractor`` section (the extractor's parameters) and the ``fastslam``
 section; a name both nodes declare (``max_range``, ``min_range``, ``markers_rate``) goes to
 both.
@@ -59,9 +59,9 @@ class LaserSLAMNode(in_process(FastSLAMNode, lean=True)):
             listener(topic, msg)
 
     def on_odometry(self, msg: Any) -> None:
-        """Odometry of the bag: to the extractor first when its static filter reads it (the
-        scans it makes ready reach this node before the odometry does), then to SLAM."""
-        if self.extractor.static_filter is not None:
+        """Odometry of the bag: to the extractor first when it reads odometry (the scans it
+        makes ready reach this node before the odometry does), then to SLAM."""
+        if self.extractor.reads_odometry:
             self.extractor.on_odometry(msg)
         super().on_odometry(msg)
 

@@ -162,19 +162,24 @@ class Laser:
     def cast(self, world: PoleWorld, pose: np.ndarray, time: float = 0.0
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """True ranges (B,) (inf: nothing within max_range), the cosine of the incidence angle
-        and the pole hit (-1: a wall, a car, a person or nothing) from ``pose`` (x, y, theta)
-        ``time`` s into the run (where the people are)."""
-        heading = pose[2] + self.angles
+        and the pole hit (-1: a wall, a car, a person or nothing) from ``pose`` (x, y, theta),
+        or one pose per beam (B, 3) for a laser that sweeps, ``time`` s into the run (where
+        the people are)."""
+        heading = pose[..., 2] + self.angles
         direction = np.stack([np.cos(heading), np.sin(heading)], axis=1)
+        origin = pose[..., None, :2]                                    # (1, 2) or (B, 1, 2)
         ranges = np.full(self.beams, np.inf)
         incidence = np.ones(self.beams)
         pole = np.full(self.beams, -1)
         centres, radii = world.circles(time)
-        offset = centres - pose[:2]
-        near = np.flatnonzero(np.hypot(offset[:, 0], offset[:, 1]) < self.max_range + radii)
+        offset = centres - origin                                       # (N, 2) or (B, N, 2)
+        reach = np.hypot(offset[..., 0], offset[..., 1]).reshape(-1, len(centres)).min(axis=0)
+        near = np.flatnonzero(reach < self.max_range + radii)
         if len(near):
-            along = direction @ offset[near].T                              # (B, K)
-            across_sq = np.sum(offset[near] ** 2, axis=1)[None] - along ** 2
+            toward = offset[..., near, :]
+            along = (direction @ toward.T if toward.ndim == 2                 # (B, K)
+                     else np.einsum("bd,bkd->bk", direction, toward))
+            across_sq = np.sum(toward ** 2, axis=-1).reshape(-1, len(near)) - along ** 2
             radius_sq = radii[near][None] ** 2
             hit = along - np.sqrt(np.clip(radius_sq - across_sq, 0.0, None))
             hit = np.where((across_sq < radius_sq) & (hit > 0.0), hit, np.inf)
@@ -186,13 +191,13 @@ class Laser:
                                   / radius_sq[0, first], 0.0, 1.0))
             incidence = np.where(struck, cos, 1.0)
         if len(world.walls):
-            start = world.walls[:, :2] - pose[:2]
+            start = (world.walls[:, :2] - origin).reshape(-1, len(world.walls), 2)
             side = world.walls[:, 2:] - world.walls[:, :2]
             denominator = direction[:, :1] * side[None, :, 1] - direction[:, 1:] * side[None, :, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
-                t = (start[None, :, 0] * side[None, :, 1] - start[None, :, 1] * side[None, :, 0]) \
+                t = (start[:, :, 0] * side[None, :, 1] - start[:, :, 1] * side[None, :, 0]) \
                     / denominator
-                s = (start[None, :, 0] * direction[:, 1:] - start[None, :, 1] * direction[:, :1]) \
+                s = (start[:, :, 0] * direction[:, 1:] - start[:, :, 1] * direction[:, :1]) \
                     / denominator
             t = np.where((t > 0.0) & (s >= 0.0) & (s <= 1.0), t, np.inf)
             first = np.argmin(t, axis=1)
@@ -235,21 +240,33 @@ def scan_truth_poses(bag) -> np.ndarray:
     return np.asarray(bag.ground_truth.poses)[index]
 
 
-def scan_records(config, world, bag, laser: Laser = Laser(),
-                 people: int = 0) -> list[tuple[str, str, int, bytes]]:
+def scan_records(config, world, bag, laser: Laser = Laser(), people: int = 0,
+                 sweep: bool = False) -> list[tuple[str, str, int, bytes]]:
     """``/scan`` records (topic, type, stamp ns, CDR) for ``write_schema_bag``: the laser at
     every landmark reading of a simulated ``bag`` of ``config`` and its ``world`` (route and
     landmarks, ``people`` people pacing beside the route), in the landmarks' frame, with range
-    noise from ``config.seed``."""
+    noise from ``config.seed``. With ``sweep`` the beams are taken one after the other (a
+    full turn per reading period, ``time_increment`` apart from the stamp on), each from the
+    true pose of its moment, as a real laser's mirror takes them."""
+    from fastslam_ros.node_support.timing import interpolate_poses
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE, stamp_to_ns
-    from fastslam_ros.tools.simulation.people_sim import SCAN_TOPIC, laser_scan_message
+    from fastslam_ros.tools.simulation.people_sim import (SCAN_TOPIC, laser_scan_message,
+                                                          sweep_time_increment)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints, people)
     rng = np.random.default_rng([config.seed, 2])
+    angles = laser.angles
+    time_increment = (sweep_time_increment(angles[1] - angles[0], config.observation_rate)
+                      if sweep else 0.0)
+    beam_times = np.arange(laser.beams) * time_increment
+    truth = bag.ground_truth
     records = []
     for stamp, pose in zip(bag.scans.stamps, scan_truth_poses(bag)):
+        if sweep:
+            pose = interpolate_poses(truth.stamps, truth.poses, stamp + beam_times)
         ranges, intensities = laser.scan(poles, pose, rng, float(stamp - bag.scans.stamps[0]))
-        msg = laser_scan_message(float(stamp), ranges, laser.angles, laser.max_range,
-                                 config.sensor_frame, config.observation_rate, intensities)
+        msg = laser_scan_message(float(stamp), ranges, angles, laser.max_range,
+                                 config.sensor_frame, config.observation_rate, intensities,
+                                 time_increment)
         records.append((SCAN_TOPIC, SCAN_TYPE, stamp_to_ns(float(stamp)),
                         bytes(TYPESTORE.serialize_cdr(msg, SCAN_TYPE))))
     return records

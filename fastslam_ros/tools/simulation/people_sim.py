@@ -91,8 +91,8 @@ class PeopleSimConfig:
     @property
     def time_increment(self) -> float:
         """Seconds between two beams (``LaserScan.time_increment``; 0 without ``sweep``)."""
-        return (self.field_of_view / self.beams) / (2.0 * math.pi * self.scan_rate) \
-            if self.sweep else 0.0
+        return (sweep_time_increment(self.field_of_view / self.beams, self.scan_rate)
+                if self.sweep else 0.0)
 
     def validate(self) -> "PeopleSimConfig":
         for name in ("duration", "scan_rate", "odometry_rate", "max_range", "speed",
@@ -146,6 +146,12 @@ def cast_scan(grid: OccupancyMap, sensor: np.ndarray, angles: np.ndarray, people
     ranges = grid.cast(np.broadcast_to(sensor[..., :2], (len(angles), 2)), world, max_range)
     ranges = np.minimum(ranges, circle_ranges(sensor, world, people, PERSON_RADIUS))
     return np.where(ranges <= max_range, ranges, np.inf)
+
+
+def sweep_time_increment(angle_increment: float, scan_rate: float) -> float:
+    """Seconds between two beams ``angle_increment`` (rad) apart of a laser whose mirror
+    turns once per scan (``scan_rate`` Hz)."""
+    return abs(angle_increment) / (2.0 * math.pi * scan_rate)
 
 
 def sweep_poses(pose: np.ndarray, speed: float, turn: float, beams: int,

@@ -432,6 +432,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with --laser: N people (bodies of 0.2 m radius, as wide as a "
                              "trunk) pacing at 1.2 m/s 2-6 m beside the route, clutter the "
                              "extractor cannot tell from a pole in one scan")
+    parser.add_argument("--sweep", action="store_true",
+                        help="with --laser: beams taken one after the other as the mirror "
+                             "turns (a full turn per reading), each from where the vehicle is "
+                             "then; LaserScan's time_increment says how far apart")
     for item in dataclasses.fields(SimConfig):
         if item.name == "scenario":
             continue
@@ -457,6 +461,8 @@ def main(argv: list[str] | None = None) -> int:
     values = {item.name: getattr(args, item.name) for item in dataclasses.fields(SimConfig)}
     try:
         config = SimConfig(**values).resolved()
+        if args.sweep and not args.laser:
+            raise ValueError("--sweep: only with --laser")
         if args.laser_people < 0:
             raise ValueError(f"--laser-people: must be >= 0 (got {args.laser_people})")
     except ValueError as error:
@@ -470,7 +476,8 @@ def main(argv: list[str] | None = None) -> int:
         check_output(params_out, args.overwrite, "file", inputs=[out])
         world = build_world(config)
         bag = simulate(config, world)
-        extra = (laser_sim.scan_records(config, world, bag, people=args.laser_people)
+        extra = (laser_sim.scan_records(config, world, bag, people=args.laser_people,
+                                        sweep=args.sweep)
                  if args.laser else ())
         write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite, extra=extra)
         write_params_yaml(params_out, recommended_params(config, world),
