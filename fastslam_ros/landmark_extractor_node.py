@@ -38,7 +38,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-from fastslam_ros.core.sweep import sweep_motion
+from fastslam_ros.core.sweep import MOTION_WINDOW, sweep_motion, sweep_problem
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS, Landmarks
 from fastslam_ros.extractor.static_filter import StaticFilter
@@ -58,9 +58,6 @@ COUNTERS = (
 THROTTLED_OUTPUTS = ("markers_rate",)
 DIAGNOSED = (("time_jumps", "time jumps"), ("scans_not_deskewed", "swept scans not deskewed"))
 """Counters whose growth /diagnostics reports (after drops, lost messages, silence and lag)."""
-SWEEP_WINDOW = 0.5
-"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
-this long (s) before it."""
 
 
 @dataclass(frozen=True)
@@ -228,17 +225,22 @@ class LandmarkExtractorNode(FilterNode):
     def _deskewed(self, pending: "PendingScan") -> Landmarks:
         """The scan's landmarks where the laser at its first beam (the stamp's pose) saw them
         (``Landmarks.at_first_beam``), at the odometry's turn rate and velocity since the
-        previous scan when that came at most SWEEP_WINDOW s before; else as seen (counted)."""
+        previous scan when it fits (``sweep_problem``); else as seen (counted)."""
         landmarks = pending.extraction.landmarks
         previous = self._previous_pose
         self._previous_pose = (pending.stamp, self._odometry.anchor_pose.copy())
-        if not self._deskews(pending.scan):
+        if not self._deskews(pending.scan) or previous is None:   # the first: no motion yet
             return landmarks
-        if previous is None or not 0.0 < pending.stamp - previous[0] <= SWEEP_WINDOW:
+        elapsed = pending.stamp - previous[0]
+        problem = sweep_problem(pending.scan.time_increment, len(pending.scan.ranges), elapsed,
+                                MOTION_WINDOW)
+        if problem:
             self.stats["scans_not_deskewed"] += 1
+            self._warn("scans_not_deskewed", f"scan not deskewed: {problem} "
+                                             "[scans_not_deskewed]")
             return landmarks
-        yaw_rate, velocity = sweep_motion(previous[1], self._odometry.anchor_pose,
-                                          pending.stamp - previous[0], self._sensor)
+        yaw_rate, velocity = sweep_motion(previous[1], self._odometry.anchor_pose, elapsed,
+                                          self._sensor)
         return landmarks.at_first_beam(yaw_rate, velocity)
 
     def _predict(self, pose_from: np.ndarray, pose_to: np.ndarray) -> None:

@@ -39,7 +39,7 @@ from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.core.sweep import sweep_motion
+from fastslam_ros.core.sweep import MOTION_WINDOW, sweep_motion, sweep_problem
 from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
@@ -59,6 +59,7 @@ COUNTERS = (
     "dropped_invalid_quaternion", "dropped_nan", "dropped_implausible_odometry",
     "dropped_invalid_stamp", "dropped_outlier_stamp", "dropped_duplicate_stamp",
     "dropped_time_backwards", "dropped_stale", "dropped_no_map", "dropped_internal_error",
+    "scans_not_deskewed",
 )
 THROTTLED_OUTPUTS = ("particles_rate", "markers_rate")
 DIAGNOSED = (("late_scans", "scans older than the filter's time"),
@@ -67,7 +68,8 @@ DIAGNOSED = (("late_scans", "scans older than the filter's time"),
              ("time_jumps", "time jumps"),
              ("map_changes", "changed map(s) installed"),
              ("lost", "times lost (localizing globally again)"),
-             ("filter_recoveries", "filter state repaired"))
+             ("filter_recoveries", "filter state repaired"),
+             ("scans_not_deskewed", "swept scans not deskewed"))
 """Counters whose growth /diagnostics reports (after drops, lost messages, silence and lag)."""
 
 
@@ -121,9 +123,6 @@ def parameter_specs() -> dict:
     return {**CORE_PARAMETERS, **NODE_PARAMETERS}
 
 
-YAW_RATE_WINDOW = 0.5
-"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
-this long (s) before it (``_deskewed``)."""
 
 
 @dataclass
@@ -332,16 +331,23 @@ class PeopleTrackerNode(FilterNode):
     def _deskewed(self, pending: PendingScan) -> Scan:
         """The scan as taken all at once at its stamp (``detection.deskewed``), at the
         odometry's turn rate and velocity since the previous scan (the motion just before
-        this sweep), when that came at most YAW_RATE_WINDOW s before; else as it is."""
+        this sweep), when it fits (``sweep_problem``: counted and warned when not); else as
+        it is."""
         anchor = self._odometry.anchor_pose
         previous = self._previous_odometry
         self._previous_odometry = None if anchor is None else (pending.stamp, anchor.copy())
         if (anchor is None or previous is None or pending.scan.time_increment == 0.0
-                or not self.settings["deskew_scans"]
-                or not 0.0 < pending.stamp - previous[0] <= YAW_RATE_WINDOW):
+                or not self.settings["deskew_scans"]):
             return pending.scan
-        yaw_rate, velocity = sweep_motion(previous[1], anchor, pending.stamp - previous[0],
-                                          self.tracker.offset)
+        elapsed = pending.stamp - previous[0]
+        problem = sweep_problem(pending.scan.time_increment, len(pending.scan.ranges), elapsed,
+                                MOTION_WINDOW)
+        if problem:
+            self.stats["scans_not_deskewed"] += 1
+            self._warn("scans_not_deskewed", f"scan not deskewed: {problem} "
+                                             "[scans_not_deskewed]")
+            return pending.scan
+        yaw_rate, velocity = sweep_motion(previous[1], anchor, elapsed, self.tracker.offset)
         return deskewed(pending.scan, yaw_rate, velocity)
 
     def _repaired(self) -> bool:

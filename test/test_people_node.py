@@ -379,13 +379,16 @@ def test_people_node_parameters_change_at_runtime_as_the_slam_nodes(context):
         node.destroy_node()
 
 
-@pytest.mark.parametrize("deskew", [True, False])
-def test_node_deskews_a_swept_scan_by_the_odometrys_turn(context, deskew):
-    """Odometry turning at 0.5 rad/s and scans whose beams are 1 ms apart: the tracker gets
-    each scan with its bearings 0.5 x 0.001 rad further apart (``deskew_scans``), or as
-    sent."""
+@pytest.mark.parametrize("deskew, sweep, corrected", [(True, 0.1, True), (False, 0.1, False),
+                                                      (True, 100.0, False)])
+def test_node_deskews_a_swept_scan_by_the_odometrys_turn(context, deskew, sweep, corrected):
+    """Odometry turning at 0.5 rad/s and scans 0.1 s apart whose beams sweep ``sweep`` s: the
+    tracker gets each scan with its bearings 0.5 x time_increment rad further apart
+    (``deskew_scans``), or as sent; a sweep of 100 s (a time_increment in milliseconds)
+    cannot fit 0.1 s and is taken as sent, counted."""
     grid = room()
     node = make_node(context, deskew_scans=deskew)
+    time_increment = sweep / len(ANGLES)
     seen = []
     update = node.tracker.update
 
@@ -404,7 +407,7 @@ def test_node_deskews_a_swept_scan_by_the_odometrys_turn(context, deskew):
                 node.on_odometry(odometry_message(t, (0.0, 0.0, 0.5 * t)))
             scan = scan_message(stamp + 0.02, cast_scan(grid, POSE, ANGLES, np.zeros((0, 2)),
                                                         12.0))
-            scan.time_increment = 0.001
+            scan.time_increment = time_increment
             node.on_scan(scan)
         node.flush()
     finally:
@@ -412,5 +415,7 @@ def test_node_deskews_a_swept_scan_by_the_odometrys_turn(context, deskew):
     increment = float(ANGLES[1] - ANGLES[0])
     assert len(seen) >= 4
     np.testing.assert_allclose([s.angle_increment for s in seen[1:]],
-                               increment + (0.5 * 0.001 if deskew else 0.0), rtol=1e-6)
+                               increment + (0.5 * time_increment if corrected else 0.0),
+                               rtol=1e-6)
     assert seen[0].angle_increment == pytest.approx(increment)    # no previous scan: as sent
+    assert node.stats["scans_not_deskewed"] == (0 if corrected or not deskew else len(seen) - 1)

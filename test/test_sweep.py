@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core.geometry import compose, relative_pose
-from fastslam_ros.core.sweep import at_first_beam, sweep_motion
+from fastslam_ros.core.sweep import SWEEP_SLACK, at_first_beam, sweep_motion, sweep_problem
 from fastslam_ros.tools.simulation.people_sim import sweep_poses
 
 
@@ -22,7 +22,7 @@ def test_sweep_motion_is_the_lasers_own_velocity_by_finite_differences():
     rate, velocity = sweep_motion(np.array([1.0, 2.0, 0.3]), np.array([1.0, 2.0, 0.35]), 0.1,
                                   np.array([0.2, 0.0, 0.0]))
     assert rate == pytest.approx(0.5)
-    np.testing.assert_allclose(velocity, [0.0, 0.1], atol=3e-3)   # the chord of 0.05 rad
+    np.testing.assert_allclose(velocity, [0.0, 0.1], atol=1e-12)
     rate, velocity = sweep_motion(np.zeros(3), np.array([0.04, 0.0, 0.0]), 0.1,
                                   np.array([0.0, 0.0, math.pi / 2]))
     assert rate == 0.0
@@ -35,6 +35,23 @@ def test_sweep_motion_is_the_lasers_own_velocity_by_finite_differences():
     rate, velocity = sweep_motion(start, end, dt, offset)
     assert rate == pytest.approx(-0.9)
     np.testing.assert_allclose(velocity, expected, atol=1e-4)
+
+
+@pytest.mark.parametrize("speed, turn, elapsed", [(3.0, 0.5, 0.2), (1.0, -2.0, 0.5),
+                                                  (0.5, 1e-12, 0.1)])
+def test_sweep_motion_of_an_arc_is_its_constant_velocity_not_its_chord(speed, turn, elapsed):
+    """A unicycle's arc (``sweep_poses``: exact) at any turn: the laser ahead of the centre
+    and turned on it moves at the unicycle's speed plus the turn about the centre, whatever
+    the arc's angle (the chord would be off by half of it)."""
+    start = np.array([2.0, -1.0, 0.7])
+    end = sweep_poses(start, speed, turn, 2, elapsed)[1]
+    offset = np.array([0.3, 0.1, 0.5])
+    rate, velocity = sweep_motion(start, end, elapsed, offset)
+    robot = np.array([speed - turn * offset[1], turn * offset[0]])
+    c, s = math.cos(offset[2]), math.sin(offset[2])
+    assert rate == pytest.approx(turn, rel=1e-9, abs=1e-15)
+    np.testing.assert_allclose(velocity, [c * robot[0] + s * robot[1],
+                                          -s * robot[0] + c * robot[1]], atol=1e-9)
 
 
 @pytest.mark.parametrize("speed, turn", [(0.0, 0.8), (1.5, 0.0), (1.0, -0.6)])
@@ -56,3 +73,17 @@ def test_points_seen_during_a_sweep_come_back_to_the_first_beams_pose(speed, tur
     error = np.hypot(x - truth[:, 0], y - truth[:, 1])
     assert error.max() <= 0.5 * speed * abs(turn) * times[-1] ** 2 + 1e-9
     assert np.hypot(*(local - truth).T).max() > 0.05
+
+
+def test_a_sweep_fits_its_scan_period_and_the_motion_window():
+    """A 270-degree laser at 10 Hz sweeps 1,081 beams in 0.075 s: it fits 0.1 s between scans
+    (and 0.2 s after a lost scan); the same time_increment in milliseconds does not, nor does
+    a scan more than the window after the previous one, whose motion is too old."""
+    increment = 0.075 / 1080
+    assert sweep_problem(increment, 1081, 0.1, 0.5) == ""
+    assert sweep_problem(-increment, 1081, 0.2, 0.5) == ""
+    assert "longer than the 0.1 s" in sweep_problem(1000.0 * increment, 1081, 0.1, 0.5)
+    assert sweep_problem(0.1 * SWEEP_SLACK / 1080 * 0.999, 1081, 0.1, 0.5) == ""
+    assert sweep_problem(0.1 * SWEEP_SLACK / 1080 * 1.001, 1081, 0.1, 0.5) != ""
+    assert "over 0.5 s" in sweep_problem(increment, 1081, 0.6, 0.5)
+    assert sweep_problem(increment, 1081, 0.0, 0.5) != ""

@@ -13,18 +13,45 @@ import numpy as np
 
 from fastslam_ros.core.geometry import relative_pose
 
+MOTION_WINDOW = 0.5
+"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
+this long (s) before it; after a longer gap that motion need not be the sweep's."""
+SWEEP_SLACK = 1.25
+"""A sweep (``time_increment`` x the beams) lasts at most this many times the time since the
+previous scan: a laser sweeps within its scan period (the slack is for jittered stamps), so a
+longer one is a ``time_increment`` in the wrong unit."""
+
+
+def sweep_problem(time_increment: float, beams: int, elapsed: float, window: float) -> str:
+    """Why a scan of ``beams`` beams ``time_increment`` s apart, ``elapsed`` s after the
+    previous scan, cannot be deskewed at the motion between the two ('' when it can): too long
+    after it (over ``window`` s) for that motion to stand for the sweep's, or a sweep longer
+    than the scan period allows (SWEEP_SLACK)."""
+    if not 0.0 < elapsed <= window:
+        return f"{elapsed:.3g} s since the previous scan (over {window:g} s)"
+    sweep = abs(time_increment) * (beams - 1)
+    if sweep > SWEEP_SLACK * elapsed:
+        return (f"time_increment {time_increment:.3g} s x {beams} beams sweeps {sweep:.3g} s, "
+                f"longer than the {elapsed:.3g} s since the previous scan")
+    return ""
+
 
 def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
                  offset: np.ndarray) -> tuple[float, tuple[float, float]]:
     """(yaw rate (rad/s), the laser's velocity (m/s) in its own frame) of a robot that moved
-    from odometry pose ``previous`` to ``now`` in ``elapsed`` s, its laser mounted at
-    ``offset`` (x, y, yaw) on it. The laser moves with the robot, plus the turn's velocity
-    about the robot's centre."""
+    from odometry pose ``previous`` to ``now`` in ``elapsed`` s at a constant turn rate and
+    velocity in its own frame (the step's SE(2) logarithm: a unicycle's arc, not its chord),
+    its laser mounted at ``offset`` (x, y, yaw) on it. The laser moves with the robot, plus
+    the turn's velocity about the robot's centre."""
     step = relative_pose(previous, now)                  # in the frame of ``previous``
-    yaw_rate = float(step[2]) / elapsed
-    c, s = math.cos(step[2]), math.sin(step[2])          # into the robot's frame now
-    vx = (c * step[0] + s * step[1]) / elapsed - yaw_rate * offset[1]
-    vy = (-s * step[0] + c * step[1]) / elapsed + yaw_rate * offset[0]
+    turn = float(step[2])
+    yaw_rate = turn / elapsed
+    # The step's translation is V(turn) v elapsed, V = [[a, -b], [b, a]]: solve for v.
+    a = math.sin(turn) / turn if abs(turn) > 1e-9 else 1.0
+    b = (1.0 - math.cos(turn)) / turn if abs(turn) > 1e-9 else 0.5 * turn
+    scale = 1.0 / ((a * a + b * b) * elapsed)
+    vx = (a * step[0] + b * step[1]) * scale - yaw_rate * offset[1]
+    vy = (-b * step[0] + a * step[1]) * scale + yaw_rate * offset[0]
     c, s = math.cos(offset[2]), math.sin(offset[2])      # into the laser's frame
     return yaw_rate, (c * vx + s * vy, -s * vx + c * vy)
 
