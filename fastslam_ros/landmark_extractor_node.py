@@ -38,9 +38,9 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-from fastslam_ros.core.sweep import MOTION_WINDOW, sweep_motion, sweep_problem
+
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
-from fastslam_ros.extractor.extract import REJECTIONS, Landmarks
+from fastslam_ros.extractor.extract import REJECTIONS
 from fastslam_ros.extractor.static_filter import StaticFilter
 from fastslam_ros.node_base import INPUT_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
@@ -131,8 +131,6 @@ class LandmarkExtractorNode(FilterNode):
         if self.static_filter is None:     # a scan whose odometry is late is published as seen
             self._stale_counter = "scans_not_deskewed"
         self._sensor = np.array([s.sensor_x, s.sensor_y, s.sensor_yaw])
-        self._previous_pose: tuple[float, np.ndarray] | None = None
-        """(stamp, odometry pose) of the previous scan that had one (the sweep's motion)."""
         self._sweeping = False
         """Whether the last scan was swept (time_increment > 0)."""
         if self.reads_odometry:
@@ -212,36 +210,18 @@ class LandmarkExtractorNode(FilterNode):
             return self._drop("stale", f"scan dropped: stamped {pending.stamp:.3f}, before the "
                                        f"odometry kept ({self._odometry.anchor_stamp:.3f})")
         self._odometry.advance(pending.stamp)
-        landmarks = self._deskewed(pending)
+        scan = pending.scan
+        motion = self._sweep_motion(pending.stamp, scan.time_increment, len(scan.ranges),
+                                    self._sensor, self.extractor_settings.deskew_scans)
+        landmarks = pending.extraction.landmarks.at_first_beam(*motion)
         if self.static_filter is not None:
             keep = self.static_filter.update(pending.stamp,
                                              compose(self._odometry.anchor_pose, self._sensor),
-                                             landmarks.x, landmarks.y, pending.scan)
+                                             landmarks.x, landmarks.y, pending.scan, motion)
             self.stats["rejected_moving"] += int(np.count_nonzero(~keep))
             landmarks = landmarks.subset(keep)
         self._publish_landmarks(pending.stamp, pending.header,
                                 dataclasses.replace(pending.extraction, landmarks=landmarks))
-
-    def _deskewed(self, pending: "PendingScan") -> Landmarks:
-        """The scan's landmarks where the laser at its first beam (the stamp's pose) saw them
-        (``Landmarks.at_first_beam``), at the odometry's turn rate and velocity since the
-        previous scan when it fits (``sweep_problem``); else as seen (counted)."""
-        landmarks = pending.extraction.landmarks
-        previous = self._previous_pose
-        self._previous_pose = (pending.stamp, self._odometry.anchor_pose.copy())
-        if not self._deskews(pending.scan) or previous is None:   # the first: no motion yet
-            return landmarks
-        elapsed = pending.stamp - previous[0]
-        problem = sweep_problem(pending.scan.time_increment, len(pending.scan.ranges), elapsed,
-                                MOTION_WINDOW)
-        if problem:
-            self.stats["scans_not_deskewed"] += 1
-            self._warn("scans_not_deskewed", f"scan not deskewed: {problem} "
-                                             "[scans_not_deskewed]")
-            return landmarks
-        yaw_rate, velocity = sweep_motion(previous[1], self._odometry.anchor_pose, elapsed,
-                                          self._sensor)
-        return landmarks.at_first_beam(yaw_rate, velocity)
 
     def _predict(self, pose_from: np.ndarray, pose_to: np.ndarray) -> None:
         """Nothing to move: the extractor keeps odometry only for the scans' poses."""
@@ -249,7 +229,6 @@ class LandmarkExtractorNode(FilterNode):
     def reset(self) -> None:
         """Forget the input time (a looped bag), the odometry and the static filter's scans."""
         self._reset_inputs()
-        self._previous_pose = None
         if self.static_filter is not None:
             self.static_filter.clear()
 

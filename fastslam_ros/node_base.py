@@ -31,6 +31,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
+from fastslam_ros.core.sweep import STILL, Motion, SweepMotion
 from fastslam_ros.node_diagnostics import (DIAGNOSTICS_PERIOD, NO_CLOCK_WARNING,
                                            DiagnosticsReporting)
 from fastslam_ros.node_parameters import ParameterError, ParameterHandling
@@ -177,6 +178,7 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         self._reading_name, self._stale_counter = reading_name, stale_counter
         self._diagnosed = diagnosed
         self._odometry = OdometryHistory()
+        self._sweeps = SweepMotion()
         self._odometry_gate = OdometryGate()
         self._stamp_gate = StampGate()
         self._rates = {reading_topic: InputRate()}
@@ -424,6 +426,21 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             for pose_from, pose_to in self._odometry.advance(horizon):
                 self._predict(pose_from, pose_to)
 
+    def _sweep_motion(self, stamp: float, time_increment: float, beams: int,
+                      offset: np.ndarray, enabled: bool) -> Motion:
+        """The laser's motion over the sweep of a scan of ``stamp`` (the odometry's anchor
+        there): the odometry's since the previous scan; STILL when not ``enabled`` or when
+        there is none to trust, then counted (``scans_not_deskewed``) and warned."""
+        motion, problem = self._sweeps.motion(stamp, self._odometry.anchor_pose, time_increment,
+                                              beams, offset)
+        if not enabled:
+            return STILL
+        if problem:
+            self.stats["scans_not_deskewed"] += 1
+            self._warn("scans_not_deskewed", f"scan not deskewed: {problem} "
+                                             "[scans_not_deskewed]")
+        return motion
+
     def _predict_to(self, stamp: float, late_counter: str) -> None:
         """Predict to a reading's stamp (one older than the filter's time counts as late)."""
         if stamp < self._odometry.anchor_stamp:
@@ -438,6 +455,7 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
     def _reset_inputs(self) -> None:
         """Forget the odometry, its frame correction, the input time and the queued readings."""
         self._odometry = OdometryHistory()
+        self._sweeps.clear()
         self._odometry_gate.clear()
         self._stamp_gate.clear()
         self._pending.clear()

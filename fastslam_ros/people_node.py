@@ -39,7 +39,7 @@ from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.core.sweep import MOTION_WINDOW, sweep_motion, sweep_problem
+from fastslam_ros.core.sweep import STILL
 from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
@@ -155,8 +155,6 @@ class PeopleTrackerNode(FilterNode):
         self._relocalizing = False
         self._last_exact: tuple[int, int] = (0, 0)
         self._exact_header: tuple[Any, Header | None] = (None, None)
-        self._previous_odometry: tuple[float, np.ndarray] | None = None
-        """(stamp, odometry pose) of the previous scan, for the motion of ``_deskewed``."""
 
         self._pose_pub = self.create_publisher(PoseWithCovarianceStamped, "~/pose", STREAM_QOS)
         self._particles_pub = self.create_publisher(PoseArray, "~/particles", LATEST_QOS)
@@ -331,24 +329,11 @@ class PeopleTrackerNode(FilterNode):
     def _deskewed(self, pending: PendingScan) -> Scan:
         """The scan as taken all at once at its stamp (``detection.deskewed``), at the
         odometry's turn rate and velocity since the previous scan (the motion just before
-        this sweep), when it fits (``sweep_problem``: counted and warned when not); else as
-        it is."""
-        anchor = self._odometry.anchor_pose
-        previous = self._previous_odometry
-        self._previous_odometry = None if anchor is None else (pending.stamp, anchor.copy())
-        if (anchor is None or previous is None or pending.scan.time_increment == 0.0
-                or not self.settings["deskew_scans"]):
-            return pending.scan
-        elapsed = pending.stamp - previous[0]
-        problem = sweep_problem(pending.scan.time_increment, len(pending.scan.ranges), elapsed,
-                                MOTION_WINDOW)
-        if problem:
-            self.stats["scans_not_deskewed"] += 1
-            self._warn("scans_not_deskewed", f"scan not deskewed: {problem} "
-                                             "[scans_not_deskewed]")
-            return pending.scan
-        yaw_rate, velocity = sweep_motion(previous[1], anchor, elapsed, self.tracker.offset)
-        return deskewed(pending.scan, yaw_rate, velocity)
+        this sweep, ``FilterNode._sweep_motion``); else as it is."""
+        scan = pending.scan
+        motion = self._sweep_motion(pending.stamp, scan.time_increment, len(scan.ranges),
+                                    self.tracker.offset, self.settings["deskew_scans"])
+        return scan if motion == STILL else deskewed(scan, *motion)
 
     def _repaired(self) -> bool:
         """Self-check before and after an update: repair a non-finite state (counted,
@@ -374,7 +359,6 @@ class PeopleTrackerNode(FilterNode):
     def reset(self) -> None:
         """Forget odometry, queued scans and people; keep the map and restart the particles."""
         self._reset_inputs()
-        self._previous_odometry = None
         if self.tracker.grid is not None:
             self._start_filter()
 

@@ -56,6 +56,11 @@ def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
     return yaw_rate, (c * vx + s * vy, -s * vx + c * vy)
 
 
+Motion = tuple[float, tuple[float, float]]
+"""(yaw rate (rad/s), velocity (m/s) in the laser's frame) of a laser over its sweep."""
+STILL: Motion = (0.0, (0.0, 0.0))
+
+
 def at_first_beam(x: np.ndarray, y: np.ndarray, elapsed: np.ndarray, yaw_rate: float,
                   velocity: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """Points (m) seen at ``x``, ``y`` in the laser's frame ``elapsed`` (s) after its first
@@ -66,3 +71,41 @@ def at_first_beam(x: np.ndarray, y: np.ndarray, elapsed: np.ndarray, yaw_rate: f
     c, s = np.cos(turn), np.sin(turn)
     return (c * x - s * y + velocity[0] * elapsed,
             s * x + c * y + velocity[1] * elapsed)
+
+
+def at_beam_time(x: np.ndarray, y: np.ndarray, elapsed: np.ndarray, yaw_rate: float,
+                 velocity: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse of ``at_first_beam``: points (m) given in the frame the laser had at its
+    first beam, in the frame it had ``elapsed`` (s) later (where a beam taken then saw
+    them)."""
+    turn = yaw_rate * np.asarray(elapsed, float)
+    c, s = np.cos(turn), np.sin(turn)
+    dx, dy = x - velocity[0] * elapsed, y - velocity[1] * elapsed
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+class SweepMotion:
+    """The laser's motion over each scan's sweep, from the odometry poses at consecutive scan
+    stamps (``sweep_motion``), when it fits (``sweep_problem``)."""
+
+    def __init__(self) -> None:
+        self._previous: tuple[float, np.ndarray] | None = None
+
+    def clear(self) -> None:
+        """Forget the previous scan (a reset)."""
+        self._previous = None
+
+    def motion(self, stamp: float, pose: np.ndarray | None, time_increment: float, beams: int,
+               offset: np.ndarray) -> tuple[Motion, str]:
+        """(the motion of the scan of ``stamp``, whose first beam the laser took at odometry
+        pose ``pose`` (None: unknown), or STILL; why it is STILL for a swept scan after
+        another, '' otherwise)."""
+        previous = self._previous
+        self._previous = None if pose is None else (stamp, np.array(pose, float))
+        if previous is None or pose is None or time_increment == 0.0:
+            return STILL, ""
+        elapsed = stamp - previous[0]
+        problem = sweep_problem(time_increment, beams, elapsed, MOTION_WINDOW)
+        if problem:
+            return STILL, problem
+        return sweep_motion(previous[1], pose, elapsed, offset), ""

@@ -19,6 +19,10 @@ least ``window`` and ``window / 2`` s older); it is something that moved when
 A detection is dropped on that evidence only: a pole that a scan missed, that was hidden or
 out of view keeps being reported, and so does everything before a reference scan exists.
 A person standing still, or turning round, stays where it was seen and is reported.
+
+A laser that sweeps while the robot moves takes each beam from elsewhere: a reference scan
+keeps the motion of its sweep (``core.sweep``), and a place is looked for in the beams as the
+laser had turned and moved by the time it took them.
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ from collections import deque
 
 import numpy as np
 
+from fastslam_ros.core.sweep import STILL, Motion, at_beam_time
 from fastslam_ros.extractor.scan import RawScan
 
 REFERENCE_LAGS = (1.0, 0.5)
@@ -61,18 +66,25 @@ def free_reach(scan: RawScan) -> np.ndarray:
 
 
 class _Reference:
-    """One held scan: its stamp, sensor pose and free reach per beam."""
+    """One held scan: its stamp, sensor pose at the first beam, free reach per beam and the
+    motion of its sweep."""
 
     def __init__(self, stamp: float, pose: np.ndarray, scan: RawScan,
-                 points: np.ndarray) -> None:
-        self.stamp, self.pose, self.points = stamp, pose, points
+                 points: np.ndarray, motion: Motion) -> None:
+        self.stamp, self.pose, self.points, self.motion = stamp, pose, points, motion
         self.reach = free_reach(scan)
         self.angle_min, self.increment = float(scan.angle_min), float(scan.angle_increment)
+        self.time_increment = float(scan.time_increment)
 
     def seen_empty(self, points: np.ndarray, radius: np.ndarray) -> np.ndarray:
         """(N,) whether every beam crossing the disc of ``radius`` (N,) around each point
-        (odometry frame) went beyond it; False when part of the disc was out of view."""
+        (odometry frame) went beyond it; False when part of the disc was out of view. Each
+        point is seen from where the laser was when its beam was taken."""
         x, y = from_frame(self.pose, points)
+        if self.time_increment and self.motion != STILL:
+            beam = np.clip((np.arctan2(y, x) - self.angle_min) / self.increment, 0.0,
+                           len(self.reach) - 1)
+            x, y = at_beam_time(x, y, np.rint(beam) * self.time_increment, *self.motion)
         distance = np.hypot(x, y)
         outside = distance > radius
         half = np.arcsin(np.clip(radius / np.maximum(distance, 1e-9), 0.0, 1.0))
@@ -118,9 +130,10 @@ class StaticFilter:
         self._scans.clear()
 
     def update(self, stamp: float, pose: np.ndarray, x: np.ndarray, y: np.ndarray,
-               scan: RawScan) -> np.ndarray:
-        """Add a scan (``pose`` its sensor's odometry pose at ``stamp``) and its detections
-        (sensor frame); return the (N,) mask of those that no reference scan saw as empty.
+               scan: RawScan, motion: Motion = STILL) -> np.ndarray:
+        """Add a scan (``pose`` its sensor's odometry pose at ``stamp``, its first beam;
+        ``motion`` the laser's over its sweep) and its detections (sensor frame at the first
+        beam); return the (N,) mask of those that no reference scan saw as empty.
 
         Scans must come in stamp order; an older stamp than the newest held clears the history
         first (time went back)."""
@@ -137,7 +150,7 @@ class StaticFilter:
                 keep &= ~(reference.seen_empty(points, radius)
                           | reference.displaced(points, radius, reach))
         self._forget(stamp - self.window)
-        self._scans.append(_Reference(stamp, pose, scan, points))
+        self._scans.append(_Reference(stamp, pose, scan, points, motion))
         return keep
 
     def _reference(self, before: float) -> _Reference | None:
