@@ -17,7 +17,8 @@ covering its stamp. ``deskew_scans``: a scan swept while the robot moved
 (``time_increment`` > 0) has its landmarks brought back to where the laser was at the first
 beam, the stamp's pose (``core.sweep``), at the odometry's motion since the previous scan;
 without that motion (no odometry yet, none covering the stamp in ``max_observation_wait``, the
-previous scan too long ago) they are published as seen and counted (``scans_not_deskewed``).
+previous scan too long ago, a sweep longer than the scan period allows) they are published as
+seen and counted (``scans_not_deskewed``).
 ``static_window``: the landmarks that ``extractor.static_filter`` finds moved (where an
 earlier scan saw free space, or displaced: walking people) are not published; a scan with no
 odometry pose at its stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
@@ -38,7 +39,6 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
 from fastslam_ros.extractor.static_filter import StaticFilter
@@ -69,11 +69,9 @@ class NodeSettings:
     markers_rate: float = parameter(5.0, "Maximum rate of ~/markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
     odom_frame: str = parameter("odom", "With deskew_scans or static_window: odometry frame "
-                                        "(REP 105); '' "
-                                        "accepts any.")
+                                        "(REP 105); '' accepts any.")
     base_frame: str = parameter("base_link", "With deskew_scans or static_window: odometry's "
-                                             "child_frame_id; "
-                                             "'' accepts any.")
+                                             "child_frame_id; '' accepts any.")
     max_observation_wait: float = parameter(
         0.5, "With deskew_scans or static_window: how long (s of node time) a scan waits for "
              "odometry that covers its stamp; after that it is dropped (dropped_stale) or, "

@@ -33,13 +33,13 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
+from fastslam_ros.core.sweep import STILL
 from fastslam_ros.node_base import INPUT_QOS, LATEST_QOS, MAP_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
 from fastslam_ros.node_parameters import (ParameterError, max_speed_parameter,
                                           max_yaw_rate_parameter)
 from fastslam_ros.people import PeopleTracker, Scan, TrackerSettings
-from fastslam_ros.core.sweep import STILL
 from fastslam_ros.people.detection import deskewed
 from fastslam_ros.people.lifecycle import (LostWatch, change_map, initial_pose_problem,
                                            repair, same_map)
@@ -121,8 +121,6 @@ START_ONLY_PARAMETERS = ("map_file",)
 def parameter_specs() -> dict:
     """{name: (default, spec)} of every parameter of the node, tracker first."""
     return {**CORE_PARAMETERS, **NODE_PARAMETERS}
-
-
 
 
 @dataclass

@@ -80,9 +80,20 @@ def test_fastslam_sim_laser_writes_scans_beside_the_landmark_clouds(tmp_path):
     assert len(first.ranges) == LASER.beams == len(first.intensities)
     assert first.header.frame_id == "base_link"
     assert first.angle_min == pytest.approx(-0.75 * math.pi)
+    assert first.time_increment == 0.0
     plain = tmp_path / "plain_bag"
     assert sim.main(["--duration", "4", "--out", str(plain)]) == 0
     assert "/scan" not in bag_topics(plain)
+    assert sim.main(["--sweep", "--duration", "4", "--out", str(tmp_path / "no")]) == 2
+    swept = tmp_path / "swept_bag"
+    assert sim.main(["--laser", "--sweep", "--duration", "4", "--seed", "2",
+                     "--out", str(swept)]) == 0
+    _, swept_scans = read_topic(swept, "/scan")
+    # A full turn of the mirror per reading period (5 Hz): 270 degrees take 0.15 s; the first
+    # beam is taken at the stamp, as without the sweep.
+    sweep = swept_scans[0].time_increment * (LASER.beams - 1)
+    assert sweep == pytest.approx(0.75 / 5.0, rel=1e-6)
+    assert swept_scans[3].ranges[0] == pytest.approx(scans[3].ranges[0], abs=0.05)
 
 
 def test_extractor_finds_the_fully_visible_simulated_poles():

@@ -13,6 +13,9 @@ import numpy as np
 
 from fastslam_ros.core.geometry import relative_pose
 
+Motion = tuple[float, tuple[float, float]]
+"""(yaw rate (rad/s), velocity (m/s) in the laser's frame) of a laser over its sweep."""
+STILL: Motion = (0.0, (0.0, 0.0))
 MOTION_WINDOW = 0.5
 """A scan is deskewed at the odometry's motion since the previous scan when that came at most
 this long (s) before it; after a longer gap that motion need not be the sweep's."""
@@ -37,7 +40,7 @@ def sweep_problem(time_increment: float, beams: int, elapsed: float, window: flo
 
 
 def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
-                 offset: np.ndarray) -> tuple[float, tuple[float, float]]:
+                 offset: np.ndarray) -> Motion:
     """(yaw rate (rad/s), the laser's velocity (m/s) in its own frame) of a robot that moved
     from odometry pose ``previous`` to ``now`` in ``elapsed`` s at a constant turn rate and
     velocity in its own frame (the step's SE(2) logarithm: a unicycle's arc, not its chord),
@@ -54,11 +57,6 @@ def sweep_motion(previous: np.ndarray, now: np.ndarray, elapsed: float,
     vy = (-b * step[0] + a * step[1]) * scale + yaw_rate * offset[0]
     c, s = math.cos(offset[2]), math.sin(offset[2])      # into the laser's frame
     return yaw_rate, (c * vx + s * vy, -s * vx + c * vy)
-
-
-Motion = tuple[float, tuple[float, float]]
-"""(yaw rate (rad/s), velocity (m/s) in the laser's frame) of a laser over its sweep."""
-STILL: Motion = (0.0, (0.0, 0.0))
 
 
 def at_first_beam(x: np.ndarray, y: np.ndarray, elapsed: np.ndarray, yaw_rate: float,
