@@ -217,7 +217,8 @@ def test_mixed_pixels_beside_mapped_objects_or_far_behind_a_leg_are_not_dynamic(
     segments = segment_scan(scan, scan.returns(0.05, 12.0), 0.3)
     dynamic = [329, 331, 389, 390, 391, 429, 430, 431, 469, 470, 471]
     far = np.isin(segments.beams, dynamic)[None]
-    kept = without_mixed_pixels(far, segments, ranges, 0.3, 0.5, 0.06 / increment)
+    kept = without_mixed_pixels(far, segments, ranges, mixed_pixels(ranges, 0.3), 0.5,
+                                0.06 / increment)
     np.testing.assert_array_equal(segments.beams[kept[0]],
                                   [389, 390, 391, 429, 430, 469, 470, 471])
 
@@ -229,9 +230,10 @@ def test_static_edges_count_depth_edges_and_the_lone_returns_in_free_space_that_
     dynamic = np.zeros(len(ranges), bool)
     dynamic[[2, 5, 6]] = True
     # edges: 1|3|5 (bridged), 5|1 at beams 8-9 (direct); 5|2 and 2|5 touch the leg
-    assert static_edges(ranges, dynamic, 0.3) == (2, 1)
+    lone = mixed_pixels(ranges, 0.3)
+    assert static_edges(ranges, dynamic, lone, 0.3) == (2, 1)
     # the same lone return taken for static (a mapped post at 3 m) makes two edges of one
-    assert static_edges(ranges, np.isin(np.arange(len(ranges)), [5, 6]), 0.3) == (3, 0)
+    assert static_edges(ranges, np.isin(np.arange(len(ranges)), [5, 6]), lone, 0.3) == (3, 0)
 
 
 @pytest.mark.parametrize("probability", [0.0, 0.1, 0.5])
@@ -248,14 +250,16 @@ def test_the_mixed_pixel_monitor_measures_the_simulated_lasers_rate(probability)
         mixed = mix_edges(ranges, probability, rng)
         segments = segment_scan(Scan(mixed, 0.0, 2.0 * math.pi / len(ranges), 12.0),
                                 np.ones(len(ranges), bool), 0.3)
-        monitor.observe(mixed, segments, ~np.isin(mixed[segments.beams], [1.0, 5.0]), 0.3)
+        monitor.observe(mixed, mixed_pixels(mixed, 0.3), segments,
+                        ~np.isin(mixed[segments.beams], [1.0, 5.0]), 0.3)
     expected = 0.85 * probability / (1.0 - 0.15 * probability)
     assert monitor.edges > 10_000
     assert monitor.share == pytest.approx(expected, abs=0.01)
     assert monitor.filtering == (probability > 0.0)
     fresh, few = MixedPixelMonitor(), mixed[:40]
     segments = segment_scan(Scan(few, 0.0, 0.01, 12.0), np.ones(40, bool), 0.3)
-    fresh.observe(few, segments, ~np.isin(few[segments.beams], [1.0, 5.0]), 0.3)
+    fresh.observe(few, mixed_pixels(few, 0.3), segments,
+                  ~np.isin(few[segments.beams], [1.0, 5.0]), 0.3)
     assert fresh.edges < MIXED_PIXEL_EDGES and fresh.filtering    # too few edges to judge
     assert MixedPixelMonitor("always").filtering and not MixedPixelMonitor("never").filtering
 

@@ -64,7 +64,7 @@ from fastslam_ros.core.resampling import (batched_systematic_resample, effective
                                           normalize_log_weights, systematic_resample)
 from fastslam_ros.people.detection import (LegModel, MixedPixelMonitor, Scan, detect_legs,
                                            detect_people, detectable_range, dynamic_beams,
-                                           segment_scan, without_mixed_pixels)
+                                           mixed_pixels, segment_scan, without_mixed_pixels)
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PeopleIdentities
@@ -241,9 +241,10 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                             s.min_obstacle_distance, s.short_margin)
         ranges = np.where(returns, scan.ranges, np.inf)
         best = self.best_index     # weighed by this scan, before its people are associated
-        self.mixed_pixels.observe(ranges, segments, far[best], s.segment_jump)
+        mixed = mixed_pixels(ranges, s.segment_jump)       # once: counted, then filtered
+        self.mixed_pixels.observe(ranges, mixed, segments, far[best], s.segment_jump)
         if self.mixed_pixels.filtering:
-            far = without_mixed_pixels(far, segments, ranges, s.segment_jump,
+            far = without_mixed_pixels(far, segments, ranges, mixed,
                                        s.max_leg_spacing, s.leg_radius / abs(scan.angle_increment))
         if s.person_model == "legs":
             detections = detect_legs(segments, far, best, self._leg_model)

@@ -135,17 +135,17 @@ def mixed_pixels(ranges: np.ndarray, jump: float) -> np.ndarray:
     return mixed & np.isfinite(ranges)
 
 
-def without_mixed_pixels(far: np.ndarray, segments: Segments, ranges: np.ndarray, jump: float,
-                         reach: float, lone_range: float) -> np.ndarray:
+def without_mixed_pixels(far: np.ndarray, segments: Segments, ranges: np.ndarray,
+                         mixed: np.ndarray, reach: float, lone_range: float) -> np.ndarray:
     """The dynamic beams ``far`` (M, K) but a real laser's mixed pixels: a lone return between
-    a nearer and a farther neighbour (``mixed_pixels`` of the scan's ``ranges`` (B,), inf
-    where no return) stays dynamic for a particle only if that particle takes its nearer
-    neighbour for dynamic (at a chair leg's or a door jamb's silhouette it is a mixed pixel)
-    and it is within ``reach`` (m) behind it (the other leg of the same person), or beyond
-    ``lone_range`` (m), where a leg returns a single beam (partly hidden by a nearer person);
-    a mixed pixel at a person's silhouette lies anywhere between the person and the
-    background, mostly farther."""
-    lone = np.flatnonzero(mixed_pixels(ranges, jump)[segments.beams])
+    a nearer and a farther neighbour (``mixed`` (B,), ``mixed_pixels`` of the scan's
+    ``ranges`` (B,), inf where no return) stays dynamic for a particle only if that particle
+    takes its nearer neighbour for dynamic (at a chair leg's or a door jamb's silhouette it
+    is a mixed pixel) and it is within ``reach`` (m) behind it (the other leg of the same
+    person), or beyond ``lone_range`` (m), where a leg returns a single beam (partly hidden
+    by a nearer person); a mixed pixel at a person's silhouette lies anywhere between the
+    person and the background, mostly farther."""
+    lone = np.flatnonzero(mixed[segments.beams])
     if len(lone) == 0:
         return far
     count = len(ranges)
@@ -171,15 +171,17 @@ MIXED_PIXEL_EDGES = 50
 """Static depth edges ``auto`` counts before it judges the laser (a few scans in a room)."""
 
 
-def static_edges(ranges: np.ndarray, dynamic: np.ndarray, jump: float) -> tuple[int, int]:
+def static_edges(ranges: np.ndarray, dynamic: np.ndarray, mixed: np.ndarray,
+                 jump: float) -> tuple[int, int]:
     """(depth edges between two static returns, of them bridged by a lone dynamic return) in
     one scan: ``ranges`` (B,) (inf where no return), ``dynamic`` (B,) the beams one robot pose
-    takes for dynamic. An edge is two static returns more than twice ``jump`` apart in range,
-    next to each other or with one lone return between them that lies in free space between
-    the two (``mixed_pixels``): the share bridged is the laser's mixed-pixel rate."""
+    takes for dynamic, ``mixed`` (B,) its lone returns (``mixed_pixels`` with ``jump``). An
+    edge is two static returns more than twice ``jump`` apart in range, next to each other or
+    with one lone return between them that lies in free space between the two: the share
+    bridged is the laser's mixed-pixel rate."""
     static = np.isfinite(ranges) & ~dynamic
     before, after = np.roll(static, 1), np.roll(static, -1)
-    bridged = mixed_pixels(ranges, jump) & dynamic & before & after
+    bridged = mixed & dynamic & before & after
     with np.errstate(invalid="ignore"):
         gap = np.abs(np.diff(ranges)) > 2.0 * jump
     direct = int((static[:-1] & static[1:] & gap).sum())
@@ -197,13 +199,14 @@ class MixedPixelMonitor:
         self.edges = 0
         self.bridged = 0
 
-    def observe(self, ranges: np.ndarray, segments: Segments, far: np.ndarray,
-                jump: float) -> None:
-        """Count one scan's edges (``ranges`` (B,), inf where no return) as one robot pose
-        sees them (``far`` (K,): its dynamic beams, in the order of ``segments.beams``)."""
+    def observe(self, ranges: np.ndarray, mixed: np.ndarray, segments: Segments,
+                far: np.ndarray, jump: float) -> None:
+        """Count one scan's edges (``ranges`` (B,), inf where no return; ``mixed`` (B,) its
+        ``mixed_pixels`` with ``jump``) as one robot pose sees them (``far`` (K,): its dynamic
+        beams, in the order of ``segments.beams``)."""
         dynamic = np.zeros(len(ranges), dtype=bool)
         dynamic[segments.beams] = far
-        edges, bridged = static_edges(ranges, dynamic, jump)
+        edges, bridged = static_edges(ranges, dynamic, mixed, jump)
         self.edges += edges
         self.bridged += bridged
 
