@@ -96,6 +96,31 @@ def test_fastslam_sim_laser_writes_scans_beside_the_landmark_clouds(tmp_path):
     assert swept_scans[3].ranges[0] == pytest.approx(scans[3].ranges[0], abs=0.05)
 
 
+def test_fastslam_sim_laser_mixed_pixels_lie_between_the_two_surfaces_of_an_edge(tmp_path):
+    """With --mixed-pixels 1 every depth edge's nearer beam returns a range between the two
+    surfaces and no other beam changes; 0 writes the scans of a laser without them."""
+    scans = {}
+    for name, extra in (("plain", []), ("zero", ["--mixed-pixels", "0"]),
+                        ("mixed", ["--mixed-pixels", "1"])):
+        out = tmp_path / name
+        assert sim.main(["--laser", "--duration", "2", "--seed", "2", "--out", str(out)]
+                        + extra) == 0
+        scans[name] = [np.asarray(m.ranges, float) for m in read_topic(out, "/scan")[1]]
+    changed = 0
+    for plain, zero, mixed in zip(scans["plain"], scans["zero"], scans["mixed"]):
+        assert np.array_equal(plain, zero)
+        moved = np.flatnonzero(plain != mixed)
+        for beam in moved:
+            neighbours = [plain[b] for b in (beam - 1, beam + 1) if 0 <= b < len(plain)]
+            farther = [r for r in neighbours if np.isfinite(r) and r > plain[beam] + 0.3]
+            assert farther, "only the nearer beam of a depth edge changes"
+            assert plain[beam] <= mixed[beam] <= max(farther)
+        changed += len(moved)
+    assert changed > 100
+    for bad in (["--mixed-pixels", "0.5"], ["--laser", "--mixed-pixels", "1.5"]):
+        assert sim.main(["--duration", "2", "--out", str(tmp_path / "no")] + bad) == 2
+
+
 def test_extractor_finds_the_fully_visible_simulated_poles():
     """One simulated scan per second along 60 s of the loop: >= 95 % of the fully visible
     poles spanning >= 3 beams found, within 0.03 m + 1 % of their range; no false ones."""

@@ -26,6 +26,7 @@ import numpy as np
 from fastslam_ros.extractor import ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.tools import cli
 from fastslam_ros.tools.simulation.laser_sim import Laser, pole_world, scan_truth_poses
+from fastslam_ros.tools.simulation.people_sim import mix_edges
 from fastslam_ros.output import staged_output
 from fastslam_ros.tools.simulation.sim import SimConfig, build_world, simulate
 
@@ -78,16 +79,20 @@ class Tally:
 
 
 def evaluate_seed(seed: int, settings: ExtractorSettings, tally: Tally, laser: Laser,
-                  reflective_only: bool, duration: float = 0.0) -> None:
+                  reflective_only: bool, duration: float = 0.0, mixed_pixels: float = 0.0
+                  ) -> None:
     """Drive seed ``seed``'s loop (``duration`` s; 0: all of it) and add every scan's outcome
-    to ``tally``."""
+    to ``tally``; the scans are those of ``fastslam-sim --laser --mixed-pixels``."""
     config = SimConfig(seed=seed, duration=duration).resolved()
     world = build_world(config)
     bag = simulate(config)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
     rng = np.random.default_rng([config.seed, 2])
+    edges_rng = np.random.default_rng([config.seed, 3])
     for stamp, pose in zip(bag.scans.stamps - bag.scans.stamps[0], scan_truth_poses(bag)):
         ranges, intensities = laser.scan(poles, pose, rng, float(stamp))
+        if mixed_pixels > 0.0:
+            ranges = mix_edges(ranges, mixed_pixels, edges_rng)
         truth_ranges, _, hit = laser.cast(poles, pose, float(stamp))
         scan = RawScan(ranges, float(laser.angles[0]), float(laser.angles[1] - laser.angles[0]),
                        0.05, laser.max_range, intensities)
@@ -213,6 +218,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="reflectors: only the reflective poles count as visible")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE",
                         help="extractor settings other than the defaults")
+    parser.add_argument("--mixed-pixels", type=float, default=0.0, metavar="P",
+                        help="scans with mixed pixels, as fastslam-sim --laser --mixed-pixels")
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="instead, draw one scan of the first seed (--scan) into this file")
     parser.add_argument("--scan", type=int, default=300, help="the scan --plot draws")
@@ -228,6 +235,8 @@ def main(argv: list[str] | None = None) -> int:
                 raise ValueError(f"unknown setting {name!r}")
             values[name] = types[name](value)
         settings = ExtractorSettings(**{"detector": args.detector, **values}).validate()
+        if not 0.0 <= args.mixed_pixels <= 1.0:
+            raise ValueError(f"--mixed-pixels: must be in [0, 1] (got {args.mixed_pixels})")
     except ValueError as error:
         print(f"extractor_eval: {error}", file=sys.stderr)
         return 2
@@ -242,7 +251,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     tally, laser = Tally(), Laser()
     for seed in args.seeds:
-        evaluate_seed(seed, settings, tally, laser, args.detector == "reflectors")
+        evaluate_seed(seed, settings, tally, laser, args.detector == "reflectors",
+                      mixed_pixels=args.mixed_pixels)
     print(report(tally, settings))
     return 0
 

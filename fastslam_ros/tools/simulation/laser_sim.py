@@ -241,19 +241,23 @@ def scan_truth_poses(bag) -> np.ndarray:
 
 
 def scan_records(config, world, bag, laser: Laser = Laser(), people: int = 0,
-                 sweep: bool = False) -> list[tuple[str, str, int, bytes]]:
+                 sweep: bool = False, mixed_pixels: float = 0.0
+                 ) -> list[tuple[str, str, int, bytes]]:
     """``/scan`` records (topic, type, stamp ns, CDR) for ``write_schema_bag``: the laser at
     every landmark reading of a simulated ``bag`` of ``config`` and its ``world`` (route and
     landmarks, ``people`` people pacing beside the route), in the landmarks' frame, with range
     noise from ``config.seed``. With ``sweep`` the beams are taken one after the other (a
     full turn per reading period, ``time_increment`` apart from the stamp on), each from the
-    true pose of its moment, as a real laser's mirror takes them."""
+    true pose of its moment, as a real laser's mirror takes them. With ``mixed_pixels`` P, a
+    beam at a depth edge returns a range between the two surfaces with probability P
+    (``people_sim.mix_edges``, its own random stream: P = 0 leaves the scans as they were)."""
     from fastslam_ros.node_support.timing import interpolate_poses
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE, stamp_to_ns
     from fastslam_ros.tools.simulation.people_sim import (SCAN_TOPIC, laser_scan_message,
-                                                          sweep_time_increment)
+                                                          mix_edges, sweep_time_increment)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints, people)
     rng = np.random.default_rng([config.seed, 2])
+    edges_rng = np.random.default_rng([config.seed, 3])
     angles = laser.angles
     time_increment = (sweep_time_increment(angles[1] - angles[0], config.observation_rate)
                       if sweep else 0.0)
@@ -264,6 +268,8 @@ def scan_records(config, world, bag, laser: Laser = Laser(), people: int = 0,
         if sweep:
             pose = interpolate_poses(truth.stamps, truth.poses, stamp + beam_times)
         ranges, intensities = laser.scan(poles, pose, rng, float(stamp - bag.scans.stamps[0]))
+        if mixed_pixels > 0.0:
+            ranges = mix_edges(ranges, mixed_pixels, edges_rng)
         msg = laser_scan_message(float(stamp), ranges, angles, laser.max_range,
                                  config.sensor_frame, config.observation_rate, intensities,
                                  time_increment)

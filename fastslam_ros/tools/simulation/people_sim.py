@@ -127,8 +127,9 @@ def mix_edges(ranges: np.ndarray, probability: float, rng: np.random.Generator) 
     laser's does at an object's silhouette)."""
     ranges = ranges.copy()
     near, far = ranges[:-1], ranges[1:]
-    edge = np.flatnonzero(np.isfinite(near) & np.isfinite(far)
-                          & (np.abs(far - near) > MIXED_PIXEL_JUMP))
+    with np.errstate(invalid="ignore"):  # inf - inf where neither beam returns
+        edge = np.flatnonzero(np.isfinite(near) & np.isfinite(far)
+                              & (np.abs(far - near) > MIXED_PIXEL_JUMP))
     edge = edge[rng.random(len(edge)) < probability]
     beam = np.where(ranges[edge] < ranges[edge + 1], edge, edge + 1)
     low = np.minimum(ranges[edge], ranges[edge + 1])

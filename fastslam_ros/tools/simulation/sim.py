@@ -436,6 +436,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with --laser: beams taken one after the other as the mirror "
                              "turns (a full turn per reading), each from where the vehicle is "
                              "then; LaserScan's time_increment says how far apart")
+    parser.add_argument("--mixed-pixels", type=float, default=0.0, metavar="P",
+                        help="with --laser: probability that a beam at a depth edge returns "
+                             "a range between the two surfaces, in free space (a real "
+                             "laser's mixed pixels)")
     for item in dataclasses.fields(SimConfig):
         if item.name == "scenario":
             continue
@@ -465,6 +469,10 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError("--sweep: only with --laser")
         if args.laser_people < 0:
             raise ValueError(f"--laser-people: must be >= 0 (got {args.laser_people})")
+        if not 0.0 <= args.mixed_pixels <= 1.0:
+            raise ValueError(f"--mixed-pixels: must be in [0, 1] (got {args.mixed_pixels})")
+        if args.mixed_pixels and not args.laser:
+            raise ValueError("--mixed-pixels: only with --laser")
     except ValueError as error:
         return cli.fail("fastslam-sim", error, cli.EXIT_USAGE)
     out = args.out or Path(f"sim_{config.scenario}")
@@ -477,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
         world = build_world(config)
         bag = simulate(config, world)
         extra = (laser_sim.scan_records(config, world, bag, people=args.laser_people,
-                                        sweep=args.sweep)
+                                        sweep=args.sweep, mixed_pixels=args.mixed_pixels)
                  if args.laser else ())
         write_schema_bag(out, bag, storage=args.storage, overwrite=args.overwrite, extra=extra)
         write_params_yaml(params_out, recommended_params(config, world),
