@@ -171,6 +171,28 @@ def test_person_behind_another_person_is_kept_and_one_in_the_open_is_removed():
     assert np.any((across < 0.2) & (np.abs(along) < 1.0))
 
 
+@pytest.mark.parametrize("publish_hidden", [True, False])
+def test_a_person_hidden_behind_another_is_published_only_with_publish_hidden(publish_hidden):
+    """A person who steps behind another stays tracked (same key) either way; published
+    while hidden only with publish_hidden, and published again, under its id, once seen."""
+    grid = room()
+    pose = (1.0, 5.0, 0.0)
+    tracker = tracker_at(grid, pose, publish_hidden=publish_hidden)
+    far, near = (6.0, 5.0), (3.0, 6.0)
+    t = run(tracker, grid, pose, [far, near], 8)
+    shown = tracker.published_people()
+    assert len(shown.keys) == 2
+    far_id = shown.keys[np.argmin(np.linalg.norm(shown.means - far, axis=1))]
+    t = run(tracker, grid, pose, [far, (3.0, 5.0)], 5, t)        # the near one steps in front
+    assert len(tracker.people_of().keys) == 2
+    hidden = tracker.published_people()
+    assert (far_id in hidden.keys) == publish_hidden
+    assert len(hidden.keys) == (2 if publish_hidden else 1)
+    run(tracker, grid, pose, [far, near], 3, t)                    # and back out of the way
+    back = tracker.published_people()
+    assert len(back.keys) == 2 and far_id in back.keys
+
+
 def test_a_person_hidden_behind_a_walking_person_stays_in_its_shadow():
     """Negative information: a person hidden behind another person is not where the laser saw
     free space. Both walk across the view at the same bearing for 2 s (the far one 0.6 m);

@@ -141,7 +141,8 @@ class PeopleIdentities:
     def published_people(self) -> PeopleEstimate:
         """The people to publish: the best robot particle's confirmed people but those whose
         particles' position standard deviation exceeds ``publish_spread`` or who lie outside a
-        partial scan's span (behind a 270-degree laser: kept, not observed). Unseen for a while
+        partial scan's span (behind a 270-degree laser: kept, not observed), and, without
+        ``publish_hidden``, those hidden in the last scan (``_hidden``). Unseen for a while
         (hidden, or gone unnoticed), such a person's position is too uncertain to report: a
         stale track would be a false positive, and catch whoever walks by. The ids are the
         published ids (``_published_ids``), and of two people within PUBLISHED_GATE of each
@@ -159,6 +160,8 @@ class PeopleIdentities:
             sensor = sensor_poses(self.poses[self.best_index][None], self.offset)[0]
             offset = people.means[keep] - sensor[:2]
             keep = keep[self._span.covers(np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2])]
+        if not self.settings.publish_hidden and self._span is not None and len(keep):
+            keep = keep[~self._hidden(people.keys[keep], people.means[keep])]
         ids, kept = self._published_ids(people.keys[keep], people.means[keep])
         now = self.last_stamp if self.last_stamp is not None else 0.0
         for i in ids.tolist():
@@ -176,6 +179,24 @@ class PeopleIdentities:
                                   people.existence[rows])
         self._published = (self._updates, estimate)
         return estimate
+
+    def _hidden(self, keys: np.ndarray, means: np.ndarray) -> np.ndarray:
+        """Which of the best robot particle's people ``keys`` at ``means`` (K, 2) the last
+        scan did not detect and whose beam ended more than ``person_radius`` short of them
+        (something nearer hides them)."""
+        best = self.best_index
+        scan = self._span
+        sensor = sensor_poses(self.poses[best][None], self.offset)[0]
+        offset = means - sensor[:2]
+        bearing = np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2]
+        ranges = np.where(np.isfinite(scan.ranges) & (scan.ranges >= self.settings.min_range),
+                          scan.ranges, np.inf)
+        measured = ranges[scan.beam_index(bearing)]
+        slot = np.argmax((self.keys[best][None] == keys[:, None]) & self.alive[best][None],
+                         axis=1)
+        detected = self.last_seen[best, slot] >= self.last_stamp
+        return ~detected & (measured < np.hypot(offset[:, 0], offset[:, 1])
+                            - self.settings.person_radius)
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
