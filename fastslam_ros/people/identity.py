@@ -160,8 +160,8 @@ class PeopleIdentities:
             sensor = sensor_poses(self.poses[self.best_index][None], self.offset)[0]
             offset = people.means[keep] - sensor[:2]
             keep = keep[self._span.covers(np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2])]
-        if not self.settings.publish_hidden and self._span is not None and len(keep):
-            keep = keep[~self._hidden(people.keys[keep], people.means[keep])]
+            if not self.settings.publish_hidden:
+                keep = keep[~self._hidden(people.keys[keep], people.means[keep], sensor)]
         ids, kept = self._published_ids(people.keys[keep], people.means[keep])
         now = self.last_stamp if self.last_stamp is not None else 0.0
         for i in ids.tolist():
@@ -180,13 +180,12 @@ class PeopleIdentities:
         self._published = (self._updates, estimate)
         return estimate
 
-    def _hidden(self, keys: np.ndarray, means: np.ndarray) -> np.ndarray:
+    def _hidden(self, keys: np.ndarray, means: np.ndarray, sensor: np.ndarray) -> np.ndarray:
         """Which of the best robot particle's people ``keys`` at ``means`` (K, 2) the last
-        scan did not detect and whose beam ended more than ``person_radius`` short of them
-        (something nearer hides them)."""
+        scan, taken from ``sensor`` (x, y, yaw), did not detect and whose beam ended more than
+        ``person_radius`` short of them (something nearer hides them)."""
         best = self.best_index
         scan = self._span
-        sensor = sensor_poses(self.poses[best][None], self.offset)[0]
         offset = means - sensor[:2]
         bearing = np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2]
         ranges = np.where(np.isfinite(scan.ranges) & (scan.ranges >= self.settings.min_range),

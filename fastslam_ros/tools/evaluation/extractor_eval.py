@@ -25,8 +25,8 @@ import numpy as np
 
 from fastslam_ros.extractor import ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.simulation.laser_sim import Laser, pole_world, scan_truth_poses
-from fastslam_ros.tools.simulation.people_sim import mix_edges
+from fastslam_ros.tools.simulation.laser_sim import (Laser, noisy_scans, pole_world,
+                                                     scan_truth_poses)
 from fastslam_ros.output import staged_output
 from fastslam_ros.tools.simulation.sim import SimConfig, build_world, simulate
 
@@ -87,12 +87,9 @@ def evaluate_seed(seed: int, settings: ExtractorSettings, tally: Tally, laser: L
     world = build_world(config)
     bag = simulate(config)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints)
-    rng = np.random.default_rng([config.seed, 2])
-    edges_rng = np.random.default_rng([config.seed, 3])
-    for stamp, pose in zip(bag.scans.stamps - bag.scans.stamps[0], scan_truth_poses(bag)):
-        ranges, intensities = laser.scan(poles, pose, rng, float(stamp))
-        if mixed_pixels > 0.0:
-            ranges = mix_edges(ranges, mixed_pixels, edges_rng)
+    stamps, poses = bag.scans.stamps - bag.scans.stamps[0], scan_truth_poses(bag)
+    scans = noisy_scans(laser, poles, poses, stamps, config.seed, mixed_pixels)
+    for stamp, pose, (ranges, intensities) in zip(stamps, poses, scans):
         truth_ranges, _, hit = laser.cast(poles, pose, float(stamp))
         scan = RawScan(ranges, float(laser.angles[0]), float(laser.angles[1] - laser.angles[0]),
                        0.05, laser.max_range, intensities)

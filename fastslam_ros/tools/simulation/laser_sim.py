@@ -240,6 +240,23 @@ def scan_truth_poses(bag) -> np.ndarray:
     return np.asarray(bag.ground_truth.poses)[index]
 
 
+def noisy_scans(laser: Laser, world: PoleWorld, poses, times, seed: int,
+                mixed_pixels: float = 0.0):
+    """(ranges, intensities) of ``laser`` at each pose of ``poses`` (each (3,), or (B, 3)
+    for a sweep) ``times`` s into the run, with range noise from ``seed`` and, with
+    ``mixed_pixels`` P, a real laser's mixed pixels at the depth edges (``people_sim.mix_edges``,
+    its own random stream: P = 0 leaves the scans as they were). The scans of
+    ``fastslam-sim --laser`` and of ``extractor_eval``."""
+    from fastslam_ros.tools.simulation.people_sim import mix_edges
+    rng = np.random.default_rng([seed, 2])
+    edges_rng = np.random.default_rng([seed, 3])
+    for pose, time in zip(poses, times):
+        ranges, intensities = laser.scan(world, pose, rng, float(time))
+        if mixed_pixels > 0.0:
+            ranges = mix_edges(ranges, mixed_pixels, edges_rng)
+        yield ranges, intensities
+
+
 def scan_records(config, world, bag, laser: Laser = Laser(), people: int = 0,
                  sweep: bool = False, mixed_pixels: float = 0.0
                  ) -> list[tuple[str, str, int, bytes]]:
@@ -248,28 +265,24 @@ def scan_records(config, world, bag, laser: Laser = Laser(), people: int = 0,
     landmarks, ``people`` people pacing beside the route), in the landmarks' frame, with range
     noise from ``config.seed``. With ``sweep`` the beams are taken one after the other (a
     full turn per reading period, ``time_increment`` apart from the stamp on), each from the
-    true pose of its moment, as a real laser's mirror takes them. With ``mixed_pixels`` P, a
-    beam at a depth edge returns a range between the two surfaces with probability P
-    (``people_sim.mix_edges``, its own random stream: P = 0 leaves the scans as they were)."""
+    true pose of its moment, as a real laser's mirror takes them; ``mixed_pixels`` as
+    ``noisy_scans``."""
     from fastslam_ros.node_support.timing import interpolate_poses
     from fastslam_ros.tools.bags.bag_schema import TYPESTORE, stamp_to_ns
     from fastslam_ros.tools.simulation.people_sim import (SCAN_TOPIC, laser_scan_message,
-                                                          mix_edges, sweep_time_increment)
+                                                          sweep_time_increment)
     poles = pole_world(config.world_seed, world.landmarks.positions, world.waypoints, people)
-    rng = np.random.default_rng([config.seed, 2])
-    edges_rng = np.random.default_rng([config.seed, 3])
     angles = laser.angles
     time_increment = (sweep_time_increment(angles[1] - angles[0], config.observation_rate)
                       if sweep else 0.0)
     beam_times = np.arange(laser.beams) * time_increment
     truth = bag.ground_truth
+    stamps = bag.scans.stamps
+    poses = (interpolate_poses(truth.stamps, truth.poses, stamp + beam_times) if sweep else pose
+             for stamp, pose in zip(stamps, scan_truth_poses(bag)))
+    scans = noisy_scans(laser, poles, poses, stamps - stamps[0], config.seed, mixed_pixels)
     records = []
-    for stamp, pose in zip(bag.scans.stamps, scan_truth_poses(bag)):
-        if sweep:
-            pose = interpolate_poses(truth.stamps, truth.poses, stamp + beam_times)
-        ranges, intensities = laser.scan(poles, pose, rng, float(stamp - bag.scans.stamps[0]))
-        if mixed_pixels > 0.0:
-            ranges = mix_edges(ranges, mixed_pixels, edges_rng)
+    for stamp, (ranges, intensities) in zip(stamps, scans):
         msg = laser_scan_message(float(stamp), ranges, angles, laser.max_range,
                                  config.sensor_frame, config.observation_rate, intensities,
                                  time_increment)
