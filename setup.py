@@ -19,7 +19,7 @@ setup(
     ],
     python_requires=">=3.10",
     install_requires=["setuptools", "numpy>=1.24", "rosbags>=0.10", "matplotlib>=3.6",
-                      "scipy>=1.10", "pyyaml>=5", "Pillow>=9"],
+                      "scipy>=1.10", "pyyaml>=5", "Pillow>=9", "threadpoolctl>=3"],
     extras_require={
         # A full ROS 2 Jazzy install provides these; in a plain venv they come from PyPI wheels.
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],

@@ -19,7 +19,7 @@ from rclpy.parameter import Parameter, parameter_dict_from_yaml_file
 from rclpy.utilities import remove_ros_args
 
 from fastslam_ros.node_parameters import ParameterError
-from fastslam_ros.node_start import (ArgumentParser, interrupts_unreported,
+from fastslam_ros.node_start import (ArgumentParser, interrupts_unreported, one_blas_thread,
                                      params_document_problem, unknown_sections, warn_line)
 
 class ParamsFileError(ParameterError):
@@ -115,6 +115,7 @@ def run_node(prog: str, node_name: str, usage: str, make_node: Callable[[], Node
     which nothing applies, is one line on stderr and status 1; a parameter file that cannot be
     read or a bad argument, status 2; Ctrl-C while the node starts, status 130."""
     argv = sys.argv if args is None else args
+    one_blas_thread()
     try:
         renamed = any(rule in arg for arg in argv for rule in ("__ns:=", "__node:=", "__name:="))
         for path in _params_files(argv):  # one line instead of rcl's failure

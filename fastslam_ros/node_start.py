@@ -8,6 +8,7 @@ Kept free of rclpy: the nodes (``node_console.run_node``) and the tools (``tools
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from contextlib import contextmanager
 from typing import Any, Iterator, NoReturn
@@ -68,6 +69,20 @@ def type_problem(name: str, default: Any, given: Any) -> str:
              str: "a string"}
     return (f"parameter '{name}': must be {kinds.get(type(default), type(default).__name__)} "
             f"(got {given!r})")
+
+
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+"""Environment variables by which a user chooses the BLAS threads: set, they are kept."""
+
+
+def one_blas_thread() -> None:
+    """Run numpy's and scipy's BLAS on one thread in this process, unless the user chose
+    (``BLAS_THREAD_VARIABLES``). The package's matrices are small (stacked 2x2 and 3x3, a
+    sparse factorization of a few thousand unknowns), where OpenBLAS's threads wait on each
+    other more than they work, and take a core from the rest of the robot."""
+    if not any(name in os.environ for name in BLAS_THREAD_VARIABLES):
+        from threadpoolctl import threadpool_limits  # noqa: PLC0415 (scans the loaded libraries)
+        threadpool_limits(1, user_api="blas")
 
 
 @contextmanager

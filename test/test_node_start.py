@@ -20,7 +20,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 
-from fastslam_ros import node_base, node_diagnostics
+from fastslam_ros import node_base, node_diagnostics, node_start
 from fastslam_ros.core.config import numba_available
 from fastslam_ros.node import FastSLAMNode
 from fastslam_ros.people_node import PeopleTrackerNode
@@ -159,3 +159,34 @@ def test_simulated_time_without_clock_warns_once(context, capfd, monkeypatch, cl
     executor.remove_node(node)
     assert node._clock_check.is_canceled()
     assert capfd.readouterr().err.count("no /clock came in 0.2 s") == (0 if clock else 1)
+
+
+BLAS_THREADS = """
+from threadpoolctl import threadpool_info
+from fastslam_ros.tools.cli import interruptible
+import scipy.sparse.linalg  # noqa: F401 (scipy's BLAS loaded too)
+
+def main(argv):
+    print(sorted({pool["num_threads"] for pool in threadpool_info()
+                  if pool["user_api"] == "blas"}))
+    return 0
+
+%s(None)
+"""
+
+
+@pytest.mark.parametrize("chosen", [None, "2"])
+def test_a_console_command_runs_blas_on_one_thread_unless_the_user_chose(chosen):
+    """numpy's and scipy's OpenBLAS start with a thread per core; a command limits them to one
+    (node_start.one_blas_thread) and keeps what OPENBLAS_NUM_THREADS says when it is set: the
+    threads a plain process has under that environment."""
+    env = {k: v for k, v in os.environ.items() if k not in node_start.BLAS_THREAD_VARIABLES}
+    if chosen is not None:
+        env["OPENBLAS_NUM_THREADS"] = chosen
+
+    def threads(call: str) -> str:
+        return subprocess.run([sys.executable, "-c", BLAS_THREADS % call], env=env,
+                              capture_output=True, text=True, check=True).stdout.strip()
+
+    plain = threads("main")
+    assert threads('interruptible("probe")(main)') == ("[1]" if chosen is None else plain)

@@ -24,7 +24,7 @@ from typing import Callable, TypeVar
 
 from rosbags.highlevel import AnyReader, AnyReaderError
 
-from fastslam_ros.node_start import ArgumentParser, interrupts_unreported
+from fastslam_ros.node_start import ArgumentParser, interrupts_unreported, one_blas_thread
 
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
@@ -200,6 +200,7 @@ def interruptible(prog: str) -> Callable[[Main], Main]:
                 interrupted.append(signum)
                 raise KeyboardInterrupt
 
+            one_blas_thread()
             main_thread = threading.current_thread() is threading.main_thread()
             previous = signal.signal(signal.SIGINT, on_interrupt) if main_thread else None
             try:
