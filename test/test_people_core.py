@@ -683,10 +683,11 @@ def test_of_two_tracks_on_one_person_the_continuing_one_is_published():
 
 
 def test_a_person_unseen_long_enough_to_be_uncertain_is_tracked_but_not_published():
-    """Hidden behind a wall, a person's Brownian cloud grows: published while its position
-    standard deviation is below publish_spread, kept (not published) beyond it, and published
-    again once seen."""
-    tracker, grid, pose, t = see_then_hide(publish_spread=0.5, lost_spread=1.0)
+    """Hidden behind a wall, a person's Brownian cloud grows: published (publish_hidden) while
+    its position standard deviation is below publish_spread, kept (not published) beyond it,
+    and published again once seen."""
+    tracker, grid, pose, t = see_then_hide(publish_spread=0.5, lost_spread=1.0,
+                                           publish_hidden=True)
     key = tracker.published_people().keys.tolist()
     assert key == tracker.people_of().keys.tolist()
     t = run(tracker, grid, pose, [(7.0, 6.0)], 5, t)          # 0.5 s hidden: sd about 0.3 m

@@ -182,10 +182,10 @@ class TrackerSettings:
              "exceeds this is tracked but not published (unseen for a while, its position is "
              "too uncertain to report).", low=0.0, low_exclusive=True)
     publish_hidden: bool = parameter(
-        True, "Publish a confirmed person not detected in the scan whose beam ended more than "
-              "person_radius short of it (hidden behind another person or an object): false "
-              "keeps tracking it but leaves it out of ~/people until it is seen again, as "
-              "annotations of what the laser sees count it.")
+        False, "Publish a confirmed person not detected in the scan whose beam ended more than "
+               "person_radius short of it (hidden behind another person or an object); false "
+               "keeps tracking it but leaves it out of ~/people until it is seen again, as "
+               "annotations of what the laser sees count it.")
 
     def validate(self) -> "TrackerSettings":
         """Self when every field is in range (``ValueError`` naming the field otherwise)."""
