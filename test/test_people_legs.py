@@ -11,8 +11,8 @@ import pytest
 
 from fastslam_ros.people import OccupancyMap, PeopleTracker, TrackerSettings
 from fastslam_ros.people.detection import (MIXED_PIXEL_EDGES, LegModel, MixedPixelMonitor, Scan,
-                                           deskewed, detect_legs, dynamic_beams, mixed_pixels,
-                                           segment_scan, static_edges,
+                                           beams_needed, deskewed, detect_legs, dynamic_beams,
+                                           mixed_pixels, segment_scan, static_edges,
                                            without_mixed_pixels)
 from fastslam_ros.tools.simulation import people_legs
 from fastslam_ros.tools.evaluation import people_eval
@@ -158,7 +158,7 @@ LEGS = LegModel(leg_radius=0.06, max_leg_width=0.25, max_leg_spacing=0.5,
 
 
 def _detect(circles: list[tuple[float, float, float]], beams: int = 720,
-            noise: float = 0.0, seed: int = 0) -> np.ndarray:
+            noise: float = 0.0, seed: int = 0, lone_legs: bool = True) -> np.ndarray:
     """(P, 2) sensor-frame people detected by ``detect_legs`` in a scan from the origin of
     circles (x, y, radius) in open space (every return dynamic)."""
     angles = -math.pi + (np.arange(beams) + 0.5) * (2.0 * math.pi / beams)
@@ -170,10 +170,45 @@ def _detect(circles: list[tuple[float, float, float]], beams: int = 720,
     scan = Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
     returns = scan.returns(0.05, 12.0)
     segments = segment_scan(scan, returns, 0.3)
-    found = detect_legs(segments, np.ones((1, len(segments.beams)), bool), 0, LEGS)
+    found = detect_legs(segments, np.ones((1, len(segments.beams)), bool), 0, LEGS,
+                        np.where(returns, ranges, np.inf),
+                        scan.angle_increment if lone_legs else None)
     valid = found.valid[0]
     return np.stack([found.ranges[0, valid] * np.cos(found.bearings[0, valid]),
                      found.ranges[0, valid] * np.sin(found.bearings[0, valid])], axis=1)
+
+
+def test_beams_needed_drop_to_what_one_leg_returns_beyond_its_two_beam_range():
+    """0.12 m at 1 degree spans two beams up to 0.12 / (2 x 0.01745) = 3.44 m: two needed
+    there, one beyond; never fewer than one nor more than min_beams."""
+    step = math.radians(1.0)
+    ranges = np.array([0.3, 3.4, 3.5, 6.0, 20.0])
+    np.testing.assert_array_equal(beams_needed(2, 0.12, ranges, step), [2, 2, 1, 1, 1])
+    np.testing.assert_array_equal(beams_needed(3, 0.12, ranges, step), [3, 2, 1, 1, 1])
+    np.testing.assert_array_equal(beams_needed(1, 0.12, ranges, step), [1, 1, 1, 1, 1])
+
+
+@pytest.mark.parametrize("distance, radius, lone_legs, found", [
+    (8.0, 0.06, True, True),     # a leg at 8 m: 0.14 m between beams, it returns one
+    (3.0, 0.01, True, False),    # a 2 cm rod at 3 m returns one beam where a leg returns two
+    (8.0, 0.06, False, False),   # a laser with mixed pixels: a lone return is not a leg
+])
+def test_a_lone_leg_far_away_is_a_person_from_one_beam_but_a_rod_near_is_not(
+        distance, radius, lone_legs, found):
+    bearing = math.radians(0.5)                               # on a beam of the 360
+    people = _detect([(distance * math.cos(bearing), distance * math.sin(bearing), radius)],
+                     beams=360, lone_legs=lone_legs)
+    assert len(people) == (1 if found else 0)
+
+
+def test_a_lone_leg_beside_a_nearer_object_needs_two_beams():
+    """The leg at 8 m of the test above, a thin rod at 2.5 m on the next beam: the rest of
+    the person may be behind the rod, so its one beam is not enough (and the rod's one beam
+    at 2.5 m is no person either)."""
+    leg, rod = math.radians(0.5), math.radians(1.5)
+    people = _detect([(8.0 * math.cos(leg), 8.0 * math.sin(leg), 0.06),
+                      (2.5 * math.cos(rod), 2.5 * math.sin(rod), 0.03)], beams=360)
+    assert len(people) == 0
 
 
 def test_two_legs_are_one_person_at_their_midpoint():

@@ -247,7 +247,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             far = without_mixed_pixels(far, segments, ranges, mixed,
                                        s.max_leg_spacing, s.leg_radius / abs(scan.angle_increment))
         if s.person_model == "legs":
-            detections = detect_legs(segments, far, best, self._leg_model)
+            lone_legs = None if self.mixed_pixels.filtering else scan.angle_increment
+            detections = detect_legs(segments, far, best, self._leg_model, ranges, lone_legs)
         else:
             detections = detect_people(segments, far, s.min_detection_beams,
                                        s.max_person_width, s.person_radius)

@@ -278,6 +278,16 @@ def dynamic_beams(grid: OccupancyMap, sensors: np.ndarray, ends: np.ndarray,
     return dynamic
 
 
+def beams_needed(min_beams: int, width: float, ranges: np.ndarray, angle_increment: float
+                 ) -> np.ndarray:
+    """Beams a detection at ``ranges`` must hold: ``min_beams``, or fewer (at least one)
+    beyond ``detectable_range(width, min_beams, ...)``, where an object ``width`` (m) wide
+    returns fewer than that: a leg far away is one beam, and requiring two would miss it."""
+    with np.errstate(divide="ignore"):
+        fits = np.floor(width / (np.maximum(ranges, 1e-9) * max(abs(angle_increment), 1e-9)))
+    return np.clip(fits, 1, min_beams).astype(np.int64)
+
+
 def detectable_range(width: float, min_beams: int, angle_increment: float) -> float:
     """Farthest range (m) at which a person ``width`` (m) wide across the beams returns
     ``min_beams`` beams of a scan ``angle_increment`` (rad) apart: beyond it a person in view
@@ -360,8 +370,8 @@ def leg_clusters(segments: Segments, dynamic: np.ndarray) -> np.ndarray:
     return np.flatnonzero(start)
 
 
-def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegModel
-                ) -> Detections:
+def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegModel,
+                ranges: np.ndarray, angle_increment: float | None) -> Detections:
     """People per robot particle from leg clusters (Arras et al.'s leg model, simplified).
 
     Clusters are cut in the sensor frame (segments, cut again where the ``reference``
@@ -374,7 +384,12 @@ def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegM
     ``max_leg_spacing`` of each other are paired (once, in the sensor frame, among the
     reference particle's dynamic clusters). A person is the midpoint of its two legs, or the
     one leg a particle sees (the other occluded); a cluster wider than a leg and up to
-    ``max_person_width`` is a person whose legs are seen as one.
+    ``max_person_width`` is a person whose legs are seen as one. It returns ``min_beams``
+    beams, or, farther than one leg returns that many at ``angle_increment`` (rad), the beams
+    one leg returns there (``beams_needed``), unless a leg of it is partly hidden (a beam
+    beside it, in the scan's ``ranges`` (B,), ends more than a leg's width nearer: the rest
+    of the person may be behind); ``angle_increment`` None: ``min_beams`` at any range (a
+    laser with mixed pixels, whose lone returns far away are mostly not legs).
     """
     particles = far.shape[0]
     empty = np.zeros((particles, 0))
@@ -411,15 +426,33 @@ def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegM
     second = np.where(has_second, second, first)
     seen_a = seen[:, first]
     seen_b = seen[:, second] & has_second
-    valid = (seen_a | seen_b) & (beams[:, first] + np.where(has_second, beams[:, second], 0)
-                                 >= model.min_beams)
     both = seen_a & seen_b
     weight_a = np.where(both, 0.5, seen_a.astype(float))
     position = (weight_a[..., None] * centres[first][None]
                 + (1.0 - weight_a)[..., None] * centres[second][None])   # (M, P, 2)
-    ranges = np.where(valid, np.hypot(position[..., 0], position[..., 1]), 0.0)
+    distance = np.hypot(position[..., 0], position[..., 1])
+    needed = np.full(distance.shape, model.min_beams)
+    if angle_increment is not None:
+        hidden = _partly_hidden(segments, starts, last, ranges, 2.0 * model.leg_radius)[keep]
+        whole = ~(hidden[first] | (hidden[second] & has_second))
+        needed = np.where(whole, beams_needed(model.min_beams, 2.0 * model.leg_radius,
+                                              distance, angle_increment), needed)
+    valid = (seen_a | seen_b) & (beams[:, first] + np.where(has_second, beams[:, second], 0)
+                                 >= needed)
+    ranges = np.where(valid, distance, 0.0)
     bearings = np.where(valid, np.arctan2(position[..., 1], position[..., 0]), 0.0)
     return Detections(valid, ranges, wrap_angle(bearings), valid & both)
+
+
+def _partly_hidden(segments: Segments, starts: np.ndarray, last: np.ndarray,
+                   ranges: np.ndarray, depth: float) -> np.ndarray:
+    """(C,) whether the beam before a cluster's first or after its last (scan order, wrapping
+    round) ends more than ``depth`` nearer than the cluster's nearest beam."""
+    count = len(ranges)
+    nearest = np.minimum.reduceat(segments.ranges, starts)
+    before = ranges[(segments.beams[starts] - 1) % count]
+    after = ranges[(segments.beams[last] + 1) % count]
+    return np.minimum(before, after) < nearest - depth
 
 
 def fit_arc(ends: np.ndarray, max_radius: float) -> np.ndarray | None:

@@ -114,8 +114,11 @@ class TrackerSettings:
         0.3, "Neighbouring beams whose ranges differ by more than this (m) belong to different "
              "objects.", low=0.0, low_exclusive=True)
     min_detection_beams: int = parameter(
-        2, "Beams a person must return to be detected; beyond the range at which a person "
-           "returns this many, not detecting one is no evidence of absence.", low=1)
+        2, "Beams a person must return to be detected ('legs', mixed pixels not filtered: "
+           "farther than one leg returns this many, the beams one leg returns there, at least "
+           "one, unless a leg is partly hidden); beyond the range at which a person returns "
+           "this many, not detecting one is no evidence of absence.",
+        low=1)
     max_person_width: float = parameter(1.0, "Wider free-space segments are not one person (m).",
                                         low=0.0, low_exclusive=True)
     new_person_likelihood: float = parameter(
