@@ -283,8 +283,7 @@ def beams_needed(min_beams: int, width: float, ranges: np.ndarray, angle_increme
     """Beams a detection at ``ranges`` must hold: ``min_beams``, or fewer (at least one)
     beyond ``detectable_range(width, min_beams, ...)``, where an object ``width`` (m) wide
     returns fewer than that: a leg far away is one beam, and requiring two would miss it."""
-    with np.errstate(divide="ignore"):
-        fits = np.floor(width / (np.maximum(ranges, 1e-9) * max(abs(angle_increment), 1e-9)))
+    fits = np.floor(detectable_range(width, 1, angle_increment) / np.maximum(ranges, 1e-9))
     return np.clip(fits, 1, min_beams).astype(np.int64)
 
 
