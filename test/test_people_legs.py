@@ -178,6 +178,14 @@ def _detect(circles: list[tuple[float, float, float]], beams: int = 720,
                      found.ranges[0, valid] * np.sin(found.bearings[0, valid])], axis=1)
 
 
+def test_range_toward_a_bearing_is_its_nearest_beams_with_no_return_as_inf():
+    """Beams at 0, 0.5, 1, 1.5 rad: NaN stays NaN (no evidence), a range below min_range is no
+    return (inf), a bearing takes its nearest beam."""
+    scan = Scan(np.array([np.nan, np.inf, 0.05, 3.0]), 0.0, 0.5)
+    np.testing.assert_array_equal(scan.range_toward(np.array([0.1, 0.4, 1.1, 1.6]), 0.1),
+                                  [np.nan, np.inf, np.inf, 3.0])
+
+
 def test_beams_needed_drop_to_what_one_leg_returns_beyond_its_two_beam_range():
     """0.12 m at 1 degree spans two beams up to 0.12 / (2 x 0.01745) = 3.44 m: two needed
     there, one beyond; never fewer than one nor more than min_beams."""

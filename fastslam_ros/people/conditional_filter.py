@@ -443,10 +443,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             dy = particles[..., 1] - sensors[m, None, 1]
             distance = np.hypot(dx, dy)
             bearing = wrap_angle(np.arctan2(dy, dx) - sensors[m, None, 2])
-            # NaN: no evidence (never seen free); inf or below min_range: no return
-            measured = np.where(np.isnan(scan.ranges), -np.inf, np.where(
-                np.isfinite(scan.ranges) & (scan.ranges >= s.min_range), scan.ranges,
-                np.inf))[scan.beam_index(bearing)]
+            measured = scan.range_toward(bearing, s.min_range)   # NaN: never seen free
             reach = min(max_range, detectable_range(self._seen_width, s.min_detection_beams,
                                                     scan.angle_increment))
             seen_free = (in_perceptual_range(distance, bearing, s.min_range, reach)

@@ -71,6 +71,13 @@ class Scan:
         return np.where(beyond, np.where(nearer_last, count - 1, 0),
                         np.rint(steps)).astype(np.intp)
 
+    def range_toward(self, bearings: np.ndarray, min_range: float) -> np.ndarray:
+        """The range measured along each bearing (rad) by its nearest beam: inf for no return
+        or one below ``min_range`` (free space), NaN for no evidence (every comparison false)."""
+        ranges = np.where(np.isnan(self.ranges) | (self.ranges >= min_range), self.ranges,
+                          np.inf)
+        return ranges[self.beam_index(bearings)]
+
     def covers(self, bearings: np.ndarray) -> np.ndarray:
         """Whether each bearing (rad) lies within the scan's span (up to half a beam beyond its
         end beams): a partial scan (a 270-degree laser) sees nothing behind it."""

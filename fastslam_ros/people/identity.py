@@ -188,9 +188,7 @@ class PeopleIdentities:
         scan = self._span
         offset = means - sensor[:2]
         bearing = np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2]
-        ranges = np.where(np.isfinite(scan.ranges) & (scan.ranges >= self.settings.min_range),
-                          scan.ranges, np.inf)
-        measured = ranges[scan.beam_index(bearing)]
+        measured = scan.range_toward(bearing, self.settings.min_range)  # NaN: not hidden
         slot = np.argmax((self.keys[best][None] == keys[:, None]) & self.alive[best][None],
                          axis=1)
         detected = self.last_seen[best, slot] >= self.last_stamp

@@ -80,6 +80,14 @@ def positive(kind: Callable[[str], Number] = float) -> Callable[[str], Number]:
     return parse
 
 
+def probability(text: str) -> float:
+    """An argparse ``type``: a number in [0, 1]."""
+    value = float(text)  # ValueError: argparse says "invalid probability value"
+    if not 0.0 <= value <= 1.0:  # NaN too
+        raise argparse.ArgumentTypeError(f"must be in [0, 1] (got {text})")
+    return value
+
+
 def positive_list(text: str) -> list[int]:
     """An argparse ``type``: comma-separated integers greater than 0 (``10,100``)."""
     try:

@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="reflectors: only the reflective poles count as visible")
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE",
                         help="extractor settings other than the defaults")
-    parser.add_argument("--mixed-pixels", type=float, default=0.0, metavar="P",
+    parser.add_argument("--mixed-pixels", type=cli.probability, default=0.0, metavar="P",
                         help="scans with mixed pixels, as fastslam-sim --laser --mixed-pixels")
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="instead, draw one scan of the first seed (--scan) into this file")
@@ -232,8 +232,6 @@ def main(argv: list[str] | None = None) -> int:
                 raise ValueError(f"unknown setting {name!r}")
             values[name] = types[name](value)
         settings = ExtractorSettings(**{"detector": args.detector, **values}).validate()
-        if not 0.0 <= args.mixed_pixels <= 1.0:
-            raise ValueError(f"--mixed-pixels: must be in [0, 1] (got {args.mixed_pixels})")
     except ValueError as error:
         print(f"extractor_eval: {error}", file=sys.stderr)
         return 2

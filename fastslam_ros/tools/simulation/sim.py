@@ -436,7 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with --laser: beams taken one after the other as the mirror "
                              "turns (a full turn per reading), each from where the vehicle is "
                              "then; LaserScan's time_increment says how far apart")
-    parser.add_argument("--mixed-pixels", type=float, default=0.0, metavar="P",
+    parser.add_argument("--mixed-pixels", type=cli.probability, default=0.0, metavar="P",
                         help="with --laser: probability that a beam at a depth edge returns "
                              "a range between the two surfaces, in free space (a real "
                              "laser's mixed pixels)")
@@ -469,8 +469,6 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError("--sweep: only with --laser")
         if args.laser_people < 0:
             raise ValueError(f"--laser-people: must be >= 0 (got {args.laser_people})")
-        if not 0.0 <= args.mixed_pixels <= 1.0:
-            raise ValueError(f"--mixed-pixels: must be in [0, 1] (got {args.mixed_pixels})")
         if args.mixed_pixels and not args.laser:
             raise ValueError("--mixed-pixels: only with --laser")
     except ValueError as error:
