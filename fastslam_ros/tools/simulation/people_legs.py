@@ -74,15 +74,11 @@ def circle_ranges(sensor: np.ndarray, world_angles: np.ndarray, centres: np.ndar
     if len(centres) == 0:
         return np.full(len(world_angles), np.inf)
     direction = np.stack([np.cos(world_angles), np.sin(world_angles)], axis=1)
-    centres = np.asarray(centres, dtype=float)
-    if np.ndim(sensor) == 1:
-        centre = centres - sensor[:2]
-        along = direction @ centre.T                                   # (B, K)
-        across_sq = np.sum(centre ** 2, axis=1)[None, :] - along ** 2
-    else:
-        centre = centres[None, :, :] - sensor[:, None, :2]            # (B, K, 2)
-        along = np.einsum("bi,bki->bk", direction, centre)
-        across_sq = np.sum(centre ** 2, axis=2) - along ** 2
+    origin = np.atleast_2d(np.asarray(sensor, dtype=float))[:, None, :2]      # (B or 1, 1, 2)
+    centre = np.asarray(centres, dtype=float)[None, :, :] - origin            # (B or 1, K, 2)
+    along = np.einsum("bi,bki->bk", direction, np.broadcast_to(
+        centre, (len(direction),) + centre.shape[1:]))                        # (B, K)
+    across_sq = np.sum(centre ** 2, axis=2) - along ** 2
     hit = along - np.sqrt(np.clip(radius ** 2 - across_sq, 0.0, None))
     return np.where((across_sq < radius ** 2) & (hit > 0.0), hit, np.inf).min(axis=1)
 
