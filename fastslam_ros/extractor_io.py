@@ -8,7 +8,6 @@ reads (x y z float32, id int32 = -1: unknown) plus ``radius`` and ``intensity`` 
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from geometry_msgs.msg import Point
@@ -27,33 +26,17 @@ CIRCLE_COLOUR = ColorRGBA(r=0.2, g=0.8, b=0.2, a=0.8)
 REFLECTOR_COLOUR = ColorRGBA(r=1.0, g=0.9, b=0.1, a=0.9)
 
 
-class MalformedScanError(ValueError):
-    """A LaserScan whose geometry cannot be used (no beams, a zero or non-finite increment,
-    more than a turn, intensities neither empty nor one per beam)."""
-
-
 def read_scan(msg) -> RawScan:
-    """``sensor_msgs/LaserScan`` -> ``RawScan``, ranges as sent (REP 117 meanings kept), its
-    ``time_increment`` too (a non-finite one is malformed)."""
+    """``sensor_msgs/LaserScan`` -> ``RawScan``, its geometry checked
+    (``ros_io.scan_geometry``), ranges as sent (REP 117 meanings kept); intensities must be
+    none or one per beam (``ros_io.MalformedScanError``)."""
+    geometry = ros_io.scan_geometry(msg)
     ranges = np.asarray(msg.ranges, dtype=float)
     intensities = np.asarray(msg.intensities, dtype=float)
-    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
-    if ranges.size == 0:
-        raise MalformedScanError("no beams")
-    if not (math.isfinite(increment) and math.isfinite(angle_min)) or increment == 0.0:
-        raise MalformedScanError(f"angle_min {angle_min} / angle_increment {increment} unusable")
-    if abs(increment) * (ranges.size - 1) > 2.0 * math.pi + 1e-3:
-        raise MalformedScanError(f"{ranges.size} beams of {increment} rad span more than a turn")
     if intensities.size not in (0, ranges.size):
-        raise MalformedScanError(f"{intensities.size} intensities for {ranges.size} beams")
-    time_increment = float(msg.time_increment)
-    if not math.isfinite(time_increment):
-        raise MalformedScanError(f"time_increment {time_increment} is not finite")
-    range_min = float(msg.range_min) if math.isfinite(msg.range_min) else 0.0
-    range_max = float(msg.range_max) if math.isfinite(msg.range_max) and msg.range_max > 0 \
-        else math.inf
-    return RawScan(ranges, angle_min, increment, max(range_min, 0.0), range_max, intensities,
-                   time_increment)
+        raise ros_io.MalformedScanError(f"{intensities.size} intensities for {ranges.size} beams")
+    return RawScan(ranges, geometry.angle_min, geometry.angle_increment, geometry.range_min,
+                   geometry.range_max, intensities, geometry.time_increment)
 
 
 def landmark_cloud(header: Header, landmarks: Landmarks) -> PointCloud2:

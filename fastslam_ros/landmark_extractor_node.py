@@ -36,7 +36,7 @@ from sensor_msgs.msg import LaserScan, PointCloud2
 from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros import extractor_io
+from fastslam_ros import extractor_io, ros_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
@@ -65,7 +65,7 @@ class NodeSettings:
     """The ROS side of the node: the scan frame, the marker rate and, for static_window,
     the odometry's frames, wait and plausibility gates."""
 
-    scan_frame: str = parameter("", "Frame the scans must be in; '' accepts any.")
+    scan_frame: str = parameter("", "Frame the scans must be in; '': the first scan's frame.")
     markers_rate: float = parameter(5.0, "Maximum rate of ~/markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
     odom_frame: str = parameter("odom", "With deskew_scans or static_window: odometry frame "
@@ -152,11 +152,11 @@ class LandmarkExtractorNode(FilterNode):
         self._run_callback("scan", self._handle_scan, msg)
 
     def _handle_scan(self, msg: LaserScan) -> None:
-        if not self._frame_ok("scan_frame", msg.header.frame_id, "scan"):
+        if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
             return
         try:
             scan = extractor_io.read_scan(msg)
-        except extractor_io.MalformedScanError as error:
+        except ros_io.MalformedScanError as error:
             return self._drop("malformed_scan", f"scan dropped: {error}")
         now = self._now()
         stamp = self._reading_stamp(msg.header.stamp, "scan", now)

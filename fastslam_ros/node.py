@@ -94,7 +94,7 @@ class NodeSettings:
         "base_link", "Robot frame (REP 105): odometry must have it as child_frame_id ('' "
         "accepted). Not empty.")
     sensor_frame: str = parameter(
-        "", "Frame the landmark clouds must be in; '' accepts any frame.")
+        "", "Frame the landmark clouds must be in; '': the first cloud's frame.")
     pose_estimate: str = parameter(
         "best", "~/pose is the reported particle's pose (best) or the weighted mean (mean).",
         choices=POSE_ESTIMATES)
@@ -254,7 +254,7 @@ class FastSLAMNode(FilterNode):
             self.slam.initialize_pose(*self._initial_pose)
 
     def _handle_landmarks(self, msg: PointCloud2) -> None:
-        if not self._frame_ok("sensor_frame", msg.header.frame_id, "landmark cloud"):
+        if not self._sensor_frame_ok("sensor_frame", msg.header.frame_id, "landmark cloud"):
             return
         size, cap = ros_io.cloud_size(msg), self.settings["max_observations_per_cloud"]
         if size > cap:

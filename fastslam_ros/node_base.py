@@ -173,6 +173,8 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         self.stats: dict[str, int] = dict.fromkeys(counters, 0)
         self.settings: dict[str, Any] = {}
         """Current values of the ROS-side parameters (runtime changes land here)."""
+        self._first_frames: dict[str, str] = {}
+        """Per frame parameter left empty: the first frame its readings came in."""
         self._throttled_outputs = throttled_outputs
         self._throttles: dict[str, Throttle] = {}
         self._reading_name, self._stale_counter = reading_name, stale_counter
@@ -259,6 +261,22 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             return True
         self._drop("wrong_frame", f"{what} frame '{frame}' is not '{expected}' "
                                   f"(parameter {parameter})")
+        return False
+
+    def _sensor_frame_ok(self, parameter: str, frame_id: str, what: str) -> bool:
+        """``_frame_ok`` for a sensor's readings; with the parameter empty, the first frame
+        they came in is the expected one: a reading in another frame is dropped (counted),
+        as its coordinates are another sensor's."""
+        if not self._frame_ok(parameter, frame_id, what):
+            return False
+        frame = frame_id.lstrip("/")
+        if self.settings[parameter] or not frame:
+            return True
+        first = self._first_frames.setdefault(parameter, frame)
+        if frame == first:
+            return True
+        self._drop("wrong_frame", f"{what} frame '{frame}' is not the first {what}'s "
+                                  f"'{first}' (set {parameter} to choose)")
         return False
 
     def _stamp(self, stamp_msg, what: str) -> float | None:

@@ -19,6 +19,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io, ros_markers
+from fastslam_ros.ros_io import OversizedError
 from fastslam_ros.core import geometry
 from fastslam_ros.people.report import PeopleEstimate
 from fastslam_ros.people.detection import Scan
@@ -29,61 +30,22 @@ PERSON_HEIGHT = 1.7
 PERSON_DIAMETER = 0.4
 
 
-class MalformedScanError(ValueError):
-    """A LaserScan whose geometry cannot be used (no beams, zero or non-finite increment, an
-    angle_max that is not the last beam's angle, NaN or crossed range limits)."""
-
-
 class MalformedMapError(ValueError):
     """An OccupancyGrid or map file that cannot be read as a grid, or one with no free cell."""
 
 
-class OversizedError(ValueError):
-    """A scan or a map beyond its size cap (``max_beams_per_scan``, ``max_map_cells``)."""
-
-
-ANGLE_MAX_TOLERANCE = 0.5
-"""angle_max may differ by this many increments from angle_min + (n - 1) angle_increment (the
-last beam's angle, REP 117's reading) or from angle_min + n angle_increment (where
-pointcloud_to_laserscan puts it): the float32 fields' rounding; farther is another beam
-count."""
-
-
 def read_scan(msg, max_beams: int | None = None) -> Scan:
-    """``sensor_msgs/LaserScan`` -> ``Scan`` (REP 117): +inf is nothing within range_max (kept
-    as inf: the beam saw free space); NaN, -inf and every range outside [range_min,
-    range_max] carry no evidence at all (NaN in the Scan); time_increment is kept (a
-    non-finite one is malformed). ``OversizedError`` beyond
-    ``max_beams`` (checked before the ranges are read)."""
-    count = len(msg.ranges)
-    if count == 0:
-        raise MalformedScanError("no beams")
-    if max_beams is not None and count > max_beams:
-        raise OversizedError(f"{count} beams (max_beams_per_scan {max_beams})")
-    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
-    angle_max = float(msg.angle_max)
-    if not (math.isfinite(increment) and math.isfinite(angle_min)) or increment == 0.0:
-        raise MalformedScanError(f"angle_min {angle_min} / angle_increment {increment} unusable")
-    if abs(increment) * (count - 1) > 2.0 * math.pi + 1e-3:
-        raise MalformedScanError(f"{count} beams of {increment} rad span more than a turn")
-    last = angle_min + (count - 1) * increment
-    if not -ANGLE_MAX_TOLERANCE <= (angle_max - last) / increment <= 1.0 + ANGLE_MAX_TOLERANCE:
-        raise MalformedScanError(f"angle_max {angle_max} is not angle_min + (n - 1) "
-                                 f"angle_increment = {last} for {count} beams")
-    range_min, range_max = float(msg.range_min), float(msg.range_max)
-    if math.isnan(range_min) or math.isnan(range_max) or range_min == math.inf \
-            or range_max < range_min:
-        raise MalformedScanError(f"range_min {range_min} / range_max {range_max} unusable")
-    range_min = max(range_min, 0.0)
-    range_max = range_max if range_max > 0.0 else math.inf  # 0: a driver that leaves it unset
+    """``sensor_msgs/LaserScan`` -> ``Scan`` (REP 117), its geometry checked
+    (``ros_io.scan_geometry``): +inf is nothing within range_max (kept as inf: the beam saw
+    free space); NaN, -inf and every range outside [range_min, range_max] carry no evidence at
+    all (NaN in the Scan)."""
+    geometry = ros_io.scan_geometry(msg, max_beams)
     ranges = np.asarray(msg.ranges, dtype=float)
     with np.errstate(invalid="ignore"):
-        evidence = (ranges >= range_min) & (ranges <= range_max)
+        evidence = (ranges >= geometry.range_min) & (ranges <= geometry.range_max)
     ranges = np.where(evidence | (ranges == math.inf), ranges, math.nan)
-    time_increment = float(msg.time_increment)
-    if not math.isfinite(time_increment):
-        raise MalformedScanError(f"time_increment {time_increment} is not finite")
-    return Scan(ranges, angle_min, increment, range_max, time_increment)
+    return Scan(ranges, geometry.angle_min, geometry.angle_increment, geometry.range_max,
+                geometry.time_increment)
 
 
 def _check_origin(x: float, y: float, yaw: float) -> None:

@@ -147,8 +147,6 @@ class PeopleTrackerNode(FilterNode):
         self.tracker = PeopleTracker(self.tracker_settings)
         self._initial: tuple[np.ndarray, np.ndarray] | None = None
         self._published_keys: set[int] = set()
-        self._scan_frame: str | None = None
-        """The frame of the first scan (the expected one while scan_frame is empty)."""
         self._lost_watch = LostWatch()
         self._relocalizing = False
         self._last_exact: tuple[int, int] = (0, 0)
@@ -164,7 +162,7 @@ class PeopleTrackerNode(FilterNode):
             try:
                 grid = people_io.load_map_file(map_file, s.likelihood_max_distance,
                                                s.max_map_cells)
-            except (people_io.MalformedMapError, people_io.OversizedError) as error:
+            except (people_io.MalformedMapError, ros_io.OversizedError) as error:
                 raise ParameterError(f"parameter 'map_file': {error}") from None
             self._use_map(grid)
         else:
@@ -203,7 +201,7 @@ class PeopleTrackerNode(FilterNode):
         try:
             grid = people_io.read_occupancy_grid(msg, s.likelihood_max_distance,
                                                  s.max_map_cells)
-        except people_io.OversizedError as error:
+        except ros_io.OversizedError as error:
             return self._drop("oversized_map", f"map dropped: {error}")
         except (people_io.MalformedMapError, ros_io.InvalidQuaternionError) as error:
             return self._drop("malformed_map", f"map dropped: {error}")
@@ -261,14 +259,13 @@ class PeopleTrackerNode(FilterNode):
             self.tracker.reset(*self._initial)
 
     def _handle_scan(self, msg: LaserScan) -> None:
-        if not (self._frame_ok("scan_frame", msg.header.frame_id, "scan")
-                and self._scan_frame_ok(msg.header.frame_id)):
+        if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
             return
         try:
             scan = people_io.read_scan(msg, self.tracker_settings.max_beams_per_scan)
-        except people_io.OversizedError as error:
+        except ros_io.OversizedError as error:
             return self._drop("oversized_scan", f"scan dropped: {error}")
-        except people_io.MalformedScanError as error:
+        except ros_io.MalformedScanError as error:
             return self._drop("malformed_scan", f"scan dropped: {error}")
         now = self._now()
         stamp = self._reading_stamp(msg.header.stamp, "scan", now)
@@ -276,20 +273,6 @@ class PeopleTrackerNode(FilterNode):
             return
         exact = (int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
         self._queue(PendingScan(stamp, scan, now, exact), now)
-
-    def _scan_frame_ok(self, frame_id: str) -> bool:
-        """With scan_frame empty, the first scan's frame is the expected one: a scan in
-        another frame is dropped (counted)."""
-        frame = frame_id.lstrip("/")
-        if self.settings["scan_frame"] or not frame:
-            return True
-        if self._scan_frame is None:
-            self._scan_frame = frame
-        if frame == self._scan_frame:
-            return True
-        self._drop("wrong_frame", f"scan frame '{frame}' is not the first scan's "
-                                  f"'{self._scan_frame}' (set scan_frame to choose)")
-        return False
 
     # --- filter --------------------------------------------------------------------------------
 

@@ -60,6 +60,66 @@ class InvalidStampError(ValueError):
     """A ``builtin_interfaces/Time`` outside its definition (sec < 0 or nanosec >= 1e9)."""
 
 
+class MalformedScanError(ValueError):
+    """A LaserScan whose geometry cannot be used (no beams, a zero or non-finite increment,
+    more than a turn, an angle_max that is not the last beam's angle, NaN or crossed range
+    limits, a non-finite time_increment)."""
+
+
+class OversizedError(ValueError):
+    """A scan or a map beyond its size cap (``max_beams_per_scan``, ``max_map_cells``)."""
+
+
+ANGLE_MAX_TOLERANCE = 0.5
+"""angle_max may differ by this many increments from angle_min + (n - 1) angle_increment (the
+last beam's angle, REP 117's reading) or from angle_min + n angle_increment (where
+pointcloud_to_laserscan puts it): the float32 fields' rounding; farther is another beam
+count."""
+
+
+class ScanGeometry(NamedTuple):
+    """What a LaserScan says of its beams, checked (``scan_geometry``)."""
+
+    count: int
+    angle_min: float
+    angle_increment: float
+    range_min: float
+    """At least 0."""
+    range_max: float
+    """inf when the scan sent 0 (a driver that leaves it unset) or inf."""
+    time_increment: float
+
+
+def scan_geometry(msg, max_beams: int | None = None) -> ScanGeometry:
+    """The geometry of a ``sensor_msgs/LaserScan``, checked alike by every node that reads
+    scans (``MalformedScanError`` naming what is wrong; ``OversizedError`` beyond
+    ``max_beams``, checked before anything else is read)."""
+    count = len(msg.ranges)
+    if count == 0:
+        raise MalformedScanError("no beams")
+    if max_beams is not None and count > max_beams:
+        raise OversizedError(f"{count} beams (max_beams_per_scan {max_beams})")
+    increment, angle_min = float(msg.angle_increment), float(msg.angle_min)
+    angle_max = float(msg.angle_max)
+    if not (math.isfinite(increment) and math.isfinite(angle_min)) or increment == 0.0:
+        raise MalformedScanError(f"angle_min {angle_min} / angle_increment {increment} unusable")
+    if abs(increment) * (count - 1) > 2.0 * math.pi + 1e-3:
+        raise MalformedScanError(f"{count} beams of {increment} rad span more than a turn")
+    last = angle_min + (count - 1) * increment
+    if not -ANGLE_MAX_TOLERANCE <= (angle_max - last) / increment <= 1.0 + ANGLE_MAX_TOLERANCE:
+        raise MalformedScanError(f"angle_max {angle_max} is not angle_min + (n - 1) "
+                                 f"angle_increment = {last} for {count} beams")
+    range_min, range_max = float(msg.range_min), float(msg.range_max)
+    if math.isnan(range_min) or math.isnan(range_max) or range_min == math.inf \
+            or range_max < range_min:
+        raise MalformedScanError(f"range_min {range_min} / range_max {range_max} unusable")
+    time_increment = float(msg.time_increment)
+    if not math.isfinite(time_increment):
+        raise MalformedScanError(f"time_increment {time_increment} is not finite")
+    return ScanGeometry(count, angle_min, increment, max(range_min, 0.0),
+                        range_max if range_max > 0.0 else math.inf, time_increment)
+
+
 @dataclass(frozen=True)
 class LandmarkCloud:
     """Points of one landmark cloud in the sensor frame: ``x``, ``y`` (K,) m; ``ids`` (K,) or

@@ -18,7 +18,8 @@ from fastslam_ros.core.geometry import relative_pose
 from fastslam_ros.core.sweep import STILL, at_beam_time, at_first_beam
 from fastslam_ros.extractor import ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.static_filter import StaticFilter
-from fastslam_ros.extractor_io import MalformedScanError, read_scan
+from fastslam_ros.extractor_io import read_scan
+from fastslam_ros.ros_io import MalformedScanError
 from fastslam_ros.tools.simulation.laser_sim import Laser, PoleWorld
 from fastslam_ros.tools.simulation.people_sim import sweep_poses, sweep_time_increment
 from test_landmark_extractor_node import START, Recorder, deliver, make_node

@@ -178,7 +178,7 @@ def test_read_scan_keeps_inf_as_no_return_and_invalid_ranges_as_no_evidence():
     returns = scan.returns(0.1, 12.0)
     np.testing.assert_array_equal(returns, [True, False, False, False, False, True, False,
                                             False])
-    with pytest.raises(people_io.MalformedScanError):
+    with pytest.raises(ros_io.MalformedScanError):
         people_io.read_scan(LaserScan(angle_increment=0.0, ranges=[1.0]))
 
 

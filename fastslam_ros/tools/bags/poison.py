@@ -7,8 +7,10 @@ turn from every class the node must survive. Extra messages: glitched odometry (
 +100 m, a half turn, NaN, a zero quaternion, a wrong frame), stray and invalid stamps (1 h
 ahead or behind, nanosec 2^32-1, negative seconds), byte-swapped (denormal), malformed and
 oversized clouds. Added to a valid cloud: points at 1e-12 m, denormal, NaN or beyond range.
-The node should drop exactly the bad input, so replaying OUT gives the estimate of BAG
-(compare them with ``fastslam-eval``).
+A bag with ``/scan`` (a people bag, a laser bag) takes malformed scans too: angles that do
+not match the beams, NaN or crossed range limits, a NaN time increment, more beams than a node
+reads, a wrong frame, stray and invalid stamps. The node should drop exactly the bad input, so
+replaying OUT gives the estimate of BAG (compare them with ``fastslam-eval``).
 """
 from __future__ import annotations
 
@@ -21,14 +23,20 @@ import numpy as np
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
-from sensor_msgs.msg import PointCloud2
+from sensor_msgs.msg import LaserScan, PointCloud2
 from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bags.bag_schema import (CLOUD_TYPE, LANDMARKS_TOPIC, ODOM_TOPIC,
-                                                ODOMETRY_TYPE, TYPESTORE, SchemaError, bag_topics,
+from fastslam_ros.tools.bags.bag_schema import (LANDMARKS_TOPIC, ODOM_TOPIC, TOPIC_TYPES,
+                                                TYPESTORE, SchemaError, bag_topics,
                                                 check_topic_types, open_writer)
+
+SCAN_TOPIC = "/scan"
+OVERSIZED_BEAMS = 5000
+"""Beams of the oversized scan: more than any node reads (``max_beams_per_scan``, at most
+2048 by default)."""
+MESSAGE_CLASSES = {ODOM_TOPIC: Odometry, LANDMARKS_TOPIC: PointCloud2, SCAN_TOPIC: LaserScan}
 
 
 def _odometry(stamp: float, pose, frame: str, child: str) -> Odometry:
@@ -59,39 +67,93 @@ def _with(msg, **changes):
     return msg
 
 
-def fault_builders(rng: np.random.Generator) -> list[tuple[str, Callable]]:
-    """(name, build(stamp, last odometry msg, last cloud msg) -> (topic, message))."""
+def _scan_copy(stamp: float, last_scan: LaserScan) -> LaserScan:
+    """A copy of ``last_scan`` stamped ``stamp`` (a scan a node would use)."""
+    msg = deserialize_message(serialize_message(last_scan), LaserScan)
+    msg.header.stamp = ros_io.seconds_to_stamp(stamp)
+    return msg
+
+
+def odometry_faults() -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last messages by topic) -> (topic, message)) of odometry."""
     def odom(change):
-        def build(stamp, last_odom, _cloud_msg):
+        def build(stamp, last):
+            last_odom = last[ODOM_TOPIC]
             p = last_odom.pose.pose
             pose = np.array([p.position.x, p.position.y, ros_io.quaternion_to_yaw(p.orientation)])
             return ODOM_TOPIC, change(_odometry(stamp, pose, last_odom.header.frame_id,
                                                 last_odom.child_frame_id), pose)
         return build
 
+    def jumped(offset):
+        return odom(lambda m, pose: _odometry(ros_io.stamp_to_seconds(m.header.stamp),
+                                              pose + offset, m.header.frame_id, m.child_frame_id))
+
+    return [
+        ("odometry 1e308", jumped(np.array([1e308, 0.0, 0.0]))),
+        ("odometry +1e6 m", jumped(np.array([1e6, 0.0, 0.0]))),
+        ("odometry +100 m", jumped(np.array([100.0, 0.0, 0.0]))),
+        ("odometry half turn", jumped(np.array([0.0, 0.0, 3.0]))),
+        ("odometry NaN", odom(lambda m, _p: _with(m, pose__pose__position__x=math.nan))),
+        ("odometry zero quaternion", odom(lambda m, _p: _with(
+            m, pose__pose__orientation__z=0.0, pose__pose__orientation__w=0.0))),
+        ("odometry 1 h ahead", odom(lambda m, _p: _shifted(m, 3600.0))),
+        ("odometry 1 h behind", odom(lambda m, _p: _shifted(m, -3600.0))),
+        ("odometry nanosec 2^32-1", odom(lambda m, _p: _with(m, header__stamp__nanosec=2**32 - 1))),
+        ("odometry wrong frame", odom(lambda m, _p: _with(m, header__frame_id="world"))),
+    ]
+
+
+def scan_faults() -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last messages by topic) -> (topic, message)) of laser scans."""
+    def scan(change):
+        def build(stamp, last):
+            return SCAN_TOPIC, change(_scan_copy(stamp, last[SCAN_TOPIC]))
+        return build
+
+    def beams_off(count):
+        return scan(lambda m: _with(m, angle_max=m.angle_max + count * m.angle_increment))
+
+    def oversized(m):
+        return _with(m, ranges=[1.0] * OVERSIZED_BEAMS, intensities=[],
+                     angle_max=m.angle_min + (OVERSIZED_BEAMS - 1) * m.angle_increment)
+
+    return [
+        ("scan angle_max 3 beams off", beams_off(3)),
+        ("scan angle_max 1 beam short", beams_off(-1)),
+        ("scan range_max < range_min", scan(lambda m: _with(m, range_min=5.0, range_max=1.0))),
+        ("scan range_min NaN", scan(lambda m: _with(m, range_min=math.nan))),
+        ("scan time_increment NaN", scan(lambda m: _with(m, time_increment=math.nan))),
+        (f"scan of {OVERSIZED_BEAMS} beams", scan(oversized)),
+        ("scan 1 h ahead", scan(lambda m: _shifted(m, 3600.0))),
+        ("scan negative sec", scan(lambda m: _with(m, header__stamp__sec=-3))),
+        ("scan wrong frame", scan(lambda m: _with(m, header__frame_id="world"))),
+    ]
+
+
+def cloud_faults(rng: np.random.Generator) -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last messages by topic) -> (topic, message)) of landmark clouds;
+    a build with ``amends`` instead changes the next valid cloud (build(msg) -> msg)."""
     def cloud(points_of):
-        def build(stamp, _odom, last_cloud):
+        def build(stamp, last):
+            last_cloud = last[LANDMARKS_TOPIC]
             good = ros_io.read_landmark_cloud(last_cloud)
             points = points_of(np.column_stack([good.x, good.y]))
             return LANDMARKS_TOPIC, _cloud(stamp, points, last_cloud.header.frame_id)
         return build
 
     def cloud_msg(change):
-        def build(stamp, odom_msg, last_cloud):
-            return LANDMARKS_TOPIC, change(cloud(lambda p: p)(stamp, odom_msg, last_cloud)[1])
+        def build(stamp, last):
+            return LANDMARKS_TOPIC, change(cloud(lambda p: p)(stamp, last)[1])
         return build
-
-    def jumped(offset):
-        return odom(lambda m, pose: _odometry(ros_io.stamp_to_seconds(m.header.stamp),
-                                              pose + offset, m.header.frame_id, m.child_frame_id))
 
     def byte_swapped(points):
         # Little-endian floats whose two low bytes are zero, declared big-endian: denormals.
         bits = np.asarray(points, np.float32).view(np.uint32) & np.uint32(0xFFFF0000)
         return bits.view(np.float32).astype(float)
 
-    def swapped_cloud(stamp, odom_msg, last_cloud):
-        topic, msg = cloud(byte_swapped)(stamp, odom_msg, last_cloud)
+    def swapped_cloud(stamp, last):
+        topic, msg = cloud(byte_swapped)(stamp, last)
         msg.is_bigendian = True
         return topic, msg
 
@@ -106,16 +168,6 @@ def fault_builders(rng: np.random.Generator) -> list[tuple[str, Callable]]:
         return build
 
     return [
-        ("odometry 1e308", jumped(np.array([1e308, 0.0, 0.0]))),
-        ("odometry +1e6 m", jumped(np.array([1e6, 0.0, 0.0]))),
-        ("odometry +100 m", jumped(np.array([100.0, 0.0, 0.0]))),
-        ("odometry half turn", jumped(np.array([0.0, 0.0, 3.0]))),
-        ("odometry NaN", odom(lambda m, _p: _with(m, pose__pose__position__x=math.nan))),
-        ("odometry zero quaternion", odom(lambda m, _p: _with(
-            m, pose__pose__orientation__z=0.0, pose__pose__orientation__w=0.0))),
-        ("odometry 1 h ahead", odom(lambda m, _p: _shifted(m, 3600.0))),
-        ("odometry 1 h behind", odom(lambda m, _p: _shifted(m, -3600.0))),
-        ("odometry nanosec 2^32-1", odom(lambda m, _p: _with(m, header__stamp__nanosec=2**32 - 1))),
         ("point at 1e-12 m", amend([[1e-12, 0.0]])),
         ("denormal point", amend([[1e-40, 1e-41]])),
         ("NaN point", amend([[math.nan, 1.0]])),
@@ -128,8 +180,14 @@ def fault_builders(rng: np.random.Generator) -> list[tuple[str, Callable]]:
             m, fields=[f for f in m.fields if f.name != "y"]))),
         ("cloud short data", cloud_msg(lambda m: _with(m, data=bytes(m.data)[:-3]))),
         ("cloud width 0 with data", cloud_msg(lambda m: _with(m, width=0))),
-        ("odometry wrong frame", odom(lambda m, _p: _with(m, header__frame_id="world"))),
     ]
+
+
+def fault_builders(rng: np.random.Generator, topics) -> list[tuple[str, Callable]]:
+    """Every fault class of a bag with these input ``topics``: the odometry's, then the
+    landmark clouds' and the scans' (of those it has)."""
+    return (odometry_faults() + (cloud_faults(rng) if LANDMARKS_TOPIC in topics else [])
+            + (scan_faults() if SCAN_TOPIC in topics else []))
 
 
 def _decoded(raw: bytes | memoryview, cls: type) -> object | None:
@@ -145,13 +203,14 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
                overwrite: bool = False) -> dict[str, int]:
     """Write OUT: BAG's messages plus ``rate`` bad ones per second; returns the count by class."""
     rng = np.random.default_rng(seed)
-    builders = fault_builders(rng)
-    counts = dict.fromkeys((name for name, _ in builders), 0)
     topics = bag_topics(bag)  # a bag with the inputs, of their types, before any output
-    missing = [topic for topic in (ODOM_TOPIC, LANDMARKS_TOPIC) if topic not in topics]
-    if missing:
-        raise SchemaError(f"{bag}: missing topic(s) {', '.join(missing)}")
-    check_topic_types(topics, bag, (ODOM_TOPIC, LANDMARKS_TOPIC))
+    inputs = tuple(topic for topic in MESSAGE_CLASSES if topic in topics)
+    if ODOM_TOPIC not in inputs or len(inputs) < 2:
+        raise SchemaError(f"{bag}: missing topic(s): {ODOM_TOPIC} and {LANDMARKS_TOPIC} or "
+                          f"{SCAN_TOPIC}")
+    check_topic_types(topics, bag, inputs)
+    builders = fault_builders(rng, inputs)
+    counts = dict.fromkeys((name for name, _ in builders), 0)
     with AnyReader([Path(bag)], default_typestore=TYPESTORE) as reader, \
             open_writer(out, "mcap", overwrite, inputs=[bag]) as writer:
         connections = {}
@@ -161,8 +220,8 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
             if connection.topic not in connections:
                 connections[connection.topic] = writer.add_connection(
                     connection.topic, connection.msgtype, typestore=TYPESTORE)
-            msg = _decoded(raw, Odometry if connection.topic == ODOM_TOPIC else PointCloud2) \
-                if connection.topic in (ODOM_TOPIC, LANDMARKS_TOPIC) else None
+            msg = _decoded(raw, MESSAGE_CLASSES[connection.topic]) \
+                if connection.topic in inputs else None
             if amend is not None and msg is not None and connection.topic == LANDMARKS_TOPIC:
                 raw = serialize_message(amend(msg))
                 amend = None
@@ -171,7 +230,7 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
                 last[connection.topic] = msg
             stamp = stamp_ns * 1e-9
             next_fault = stamp + rng.exponential(1.0 / rate) if next_fault is None else next_fault
-            if stamp < next_fault or len(last) < 2:
+            if stamp < next_fault or len(last) < len(inputs):
                 continue
             name, build = builders[turn % len(builders)]
             turn += 1
@@ -181,11 +240,10 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
                 amend = build
                 continue
             # Between this message and the next odometry: half an odometry period later.
-            topic, msg = build(stamp + 0.0125, last[ODOM_TOPIC], last[LANDMARKS_TOPIC])
+            topic, msg = build(stamp + 0.0125, last)
             if topic not in connections:
-                connections[topic] = writer.add_connection(
-                    topic, ODOMETRY_TYPE if topic == ODOM_TOPIC else CLOUD_TYPE,
-                    typestore=TYPESTORE)
+                connections[topic] = writer.add_connection(topic, TOPIC_TYPES[topic],
+                                                           typestore=TYPESTORE)
             writer.write(connections[topic], stamp_ns + 1, serialize_message(msg))
     return counts
 
