@@ -38,6 +38,7 @@ from fastslam_ros.output import staged_output
 
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
+SCAN_TOPIC = "/scan"
 GROUND_TRUTH_POSE_TOPIC = "/ground_truth/pose"
 GROUND_TRUTH_LANDMARKS_TOPIC = "/ground_truth/landmarks"
 TF_STATIC_TOPIC = "/tf_static"
@@ -53,7 +54,7 @@ TOPIC_TYPES = {
     GROUND_TRUTH_LANDMARKS_TOPIC: CLOUD_TYPE, TF_STATIC_TOPIC: TF_TYPE, "/tf": TF_TYPE,
     REPLAY_INFO_TOPIC: "std_msgs/msg/String", "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
     INITIAL_POSE_TOPIC: "geometry_msgs/msg/PoseWithCovarianceStamped",
-    "/map": "nav_msgs/msg/OccupancyGrid", "/scan": "sensor_msgs/msg/LaserScan",
+    "/map": "nav_msgs/msg/OccupancyGrid", SCAN_TOPIC: "sensor_msgs/msg/LaserScan",
     "/fastslam/pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "/fastslam/path": "nav_msgs/msg/Path", "/fastslam/map_cloud": CLOUD_TYPE}
 """The message type of each topic the tools read (schema v1, people bags, a replay's outputs):

@@ -24,9 +24,9 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from fastslam_ros.landmark_extractor_node import NODE_NAME as EXTRACTOR_NAME
 from fastslam_ros.landmark_extractor_node import LandmarkExtractorNode, parameter_specs
 from fastslam_ros.node import CORE_PARAMETERS, NODE_PARAMETERS, FastSLAMNode, read_params_file
+from fastslam_ros.tools.bags.bag_schema import LANDMARKS_TOPIC, SCAN_TOPIC
 from fastslam_ros.tools.bags.in_process import in_process
 
-SCAN_TOPIC = "/scan"
 EXTRACTOR_PARAMETERS = parameter_specs()
 SLAM_PARAMETERS = {**CORE_PARAMETERS, **NODE_PARAMETERS}
 
@@ -109,7 +109,7 @@ def laser_target(slam_target: Any) -> Any:
         slam_target, make_node=LaserSLAMNode,
         specs={**EXTRACTOR_PARAMETERS, **SLAM_PARAMETERS},
         callbacks=lambda node: {**slam_target.callbacks(node), SCAN_TOPIC: node.on_scan},
-        required_topics=tuple(SCAN_TOPIC if topic == "/landmarks" else topic
+        required_topics=tuple(SCAN_TOPIC if topic == LANDMARKS_TOPIC else topic
                               for topic in slam_target.required_topics),
         copied_topics=(*slam_target.copied_topics, SCAN_TOPIC),
         sensor_topic=SCAN_TOPIC, params_from_file=laser_params)

@@ -28,11 +28,10 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bags.bag_schema import (LANDMARKS_TOPIC, ODOM_TOPIC, TOPIC_TYPES,
-                                                TYPESTORE, SchemaError, bag_topics,
-                                                check_topic_types, open_writer)
+from fastslam_ros.tools.bags.bag_schema import (LANDMARKS_TOPIC, ODOM_TOPIC, SCAN_TOPIC,
+                                                TOPIC_TYPES, TYPESTORE, SchemaError,
+                                                bag_topics, check_topic_types, open_writer)
 
-SCAN_TOPIC = "/scan"
 OVERSIZED_BEAMS = 5000
 """Beams of the oversized scan: more than any node reads (``max_beams_per_scan``, at most
 2048 by default)."""

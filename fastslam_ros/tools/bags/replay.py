@@ -56,6 +56,7 @@ from fastslam_ros.output import check_output
 from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
                                                 GROUND_TRUTH_POSE_TOPIC, INITIAL_POSE_TOPIC,
                                                 LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
+                                                SCAN_TOPIC,
                                                 TF_STATIC_TOPIC, TYPESTORE, SchemaError,
                                                 check_topic_types, open_writer, ros_message_class,
                                                 transform_message)
@@ -326,7 +327,7 @@ def _laser_only(bag_path: Path, topic_of: TopicOf) -> bool:
             topics = {topic_of(c) for c in reader.connections}
     except (AnyReaderError, OSError):
         return False
-    return "/scan" in topics and LANDMARKS_TOPIC not in topics
+    return SCAN_TOPIC in topics and LANDMARKS_TOPIC not in topics
 
 
 @contextmanager

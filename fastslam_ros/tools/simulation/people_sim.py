@@ -32,14 +32,14 @@ from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools.simulation.crowd import PERSON_RADIUS, Crowd, build_map
 from fastslam_ros.tools.simulation.people_legs import circle_ranges
-from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, TYPESTORE, LandmarkScans,
+from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, SCAN_TOPIC, TYPESTORE,
+                                           LandmarkScans,
                                            PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
                                            yaw_to_quaternion)
 from fastslam_ros.tools import cli
 from fastslam_ros.output import check_output, write_params_yaml
 
 MAP_TOPIC = "/map"
-SCAN_TOPIC = "/scan"
 PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
 PEOPLE_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4")])
 ROUTE = ((2.0, 10.0), (9.0, 10.0), (10.0, 8.8), (10.0, 6.0), (8.5, 5.5), (10.0, 8.8),
