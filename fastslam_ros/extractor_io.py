@@ -26,11 +26,11 @@ CIRCLE_COLOUR = ColorRGBA(r=0.2, g=0.8, b=0.2, a=0.8)
 REFLECTOR_COLOUR = ColorRGBA(r=1.0, g=0.9, b=0.1, a=0.9)
 
 
-def read_scan(msg) -> RawScan:
+def read_scan(msg, max_beams: int | None = None) -> RawScan:
     """``sensor_msgs/LaserScan`` -> ``RawScan``, its geometry checked
-    (``ros_io.scan_geometry``), ranges as sent (REP 117 meanings kept); intensities must be
-    none or one per beam (``ros_io.MalformedScanError``)."""
-    geometry = ros_io.scan_geometry(msg)
+    (``ros_io.scan_geometry``; ``OversizedError`` beyond ``max_beams``), ranges as sent (REP
+    117 meanings kept); intensities must be none or one per beam (``MalformedScanError``)."""
+    geometry = ros_io.scan_geometry(msg, max_beams)
     ranges = np.asarray(msg.ranges, dtype=float)
     intensities = np.asarray(msg.intensities, dtype=float)
     if intensities.size not in (0, ranges.size):

@@ -51,9 +51,9 @@ NODE_NAME = "landmark_extractor"
 COUNTERS = (
     "received_scan", "used_scan", "scan_missing", "resets", "time_jumps", "landmarks",
     "reflectors", *(f"rejected_{reason}" for reason in REJECTIONS), "rejected_moving",
-    "dropped_malformed_scan", "dropped_wrong_frame", "dropped_invalid_stamp",
-    "dropped_outlier_stamp", "dropped_duplicate_stamp", "dropped_internal_error",
-    "scans_not_deskewed",
+    "dropped_malformed_scan", "dropped_oversized_scan", "dropped_wrong_frame",
+    "dropped_invalid_stamp", "dropped_outlier_stamp", "dropped_duplicate_stamp",
+    "dropped_internal_error", "scans_not_deskewed",
 )
 THROTTLED_OUTPUTS = ("markers_rate",)
 DIAGNOSED = (("time_jumps", "time jumps"), ("scans_not_deskewed", "swept scans not deskewed"))
@@ -66,6 +66,10 @@ class NodeSettings:
     the odometry's frames, wait and plausibility gates."""
 
     scan_frame: str = parameter("", "Frame the scans must be in; '': the first scan's frame.")
+    max_beams_per_scan: int = parameter(
+        8192, "A scan with more beams is dropped unread (dropped_oversized_scan): no 2-D "
+              "laser sends that many in one scan; such a message is a broken driver's.",
+        low=1, high=1_000_000)
     markers_rate: float = parameter(5.0, "Maximum rate of ~/markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
     odom_frame: str = parameter("odom", "With deskew_scans or static_window: odometry frame "
@@ -155,7 +159,9 @@ class LandmarkExtractorNode(FilterNode):
         if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
             return
         try:
-            scan = extractor_io.read_scan(msg)
+            scan = extractor_io.read_scan(msg, self.settings["max_beams_per_scan"])
+        except ros_io.OversizedError as error:
+            return self._drop("oversized_scan", f"scan dropped: {error}")
         except ros_io.MalformedScanError as error:
             return self._drop("malformed_scan", f"scan dropped: {error}")
         now = self._now()

@@ -284,6 +284,16 @@ def test_bad_points_in_a_valid_cloud_are_dropped_and_change_nothing(context, cle
     assert_same_estimate(estimate, clean[1])
 
 
+def test_with_sensor_frame_empty_a_cloud_in_another_frame_than_the_first_is_dropped(context,
+                                                                                  clean):
+    msg = modified_cloud(set_attr("header.frame_id", "camera"))
+    events = STREAM[:INJECT_AT + 1] + [Event(STREAM[INJECT_AT].arrival, msg)] \
+        + STREAM[INJECT_AT + 1:]
+    node, estimate = run(context, events, sensor_frame="")
+    assert_only_counter(node.stats, clean[0], "dropped_wrong_frame", 1, "received_landmarks")
+    assert_same_estimate(estimate, clean[1])
+
+
 def test_bare_cloud_and_width_zero_are_the_same_empty_reading(context):
     stamp, _ = odometry_between()
     bare = PointCloud2(header=Header(stamp=ros_io.seconds_to_stamp(stamp), frame_id="base_link"))

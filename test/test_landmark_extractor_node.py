@@ -142,7 +142,8 @@ def test_bad_parameters_stop_the_node_naming_them(context):
 
 
 def test_bad_scans_are_dropped_counted_and_reported(context):
-    node = make_node(context, scan_frame="laser")
+    beams = len(cast(POLES))
+    node = make_node(context, scan_frame="laser", max_beams_per_scan=beams)
     recorder = Recorder(node)
     try:
         deliver(node, scan_message(START, cast(POLES)), START)
@@ -151,15 +152,33 @@ def test_bad_scans_are_dropped_counted_and_reported(context):
         deliver(node, scan_message(START + 0.2, cast(POLES), frame="base"), START + 0.2)
         deliver(node, scan_message(START + 0.3, []), START + 0.3)
         deliver(node, scan_message(START, cast(POLES)), START + 0.4)   # stamp repeated
-        assert node.stats["dropped_malformed_scan"] == 2
+        deliver(node, scan_message(START + 0.5, np.append(cast(POLES), 1.0)), START + 0.5)
+        crossed = scan_message(START + 0.6, cast(POLES))
+        crossed.range_min, crossed.range_max = 5.0, 1.0
+        deliver(node, crossed, START + 0.6)
+        assert node.stats["dropped_malformed_scan"] == 3
+        assert node.stats["dropped_oversized_scan"] == 1
         assert node.stats["dropped_wrong_frame"] == 1
         assert node.stats["dropped_duplicate_stamp"] == 1
         assert len(recorder.messages["/landmarks"]) == 1
         node.flush()
         status = recorder.last_status()
-        assert status.level == DiagnosticStatus.WARN and "4 input(s) dropped" in status.message
+        assert status.level == DiagnosticStatus.WARN and "6 input(s) dropped" in status.message
         values = {v.key: v.value for v in status.values}
-        assert values["dropped_malformed_scan"] == "2"
+        assert values["dropped_malformed_scan"] == "3"
+    finally:
+        node.destroy_node()
+
+
+def test_with_scan_frame_empty_a_scan_in_another_frame_than_the_first_is_dropped(context):
+    node = make_node(context)
+    recorder = Recorder(node)
+    try:
+        deliver(node, scan_message(START, cast(POLES), frame="laser"), START)
+        deliver(node, scan_message(START + 0.1, cast(POLES), frame="base"), START + 0.1)
+        deliver(node, scan_message(START + 0.2, cast(POLES), frame="laser"), START + 0.2)
+        assert node.stats["dropped_wrong_frame"] == 1
+        assert [m.header.frame_id for m in recorder.messages["/landmarks"]] == ["laser"] * 2
     finally:
         node.destroy_node()
 

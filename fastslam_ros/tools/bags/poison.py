@@ -32,9 +32,9 @@ from fastslam_ros.tools.bags.bag_schema import (LANDMARKS_TOPIC, ODOM_TOPIC, SCA
                                                 TOPIC_TYPES, TYPESTORE, SchemaError,
                                                 bag_topics, check_topic_types, open_writer)
 
-OVERSIZED_BEAMS = 5000
-"""Beams of the oversized scan: more than any node reads (``max_beams_per_scan``, at most
-2048 by default)."""
+OVERSIZED_BEAMS = 10_000
+"""Beams of the oversized scan (over the span of the scan it copies): more than any node reads
+(``max_beams_per_scan``: 2048 for the people tracker, 8192 for the landmark extractor)."""
 MESSAGE_CLASSES = {ODOM_TOPIC: Odometry, LANDMARKS_TOPIC: PointCloud2, SCAN_TOPIC: LaserScan}
 
 
@@ -114,8 +114,10 @@ def scan_faults() -> list[tuple[str, Callable]]:
         return scan(lambda m: _with(m, angle_max=m.angle_max + count * m.angle_increment))
 
     def oversized(m):
+        increment = m.angle_increment * (len(m.ranges) - 1) / (OVERSIZED_BEAMS - 1)
         return _with(m, ranges=[1.0] * OVERSIZED_BEAMS, intensities=[],
-                     angle_max=m.angle_min + (OVERSIZED_BEAMS - 1) * m.angle_increment)
+                     angle_increment=increment,
+                     angle_max=m.angle_min + (OVERSIZED_BEAMS - 1) * increment)
 
     return [
         ("scan angle_max 3 beams off", beams_off(3)),
