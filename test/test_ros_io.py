@@ -285,3 +285,49 @@ def test_input_rate_counts_lost_messages_not_jitter_or_bursts():
     assert rate.interval == pytest.approx(0.01, rel=0.05)
     assert rate.missing == 10 and rate.largest_gap == pytest.approx(0.11)
     assert rate.silence(2.06) == 0.0 and rate.silence(3.5) == pytest.approx(1.45)
+
+
+def scan_like(count: int = 5, increment: float = 0.1, **fields) -> SimpleNamespace:
+    """A LaserScan's fields, consistent unless ``fields`` says otherwise."""
+    values = dict(ranges=[1.0] * count, angle_min=-0.2, angle_increment=increment,
+                  angle_max=-0.2 + (count - 1) * increment, range_min=0.1, range_max=10.0,
+                  time_increment=0.0)
+    return SimpleNamespace(**{**values, **fields})
+
+
+@pytest.mark.parametrize("angle_max_beams", [4.0, 4.4, 3.6, 5.0, 5.4])
+def test_scan_geometry_takes_angle_max_at_the_last_beam_or_one_beyond(angle_max_beams):
+    # REP 117 puts angle_max at the last beam (n - 1 increments); pointcloud_to_laserscan one
+    # increment beyond; half an increment of float32 rounding either way.
+    geometry = ros_io.scan_geometry(scan_like(angle_max=-0.2 + angle_max_beams * 0.1))
+    assert geometry.count == 5 and geometry.angle_increment == 0.1
+
+
+@pytest.mark.parametrize("fields, words", [
+    ({"ranges": []}, "no beams"),
+    ({"angle_increment": 0.0}, "unusable"),
+    ({"angle_increment": math.nan}, "unusable"),
+    ({"angle_max": -0.2 + 3.4 * 0.1}, "angle_max"),
+    ({"angle_max": -0.2 + 5.6 * 0.1}, "angle_max"),
+    ({"range_min": math.nan}, "range_min"),
+    ({"range_max": math.nan}, "range_max"),
+    ({"range_min": math.inf}, "range_min"),
+    ({"range_min": 5.0, "range_max": 1.0}, "range_max"),
+    ({"time_increment": math.inf}, "time_increment"),
+])
+def test_scan_geometry_names_what_makes_a_scan_malformed(fields, words):
+    with pytest.raises(ros_io.MalformedScanError, match=words):
+        ros_io.scan_geometry(scan_like(**fields))
+
+
+def test_scan_geometry_caps_beams_before_reading_them_and_normalizes_the_limits():
+    with pytest.raises(ros_io.OversizedError, match="max_beams_per_scan 4"):
+        ros_io.scan_geometry(scan_like(), max_beams=4)
+    turn = 2.0 * math.pi / 4
+    with pytest.raises(ros_io.MalformedScanError, match="more than a turn"):
+        ros_io.scan_geometry(scan_like(count=6, increment=turn))
+    geometry = ros_io.scan_geometry(scan_like(range_min=-1.0, range_max=0.0), max_beams=5)
+    assert geometry.range_min == 0.0 and geometry.range_max == math.inf   # 0: left unset
+    reversed_scan = ros_io.scan_geometry(scan_like(angle_min=0.2, angle_increment=-0.1,
+                                                   angle_max=-0.2))
+    assert reversed_scan.angle_increment == -0.1
