@@ -8,7 +8,6 @@ reads (x y z float32, id int32 = -1: unknown) plus ``radius`` and ``intensity`` 
 """
 from __future__ import annotations
 
-
 import numpy as np
 from geometry_msgs.msg import Point
 from sensor_msgs.msg import PointCloud2

@@ -19,7 +19,6 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from fastslam_ros import ros_io, ros_markers
-from fastslam_ros.ros_io import OversizedError
 from fastslam_ros.core import geometry
 from fastslam_ros.people.report import PeopleEstimate
 from fastslam_ros.people.detection import Scan
@@ -62,7 +61,7 @@ def _check_resolution(resolution: float) -> None:
 
 def _check_cells(width: int, height: int, max_cells: int | None) -> None:
     if max_cells is not None and width * height > max_cells:
-        raise OversizedError(f"{width} x {height} cells (max_map_cells {max_cells})")
+        raise ros_io.OversizedError(f"{width} x {height} cells (max_map_cells {max_cells})")
 
 
 def _usable(grid: OccupancyMap) -> OccupancyMap:
@@ -76,7 +75,8 @@ def read_occupancy_grid(msg, max_distance: float, max_cells: int | None = None
                         ) -> OccupancyMap:
     """``nav_msgs/OccupancyGrid`` -> ``OccupancyMap`` (likelihood field clipped at
     ``max_distance`` m); ``MalformedMapError`` for a grid that cannot be used (no free cell
-    included), ``OversizedError`` beyond ``max_cells`` (checked before the cells are read)."""
+    included), ``ros_io.OversizedError`` beyond ``max_cells`` (checked before the cells are
+    read)."""
     info = msg.info
     width, height, resolution = int(info.width), int(info.height), float(info.resolution)
     _check_cells(width, height, max_cells)
@@ -105,7 +105,7 @@ def load_map_file(path: str | Path, max_distance: float, max_cells: int | None =
                   ) -> OccupancyMap:
     """A nav2 map (YAML with image, resolution, origin, negate, occupied_thresh, free_thresh;
     trinary or scale mode) as an ``OccupancyMap``; ``MalformedMapError`` (or
-    ``OversizedError``) naming what cannot be used."""
+    ``ros_io.OversizedError``) naming what cannot be used."""
     path = Path(path).expanduser()
     try:
         description = yaml.safe_load(path.read_text())

@@ -503,7 +503,7 @@ def test_bad_map_file_is_one_line_and_exit_1(tmp_path, name):
 
 def test_a_map_file_beyond_max_map_cells_is_refused(tmp_path):
     path = write_map(tmp_path)
-    with pytest.raises(people_io.OversizedError, match="max_map_cells"):
+    with pytest.raises(ros_io.OversizedError, match="max_map_cells"):
         people_io.load_map_file(path, 1.0, max_cells=39_999)
     assert people_io.load_map_file(path, 1.0, max_cells=40_000).shape == (200, 200)
 
