@@ -39,8 +39,10 @@ from fastslam_ros.output import staged_output
 ODOM_TOPIC = "/odom"
 LANDMARKS_TOPIC = "/landmarks"
 SCAN_TOPIC = "/scan"
+MAP_TOPIC = "/map"
 GROUND_TRUTH_POSE_TOPIC = "/ground_truth/pose"
 GROUND_TRUTH_LANDMARKS_TOPIC = "/ground_truth/landmarks"
+PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
 TF_STATIC_TOPIC = "/tf_static"
 REPLAY_INFO_TOPIC = "/fastslam_replay/info"
 """One message of the replay: its parameters, seed and counters, for the evaluation."""
@@ -54,7 +56,7 @@ TOPIC_TYPES = {
     GROUND_TRUTH_LANDMARKS_TOPIC: CLOUD_TYPE, TF_STATIC_TOPIC: TF_TYPE, "/tf": TF_TYPE,
     REPLAY_INFO_TOPIC: "std_msgs/msg/String", "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
     INITIAL_POSE_TOPIC: "geometry_msgs/msg/PoseWithCovarianceStamped",
-    "/map": "nav_msgs/msg/OccupancyGrid", SCAN_TOPIC: "sensor_msgs/msg/LaserScan",
+    MAP_TOPIC: "nav_msgs/msg/OccupancyGrid", SCAN_TOPIC: "sensor_msgs/msg/LaserScan",
     "/fastslam/pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "/fastslam/path": "nav_msgs/msg/Path", "/fastslam/map_cloud": CLOUD_TYPE}
 """The message type of each topic the tools read (schema v1, people bags, a replay's outputs):

@@ -55,8 +55,8 @@ from fastslam_ros.tools.bags.cdr import (read_odometry,
 from fastslam_ros.output import check_output
 from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_LANDMARKS_TOPIC,
                                                 GROUND_TRUTH_POSE_TOPIC, INITIAL_POSE_TOPIC,
-                                                LANDMARKS_TOPIC, ODOM_TOPIC, REPLAY_INFO_TOPIC,
-                                                SCAN_TOPIC,
+                                                LANDMARKS_TOPIC, MAP_TOPIC, ODOM_TOPIC,
+                                                PEOPLE_TRUTH_TOPIC, REPLAY_INFO_TOPIC, SCAN_TOPIC,
                                                 TF_STATIC_TOPIC, TYPESTORE, SchemaError,
                                                 check_topic_types, open_writer, ros_message_class,
                                                 transform_message)
@@ -214,7 +214,6 @@ SLAM_TARGET = ReplayTarget(
 def people_target() -> ReplayTarget:
     """The people tracker's target (its node is imported only when a people bag is replayed)."""
     from fastslam_ros.people_node import NODE_NAME, PeopleTrackerNode, parameter_specs
-    from fastslam_ros.tools.simulation.people_sim import MAP_TOPIC, PEOPLE_TRUTH_TOPIC, SCAN_TOPIC
     return ReplayTarget(
         NODE_NAME, in_process(PeopleTrackerNode, lean=True), parameter_specs(),
         lambda node: {MAP_TOPIC: node.on_map, INITIAL_POSE_TOPIC: node.on_initial_pose,

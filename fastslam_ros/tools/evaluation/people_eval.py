@@ -39,8 +39,8 @@ from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools import cli
 from fastslam_ros.output import (all_or_nothing, check_output, staged_output, write_params_yaml,
                                  write_text)
-from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_POSE_TOPIC, REPLAY_INFO_TOPIC,
-                                           SCAN_TOPIC,
+from fastslam_ros.tools.bags.bag_schema import (GROUND_TRUTH_POSE_TOPIC, MAP_TOPIC,
+                                           PEOPLE_TRUTH_TOPIC, REPLAY_INFO_TOPIC, SCAN_TOPIC,
                                            PoseSeries, cloud_to_arrays,
                                            pose_series_from_messages, read_topics,
                                            time_msg_to_stamp)
@@ -49,8 +49,6 @@ from fastslam_ros.tools.evaluation.metrics import (evaluate_trajectory, json_rea
 
 PEOPLE_TOPIC = "/people_tracker/people"
 POSE_TOPIC = "/people_tracker/pose"
-MAP_TOPIC = "/map"
-PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
 MATCH_RADIUS = 0.5
 """CLEAR MOT match radius (m)."""
 BENCHMARK_RADIUS = 0.75

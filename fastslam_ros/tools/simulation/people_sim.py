@@ -32,15 +32,13 @@ from fastslam_ros.core.geometry import wrap_angle
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.tools.simulation.crowd import PERSON_RADIUS, Crowd, build_map
 from fastslam_ros.tools.simulation.people_legs import circle_ranges
-from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, SCAN_TOPIC, TYPESTORE,
-                                           LandmarkScans,
-                                           PoseSeries, SchemaBag, stamp_to_ns, write_schema_bag,
-                                           yaw_to_quaternion)
+from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, MAP_TOPIC,
+                                           PEOPLE_TRUTH_TOPIC, SCAN_TOPIC, TYPESTORE,
+                                           LandmarkScans, PoseSeries, SchemaBag, stamp_to_ns,
+                                           write_schema_bag, yaw_to_quaternion)
 from fastslam_ros.tools import cli
 from fastslam_ros.output import check_output, write_params_yaml
 
-MAP_TOPIC = "/map"
-PEOPLE_TRUTH_TOPIC = "/ground_truth/people"
 PEOPLE_CLOUD_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4")])
 ROUTE = ((2.0, 10.0), (9.0, 10.0), (10.0, 8.8), (10.0, 6.0), (8.5, 5.5), (10.0, 8.8),
          (15.0, 10.0), (15.0, 13.0), (14.0, 15.5), (15.0, 12.8), (16.6, 10.0), (18.0, 10.0),
