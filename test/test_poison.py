@@ -43,16 +43,19 @@ def test_a_poisoned_bag_replays_to_the_clean_outputs_with_every_fault_counted(tm
     counts = poison.poison_bag(bag, tmp_path / "poisoned", rate=3.0, seed=1)
     assert all(count >= 1 for count in counts.values()), counts
     assert any(name.startswith("scan") for name in counts) == ("/scan" in fed)
+    assert any(name.startswith("map") for name in counts) == (kind == "people")
 
     clean = replay_function(bag, {"seed": 1}, params, tmp_path / "clean_out", remap=remap)
     poisoned = replay_function(tmp_path / "poisoned", {"seed": 1}, params,
                                tmp_path / "poisoned_out", remap=remap)
     assert not any(v for k, v in clean.stats.items() if "dropped_" in k)
-    # Every added message on a topic the replay feeds reaches each node that reads the topic
-    # and is dropped; an amended cloud ("point ...") is a valid message that loses its bad
-    # points. The extractor makes no cloud of a bad scan.
+    # Every added message on a topic the replay feeds (odometry, clouds, scans; a people bag's
+    # map and initial pose too) reaches each node that reads the topic and is dropped; an
+    # amended cloud ("point ...") is a valid message that loses its bad points. The extractor
+    # makes no cloud of a bad scan.
     added = {topic: sum(n for name, n in counts.items() if name.split()[0] == kind)
-             for kind, topic in (("odometry", "odom"), ("cloud", "landmarks"), ("scan", "scan"))}
+             for kind, topic in (("odometry", "odom"), ("cloud", "landmarks"), ("scan", "scan"),
+                                 ("map", "map"), ("initialpose", "initialpose"))}
     if "/landmarks" not in fed:
         added["landmarks"] = 0
     for key in poisoned.stats:

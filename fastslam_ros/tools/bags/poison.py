@@ -9,8 +9,10 @@ ahead or behind, nanosec 2^32-1, negative seconds), byte-swapped (denormal), mal
 oversized clouds. Added to a valid cloud: points at 1e-12 m, denormal, NaN or beyond range.
 A bag with ``/scan`` (a people bag, a laser bag) takes malformed scans too: angles that do
 not match the beams, NaN or crossed range limits, a NaN time increment, more beams than a node
-reads, a wrong frame, stray and invalid stamps. The node should drop exactly the bad input, so
-replaying OUT gives the estimate of BAG (compare them with ``fastslam-eval``).
+reads, a wrong frame, stray and invalid stamps; one with ``/map`` unusable maps (resolution 0
+or NaN, no known cell, data of the wrong size, a wrong frame), one with ``/initialpose``
+initial poses off the map, NaN or with an absurd covariance. The node should drop exactly the
+bad input, so replaying OUT gives the estimate of BAG (compare them with ``fastslam-eval``).
 """
 from __future__ import annotations
 
@@ -20,7 +22,8 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-from nav_msgs.msg import Odometry
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import LaserScan, PointCloud2
@@ -28,14 +31,18 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.tools import cli
-from fastslam_ros.tools.bags.bag_schema import (LANDMARKS_TOPIC, ODOM_TOPIC, SCAN_TOPIC,
-                                                TOPIC_TYPES, TYPESTORE, SchemaError,
-                                                bag_topics, check_topic_types, open_writer)
+from fastslam_ros.tools.bags.bag_schema import (INITIAL_POSE_TOPIC, LANDMARKS_TOPIC, MAP_TOPIC,
+                                                ODOM_TOPIC, SCAN_TOPIC, TOPIC_TYPES, TYPESTORE,
+                                                SchemaError, bag_topics, check_topic_types,
+                                                open_writer)
 
 OVERSIZED_BEAMS = 10_000
 """Beams of the oversized scan (over the span of the scan it copies): more than any node reads
 (``max_beams_per_scan``: 2048 for the people tracker, 8192 for the landmark extractor)."""
-MESSAGE_CLASSES = {ODOM_TOPIC: Odometry, LANDMARKS_TOPIC: PointCloud2, SCAN_TOPIC: LaserScan}
+MESSAGE_CLASSES = {ODOM_TOPIC: Odometry, LANDMARKS_TOPIC: PointCloud2, SCAN_TOPIC: LaserScan,
+                   MAP_TOPIC: OccupancyGrid, INITIAL_POSE_TOPIC: PoseWithCovarianceStamped}
+"""The topics whose messages faults are made from, and their classes."""
+SENSOR_TOPICS = (LANDMARKS_TOPIC, SCAN_TOPIC)
 
 
 def _odometry(stamp: float, pose, frame: str, child: str) -> Odometry:
@@ -66,9 +73,9 @@ def _with(msg, **changes):
     return msg
 
 
-def _scan_copy(stamp: float, last_scan: LaserScan) -> LaserScan:
-    """A copy of ``last_scan`` stamped ``stamp`` (a scan a node would use)."""
-    msg = deserialize_message(serialize_message(last_scan), LaserScan)
+def _copy(stamp: float, last):
+    """A copy of the message ``last`` stamped ``stamp`` (one a node would use)."""
+    msg = deserialize_message(serialize_message(last), type(last))
     msg.header.stamp = ros_io.seconds_to_stamp(stamp)
     return msg
 
@@ -107,7 +114,7 @@ def scan_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of laser scans."""
     def scan(change):
         def build(stamp, last):
-            return SCAN_TOPIC, change(_scan_copy(stamp, last[SCAN_TOPIC]))
+            return SCAN_TOPIC, change(_copy(stamp, last[SCAN_TOPIC]))
         return build
 
     def beams_off(count):
@@ -129,6 +136,42 @@ def scan_faults() -> list[tuple[str, Callable]]:
         ("scan 1 h ahead", scan(lambda m: _shifted(m, 3600.0))),
         ("scan negative sec", scan(lambda m: _with(m, header__stamp__sec=-3))),
         ("scan wrong frame", scan(lambda m: _with(m, header__frame_id="world"))),
+    ]
+
+
+def map_faults() -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last messages by topic) -> (topic, message)) of occupancy grids."""
+    def grid(change):
+        def build(stamp, last):
+            return MAP_TOPIC, change(_copy(stamp, last[MAP_TOPIC]))
+        return build
+
+    return [
+        ("map resolution 0", grid(lambda m: _with(m, info__resolution=0.0))),
+        ("map resolution NaN", grid(lambda m: _with(m, info__resolution=math.nan))),
+        ("map of unknown cells", grid(lambda m: _with(m, data=[-1] * len(m.data)))),
+        ("map data short", grid(lambda m: _with(m, data=list(m.data)[:-1]))),
+        ("map wrong frame", grid(lambda m: _with(m, header__frame_id="world"))),
+    ]
+
+
+def initial_pose_faults() -> list[tuple[str, Callable]]:
+    """(name, build(stamp, last messages by topic) -> (topic, message)) of initial poses."""
+    def pose(change):
+        def build(stamp, last):
+            msg = _copy(stamp, last[INITIAL_POSE_TOPIC])
+            position = msg.pose.pose.position
+            return INITIAL_POSE_TOPIC, change(msg, position)
+        return build
+
+    def covariance(value):
+        return pose(lambda m, _p: _with(m, pose__covariance=[value if i in (0, 7, 35) else 0.0
+                                                             for i in range(36)]))
+
+    return [
+        ("initialpose 1000 m off", pose(lambda m, p: _with(m, pose__pose__position__x=p.x + 1e3))),
+        ("initialpose NaN", pose(lambda m, _p: _with(m, pose__pose__position__y=math.nan))),
+        ("initialpose covariance 1e300", covariance(1e300)),
     ]
 
 
@@ -185,10 +228,12 @@ def cloud_faults(rng: np.random.Generator) -> list[tuple[str, Callable]]:
 
 
 def fault_builders(rng: np.random.Generator, topics) -> list[tuple[str, Callable]]:
-    """Every fault class of a bag with these input ``topics``: the odometry's, then the
-    landmark clouds' and the scans' (of those it has)."""
-    return (odometry_faults() + (cloud_faults(rng) if LANDMARKS_TOPIC in topics else [])
-            + (scan_faults() if SCAN_TOPIC in topics else []))
+    """Every fault class of a bag with these input ``topics``: the odometry's, then those of
+    the landmark clouds, scans, maps and initial poses it has."""
+    present = {LANDMARKS_TOPIC: lambda: cloud_faults(rng), SCAN_TOPIC: scan_faults,
+               MAP_TOPIC: map_faults, INITIAL_POSE_TOPIC: initial_pose_faults}
+    return odometry_faults() + [fault for topic, faults in present.items() if topic in topics
+                                for fault in faults()]
 
 
 def _decoded(raw: bytes | memoryview, cls: type) -> object | None:
@@ -206,7 +251,7 @@ def poison_bag(bag: str | Path, out: str | Path, rate: float = 1.0, seed: int = 
     rng = np.random.default_rng(seed)
     topics = bag_topics(bag)  # a bag with the inputs, of their types, before any output
     inputs = tuple(topic for topic in MESSAGE_CLASSES if topic in topics)
-    if ODOM_TOPIC not in inputs or len(inputs) < 2:
+    if ODOM_TOPIC not in inputs or not set(SENSOR_TOPICS) & set(inputs):
         raise SchemaError(f"{bag}: missing topic(s): {ODOM_TOPIC} and {LANDMARKS_TOPIC} or "
                           f"{SCAN_TOPIC}")
     check_topic_types(topics, bag, inputs)
