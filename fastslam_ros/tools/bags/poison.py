@@ -159,19 +159,15 @@ def initial_pose_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of initial poses."""
     def pose(change):
         def build(stamp, last):
-            msg = _copy(stamp, last[INITIAL_POSE_TOPIC])
-            position = msg.pose.pose.position
-            return INITIAL_POSE_TOPIC, change(msg, position)
+            return INITIAL_POSE_TOPIC, change(_copy(stamp, last[INITIAL_POSE_TOPIC]))
         return build
 
-    def covariance(value):
-        return pose(lambda m, _p: _with(m, pose__covariance=[value if i in (0, 7, 35) else 0.0
-                                                             for i in range(36)]))
-
     return [
-        ("initialpose 1000 m off", pose(lambda m, p: _with(m, pose__pose__position__x=p.x + 1e3))),
-        ("initialpose NaN", pose(lambda m, _p: _with(m, pose__pose__position__y=math.nan))),
-        ("initialpose covariance 1e300", covariance(1e300)),
+        ("initialpose 1000 m off", pose(lambda m: _with(
+            m, pose__pose__position__x=m.pose.pose.position.x + 1e3))),
+        ("initialpose NaN", pose(lambda m: _with(m, pose__pose__position__y=math.nan))),
+        ("initialpose covariance 1e300", pose(lambda m: _with(
+            m, pose__covariance=[1e300 if i in (0, 7, 35) else 0.0 for i in range(36)]))),
     ]
 
 
