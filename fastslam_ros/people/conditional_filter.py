@@ -68,6 +68,8 @@ from fastslam_ros.people.detection import (LegModel, MixedPixelMonitor, Scan, de
 from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PeopleIdentities
+from fastslam_ros.people.particle_stats import (particle_covariances, particle_means,
+                                                 planar_distance)
 from fastslam_ros.people.person_motion import PersonMotion
 from fastslam_ros.people.report import PeopleEstimate, UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
@@ -209,11 +211,13 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         if dt <= 0.0 or not self.alive.any():
             return
         m, n = np.nonzero(self.alive)
-        self.people[m, n], self.velocities[m, n] = self.motion.predict(
-            self.people[m, n], self.velocities[m, n], dt, self.rng)
+        moved, velocities = self.motion.predict(self.people[m, n], self.velocities[m, n], dt,
+                                                self.rng)
         shift, self.walk[m, n] = self.motion.walk_on(self.walk[m, n],
                                                      self.last_seen[m, n] < previous, dt)
-        self.people[m, n] += shift[:, None, :]
+        self.people[m, n] = moved + shift[:, None, :]
+        if self.motion.carries_velocity:
+            self.velocities[m, n] = velocities
 
     # --- update -------------------------------------------------------------------------------
 
@@ -275,8 +279,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         cov = np.broadcast_to(np.eye(2), (count, slots, 2, 2)).copy()
         m, n, particles, live_mean = self._live_people()
         mean[m, n] = live_mean
-        centred = particles - live_mean[:, None, :]
-        cov[m, n] = np.einsum("kpi,kpj->kij", centred, centred) / particles.shape[1]
+        cov[m, n] = particle_covariances(particles - live_mean[:, None, :])
         return mean, cov
 
     def _live_people(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -284,7 +287,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         people: free slots are many and their particles are not read."""
         m, n = np.nonzero(self.alive)
         particles = self.people[m, n]
-        return m, n, particles, particles.mean(axis=1)
+        return m, n, particles, particle_means(particles)
 
     def _associate(self, sensors: np.ndarray, detections) -> tuple[np.ndarray, np.ndarray,
                                                                    np.ndarray]:
@@ -319,6 +322,8 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             if not valid.any():
                 continue
             associate = slot_of[:, j] >= 0
+            if not np.any(valid & ~associate):
+                continue
             best = np.maximum(slot_of[:, j], 0)
             dx = points[:, j, None, 0] - mean[..., 0]
             dy = points[:, j, None, 1] - mean[..., 1]
@@ -377,7 +382,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             index = batched_systematic_resample(w, self.rng)
             self.people[m, n] = np.take_along_axis(particles, index[..., None], axis=1)
             self._gather_velocities(m, n, index)
-            seen_mean = self.people[m, n].mean(axis=1)
+            seen_mean = particle_means(self.people[m, n])
             self.walk[m, n] = self.motion.walk_estimate(self.walk[m, n], self.seen_mean[m, n],
                                                         seen_mean, self.last_stamp
                                                         - self.last_seen[m, n])
@@ -462,9 +467,9 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         mean[m, n] = live_mean
         lost = np.zeros_like(self.alive)
         # Variance of x plus variance of y, from the mean just taken (``var`` would take it again).
-        lost[m, n] = (np.square(particles - live_mean[:, None]).mean(axis=1).sum(axis=1)
+        lost[m, n] = (particle_means(np.square(particles - live_mean[:, None])).sum(axis=1)
                       > 2.0 * s.lost_spread ** 2)
-        apart = np.linalg.norm(mean[:, :, None, :] - mean[:, None, :, :], axis=3)
+        apart = planar_distance(mean[:, :, None, :], mean[:, None, :, :])
         confirmed = self.alive & self.confirmed
         duplicate = ~self.confirmed & np.any(confirmed[:, None, :] & (apart < DUPLICATE_GATE),
                                              axis=2)

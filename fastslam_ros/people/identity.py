@@ -10,6 +10,8 @@ from scipy.optimize import linear_sum_assignment
 
 from fastslam_ros.core.existence import existence_probability
 from fastslam_ros.people.localization import sensor_poses
+from fastslam_ros.people.particle_stats import (particle_covariances, particle_means,
+                                                 planar_distance)
 from fastslam_ros.people.report import PeopleEstimate
 
 PUBLISHED_GATE = 0.4
@@ -45,17 +47,17 @@ class PeopleIdentities:
         now = self.last_stamp
         unseen = now - self.last_seen[m]
         hidden = (self.alive[m] & self.confirmed[m] & ~observed[m] & (unseen >= REID_MIN_UNSEEN)
-                  & (np.linalg.norm(mean[m] - points[:, None], axis=2)
+                  & (planar_distance(mean[m], points[:, None])
                      <= s.max_person_speed * unseen + REID_MARGIN))
         gone = now - self.lost_seen[m]
         alive_keys = np.where(self.alive[m], self.keys[m], -1)
         lost = ((self.lost_keys[m] >= 0) & (gone <= REID_MEMORY)
                 & ~np.any(self.lost_keys[m][:, :, None] == alive_keys[:, None, :], axis=2)
-                & (np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2)
+                & (planar_distance(self.lost_positions[m], points[:, None])
                    <= s.max_person_speed * gone + REID_MARGIN))
         distance = np.concatenate([
-            np.where(hidden, np.linalg.norm(mean[m] - points[:, None], axis=2), np.inf),
-            np.where(lost, np.linalg.norm(self.lost_positions[m] - points[:, None], axis=2),
+            np.where(hidden, planar_distance(mean[m], points[:, None]), np.inf),
+            np.where(lost, planar_distance(self.lost_positions[m], points[:, None]),
                      np.inf)], axis=1)
         choice = np.argmin(distance, axis=1)
         found = np.isfinite(distance[np.arange(len(m)), choice])
@@ -92,7 +94,7 @@ class PeopleIdentities:
         total = np.bincount(own, weights[m], len(unique))
         centroid = np.stack([np.bincount(own, weights[m] * means[:, i], len(unique))
                              for i in range(2)], axis=1) / np.maximum(total, 1e-300)[:, None]
-        near = np.linalg.norm(means[:, None] - centroid[None], axis=2) < VOTE_GATE
+        near = planar_distance(means[:, None], centroid[None]) < VOTE_GATE
         choice = np.argmax(np.where(near, total, -1.0), axis=1)
         rows = np.arange(len(m))
         take = near[rows, choice] & (total[choice] > total[own])
@@ -117,7 +119,7 @@ class PeopleIdentities:
         previous_ids, previous_means = self._last_published
         kept = np.zeros(len(keys), dtype=bool)
         if len(keys) and len(previous_ids):
-            apart = np.linalg.norm(means[:, None] - previous_means[None], axis=2)
+            apart = planar_distance(means[:, None], previous_means[None])
             rows, cols = linear_sum_assignment(np.where(apart < PUBLISHED_GATE, apart, 1e6))
             near = apart[rows, cols] < PUBLISHED_GATE
             kept[rows[near]] = True
@@ -201,9 +203,8 @@ class PeopleIdentities:
         m = self.best_index if particle is None else particle
         slots = np.flatnonzero(self.alive[m] & self.confirmed[m])
         particles = self.people[m, slots]
-        means = particles.mean(axis=1) if len(slots) else np.zeros((0, 2))
-        centred = particles - means[:, None, :]
-        covariances = np.einsum("npi,npj->nij", centred, centred) / max(particles.shape[1], 1)
+        means = particle_means(particles) if len(slots) else np.zeros((0, 2))
+        covariances = particle_covariances(particles - means[:, None, :])
         order = np.argsort(self.keys[m, slots], kind="stable")
         return PeopleEstimate(self.keys[m, slots][order], means[order], covariances[order],
                               existence_probability(self.logodds[m, slots][order]))

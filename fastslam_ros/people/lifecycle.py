@@ -23,6 +23,7 @@ from fastslam_ros.people.conditional_filter import PeopleTracker
 from fastslam_ros.people.detection import Scan
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.localization import beam_endpoints, sensor_poses
+from fastslam_ros.people.particle_stats import particle_means
 
 LOST_READINGS = 20
 """Readings in a row (2 s at 10 Hz) that must look lost before the tracker relocalizes."""
@@ -72,7 +73,7 @@ def change_map(tracker: PeopleTracker, grid: OccupancyMap) -> MapChange:
         weights = np.exp(normalize_log_weights(log_weights)[0])
         tracker._gather(systematic_resample(weights, tracker.rng))
     m, n = np.nonzero(tracker.alive)
-    gone = ~grid.is_free(tracker.people[m, n].mean(axis=1))
+    gone = ~grid.is_free(particle_means(tracker.people[m, n]))
     removed = int(np.sum(m[gone] == tracker.best_index))
     m, n = m[gone], n[gone]
     tracker.alive[m, n] = tracker.confirmed[m, n] = False
