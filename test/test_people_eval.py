@@ -100,3 +100,25 @@ def test_simulate_replay_and_score_a_short_people_run(tmp_path):
     assert metrics["robot"]["raw"]["rmse"] < 0.1
     assert metrics["people"]["frames"] > 30
     assert (out / "result.png").exists()
+
+
+@pytest.mark.parametrize("bias", [0.05, -0.1])
+def test_simulated_yaw_rate_bias_turns_the_odometry_at_that_rate(bias):
+    """``--yaw-rate-bias``: the odometry's heading drifts from the truth's by the bias times
+    the time (the turn noise, 0.05 rad/s per 50 Hz step, adds 0.05 / sqrt(50) rad per step:
+    about 0.007 rad over 10 s)."""
+    from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig, simulate_people
+    configs = [PeopleSimConfig(duration=10.0, people=0, yaw_rate_bias=b) for b in (0.0, bias)]
+    runs = [simulate_people(config) for config in configs]
+    drift = [np.unwrap(run.odometry.poses[:, 2]) - np.unwrap(run.truth.poses[:, 2])
+             for run in runs]
+    elapsed = np.arange(len(drift[1])) / configs[1].odometry_rate
+    np.testing.assert_array_equal(runs[0].truth.poses, runs[1].truth.poses)
+    np.testing.assert_allclose(drift[1] - drift[0], bias * elapsed, atol=1e-9)
+    assert abs(drift[0][-1]) < 0.05
+
+
+def test_simulated_yaw_rate_bias_must_be_finite():
+    from fastslam_ros.tools.simulation.people_sim import PeopleSimConfig
+    with pytest.raises(ValueError, match="yaw_rate_bias"):
+        PeopleSimConfig(yaw_rate_bias=float("nan")).validate()

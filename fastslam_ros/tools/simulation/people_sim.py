@@ -74,6 +74,9 @@ class PeopleSimConfig:
     """Relative error of the odometry's speed scale."""
     turn_bias: float = 0.01
     """Turn rate error of the odometry (rad/s per rad/s)."""
+    yaw_rate_bias: float = 0.0
+    """Constant error of the odometry's turn rate (rad/s): it reports a turn while the robot
+    goes straight or stands, as uneven wheels or a gyro's offset do."""
     initial_pose: bool = True
     """Write ``/initialpose`` (the true start pose); without it the tracker localizes globally."""
     legs: bool = False
@@ -100,6 +103,8 @@ class PeopleSimConfig:
         for name in ("range_noise", "speed_noise", "turn_noise"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name}: must be >= 0 (got {getattr(self, name)})")
+        if not math.isfinite(self.yaw_rate_bias):
+            raise ValueError(f"yaw_rate_bias: must be finite (got {self.yaw_rate_bias})")
         if not 0.0 <= self.mixed_pixels <= 1.0:
             raise ValueError(f"mixed_pixels: must be in [0, 1] (got {self.mixed_pixels})")
         if self.people < 0 or self.beams < 8:
@@ -248,8 +253,8 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
                          pose[1] + speed * dt * math.sin(heading), wrap_angle(pose[2] + turn * dt)])
         measured_speed = speed * (1.0 + config.speed_bias) + rng_odometry.normal(
             0.0, config.speed_noise)
-        measured_turn = turn * (1.0 + config.turn_bias) + rng_odometry.normal(
-            0.0, config.turn_noise)
+        measured_turn = turn * (1.0 + config.turn_bias) + config.yaw_rate_bias \
+            + rng_odometry.normal(0.0, config.turn_noise)
         heading = odometry[2] + 0.5 * measured_turn * dt
         odometry = np.array([odometry[0] + measured_speed * dt * math.cos(heading),
                              odometry[1] + measured_speed * dt * math.sin(heading),
@@ -407,6 +412,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mixed-pixels", type=float, default=defaults.mixed_pixels,
                         help="probability that a beam at a depth edge returns a range between "
                              "the two surfaces, in free space (a real laser's mixed pixels)")
+    parser.add_argument("--yaw-rate-bias", type=float, default=defaults.yaw_rate_bias,
+                        help="constant error of the odometry's turn rate (rad/s), as uneven "
+                             "wheels or a gyro's offset give")
     args = parser.parse_args(argv)
     params_out = args.params_out or args.out.with_name(args.out.name + ".yaml")
     try:
@@ -415,7 +423,8 @@ def main(argv: list[str] | None = None) -> int:
                                  beams=args.beams, field_of_view=args.field_of_view,
                                  scan_rate=args.scan_rate,
                                  odometry_rate=args.odometry_rate,
-                                 mixed_pixels=args.mixed_pixels, sweep=args.sweep).validate()
+                                 mixed_pixels=args.mixed_pixels, sweep=args.sweep,
+                                 yaw_rate_bias=args.yaw_rate_bias).validate()
         cli.output_folder(args.out, "--out")
         cli.output_file(params_out, "--params-out")
         check_output(args.out, args.overwrite, "bag")  # every output before writing any
