@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fastslam_ros.people.particle_stats import (particle_covariances, particle_means,
-                                                 planar_distance)
+                                                 planar_distance, squared_planar_distance)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -25,6 +25,8 @@ def test_moments_are_bit_identical_to_numpy_forms(seed):
     others = rng.normal(0.0, 30.0, (40, 6, 2))
     assert np.array_equal(planar_distance(means[:, :, None], others[:, None]),
                           np.linalg.norm(means[:, :, None] - others[:, None], axis=3))
+    assert np.array_equal(squared_planar_distance(flat, others.reshape(-1, 1, 2)),
+                          np.sum((flat - others.reshape(-1, 1, 2)) ** 2, axis=2))
 
 
 def test_covariance_is_the_sample_covariance():

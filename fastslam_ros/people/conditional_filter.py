@@ -69,7 +69,7 @@ from fastslam_ros.people.global_localization import GlobalLocalization
 from fastslam_ros.people.grid import OccupancyMap
 from fastslam_ros.people.identity import PeopleIdentities
 from fastslam_ros.people.particle_stats import (particle_covariances, particle_means,
-                                                 planar_distance)
+                                                 planar_distance, squared_planar_distance)
 from fastslam_ros.people.person_motion import PersonMotion
 from fastslam_ros.people.report import PeopleEstimate, UpdateReport
 from fastslam_ros.people.localization import (beam_endpoints, likelihood_field_log_weights,
@@ -375,7 +375,7 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
             m, n = associated_m, associated_n
             z = points[m, associated_j]
             particles = self.people[m, n]                      # (K, M_p, 2)
-            squared = np.sum((particles - z[:, None, :]) ** 2, axis=2)
+            squared = squared_planar_distance(particles, z[:, None, :])
             log_w = -0.5 * squared / s.detection_sigma ** 2
             w = np.exp(log_w - log_w.max(axis=1, keepdims=True))
             w /= w.sum(axis=1, keepdims=True)

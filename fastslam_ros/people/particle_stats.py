@@ -31,8 +31,13 @@ def particle_covariances(centred: np.ndarray) -> np.ndarray:
     return covariance
 
 
-def planar_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Euclidean distance between the points ``a`` and ``b`` (..., 2), broadcast."""
+def squared_planar_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared Euclidean distance between the points ``a`` and ``b`` (..., 2), broadcast."""
     dx = a[..., 0] - b[..., 0]
     dy = a[..., 1] - b[..., 1]
-    return np.sqrt(dx * dx + dy * dy)
+    return dx * dx + dy * dy
+
+
+def planar_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Euclidean distance between the points ``a`` and ``b`` (..., 2), broadcast."""
+    return np.sqrt(squared_planar_distance(a, b))
