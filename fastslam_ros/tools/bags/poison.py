@@ -110,12 +110,18 @@ def odometry_faults() -> list[tuple[str, Callable]]:
     ]
 
 
+def _changed_copy(topic: str, change: Callable) -> Callable:
+    """build(stamp, last messages by topic) -> (topic, ``change`` of a copy of the last
+    message on ``topic``, stamped ``stamp``)."""
+    def build(stamp, last):
+        return topic, change(_copy(stamp, last[topic]))
+    return build
+
+
 def scan_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of laser scans."""
     def scan(change):
-        def build(stamp, last):
-            return SCAN_TOPIC, change(_copy(stamp, last[SCAN_TOPIC]))
-        return build
+        return _changed_copy(SCAN_TOPIC, change)
 
     def beams_off(count):
         return scan(lambda m: _with(m, angle_max=m.angle_max + count * m.angle_increment))
@@ -142,9 +148,7 @@ def scan_faults() -> list[tuple[str, Callable]]:
 def map_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of occupancy grids."""
     def grid(change):
-        def build(stamp, last):
-            return MAP_TOPIC, change(_copy(stamp, last[MAP_TOPIC]))
-        return build
+        return _changed_copy(MAP_TOPIC, change)
 
     return [
         ("map resolution 0", grid(lambda m: _with(m, info__resolution=0.0))),
@@ -158,9 +162,7 @@ def map_faults() -> list[tuple[str, Callable]]:
 def initial_pose_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of initial poses."""
     def pose(change):
-        def build(stamp, last):
-            return INITIAL_POSE_TOPIC, change(_copy(stamp, last[INITIAL_POSE_TOPIC]))
-        return build
+        return _changed_copy(INITIAL_POSE_TOPIC, change)
 
     return [
         ("initialpose 1000 m off", pose(lambda m: _with(
