@@ -203,7 +203,7 @@ class PeopleIdentities:
         m = self.best_index if particle is None else particle
         slots = np.flatnonzero(self.alive[m] & self.confirmed[m])
         particles = self.people[m, slots]
-        means = particle_means(particles) if len(slots) else np.zeros((0, 2))
+        means = particle_means(particles)
         covariances = particle_covariances(particles - means[:, None, :])
         order = np.argsort(self.keys[m, slots], kind="stable")
         return PeopleEstimate(self.keys[m, slots][order], means[order], covariances[order],

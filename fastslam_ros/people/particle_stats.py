@@ -3,9 +3,10 @@
 """Moments of the people's particle clouds and planar distances, written once.
 
 The clouds are (..., M_p, 2) arrays: a reduction over M_p with 2 values per particle is one of
-numpy's slow strided cases (``mean(axis=-2)`` and ``einsum("kpi,kpj->kij")`` take about ten
-times as long as the einsums below). These give the same bits as those forms (the same
-products, summed in the same order), so the tracker's results do not depend on which is used.
+numpy's slow strided cases (for 1,000 clouds of 50, ``mean(axis=-2)`` takes about 4 times and
+``einsum("kpi,kpj->kij")`` about 18 times as long as the einsums below). These give the same
+bits as those forms (the same products, summed in the same order), so the tracker's results do
+not depend on which is used.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ def particle_covariances(centred: np.ndarray) -> np.ndarray:
     x, y = centred[..., 0], centred[..., 1]
     count = max(centred.shape[-2], 1)
     xy = np.einsum("kp,kp->k", x, y) / count
-    covariance = np.empty(centred.shape[:-2] + (2, 2))
+    covariance = np.empty((len(centred), 2, 2))
     covariance[:, 0, 0] = np.einsum("kp,kp->k", x, x) / count
     covariance[:, 0, 1] = xy
     covariance[:, 1, 0] = xy
