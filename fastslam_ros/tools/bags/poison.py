@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import sys
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -120,8 +121,7 @@ def _changed_copy(topic: str, change: Callable) -> Callable:
 
 def scan_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of laser scans."""
-    def scan(change):
-        return _changed_copy(SCAN_TOPIC, change)
+    scan = partial(_changed_copy, SCAN_TOPIC)
 
     def beams_off(count):
         return scan(lambda m: _with(m, angle_max=m.angle_max + count * m.angle_increment))
@@ -147,8 +147,7 @@ def scan_faults() -> list[tuple[str, Callable]]:
 
 def map_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of occupancy grids."""
-    def grid(change):
-        return _changed_copy(MAP_TOPIC, change)
+    grid = partial(_changed_copy, MAP_TOPIC)
 
     return [
         ("map resolution 0", grid(lambda m: _with(m, info__resolution=0.0))),
@@ -161,8 +160,7 @@ def map_faults() -> list[tuple[str, Callable]]:
 
 def initial_pose_faults() -> list[tuple[str, Callable]]:
     """(name, build(stamp, last messages by topic) -> (topic, message)) of initial poses."""
-    def pose(change):
-        return _changed_copy(INITIAL_POSE_TOPIC, change)
+    pose = partial(_changed_copy, INITIAL_POSE_TOPIC)
 
     return [
         ("initialpose 1000 m off", pose(lambda m: _with(
