@@ -268,12 +268,10 @@ def test_people_particles_follow_their_robot_particle_through_resampling():
 
 
 def test_a_new_person_is_published_once_confirmed():
-    """Tentative after one detection (log-odds tau+ < logodds_confirm), published after two;
-    this round person, 0.4 m across, is two legs seen as one, which ``confirm_pairs`` would
-    publish at once (test_people_legs)."""
+    """Tentative after one detection (log-odds tau+ < logodds_confirm), published after two."""
     grid = room()
     pose = (2.0, 5.0, 0.0)
-    tracker = tracker_at(grid, pose, confirm_pairs=False)
+    tracker = tracker_at(grid, pose)
     t = run(tracker, grid, pose, [(6.0, 5.5)], 1)
     assert tracker.alive.any(axis=1).all()                 # tracked by every robot particle
     assert len(tracker.people_of().keys) == 0               # but not published

@@ -310,8 +310,7 @@ class Detections:
     ranges: np.ndarray
     bearings: np.ndarray
     paired: np.ndarray | None = None
-    """(M, S) the detection is two legs, seen apart or as one cluster wider than a leg
-    (strong evidence of a person; one leg alone may be a leg of someone hidden); None: no
+    """(M, S) the detection is two legs seen apart (strong evidence of a person); None: no
     such distinction (``detect_people``)."""
 
 
@@ -448,8 +447,7 @@ def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegM
                                  >= needed)
     ranges = np.where(valid, distance, 0.0)
     bearings = np.where(valid, np.arctan2(position[..., 1], position[..., 0]), 0.0)
-    as_one = seen_a & ~has_second & (width[first] > model.max_leg_width)
-    return Detections(valid, ranges, wrap_angle(bearings), valid & (both | as_one))
+    return Detections(valid, ranges, wrap_angle(bearings), valid & both)
 
 
 def _partly_hidden(segments: Segments, starts: np.ndarray, last: np.ndarray,

@@ -167,9 +167,8 @@ class TrackerSettings:
         0.5, "Two legs whose centres are at most this far apart (m) are one person's.",
         low=0.0)
     confirm_pairs: bool = parameter(
-        True, "A new person seen as two legs (apart, or as one cluster wider than "
-              "max_leg_width) is confirmed (published) at its first detection; one leg "
-              "alone at logodds_confirm.")
+        True, "A new person seen as two legs apart is confirmed (published) at its first "
+              "detection; one leg alone, or legs seen as one, at logodds_confirm.")
     mixed_pixel_filter: str = parameter(
         "auto", "A lone return between a nearer and a farther neighbour (each more than "
                 "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
