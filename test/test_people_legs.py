@@ -5,6 +5,7 @@ against closed forms and the world's own rules, and the benchmark count of the s
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -332,28 +333,28 @@ def test_leg_positions_are_not_biased_away_from_the_laser():
 
 # ---------------------------------------------------------------- dynamic evidence near the map
 
-def _legs_scan(grid: OccupancyMap, pose, legs) -> Scan:
-    """A scan of the grid and the legs (x, y) (radius 0.06), 720 beams, no noise."""
-    angles = -math.pi + (np.arange(720) + 0.5) * (2.0 * math.pi / 720)
+def _legs_scan(grid: OccupancyMap, pose, legs, beams: int = 720) -> Scan:
+    """A scan of the grid and the legs (x, y) (radius 0.06), ``beams`` beams, no noise."""
+    angles = -math.pi + (np.arange(beams) + 0.5) * (2.0 * math.pi / beams)
     world = pose[2] + angles
-    ranges = grid.cast(np.broadcast_to(np.asarray(pose[:2], float), (720, 2)), world, 12.0)
+    ranges = grid.cast(np.broadcast_to(np.asarray(pose[:2], float), (beams, 2)), world, 12.0)
     ranges = np.minimum(ranges, people_legs.circle_ranges(np.asarray(pose, float), world,
                                                           np.asarray(legs, float), 0.06))
     return Scan(ranges, float(angles[0]), float(angles[1] - angles[0]), 12.0)
 
 
-def _people_seen(short_margin: float, legs, scans: int = 4, **settings) -> np.ndarray:
+def _people_seen(short_margin: float, legs, scans: int = 4, pose=(4.0, 4.0, 0.0),
+                 beams: int = 720, **settings) -> np.ndarray:
     cells = 160
     centres = (np.arange(cells) + 0.5) * 0.05
     x, y = np.meshgrid(centres, centres)
     occupied = (x < 0.15) | (x > 7.85) | (y < 0.15) | (y > 7.85)
     grid = OccupancyMap(occupied, ~occupied, 0.05)
-    pose = (4.0, 4.0, 0.0)
     tracker = PeopleTracker(TrackerSettings(num_particles=5, people_particles=30, seed=1,
                                             short_margin=short_margin, **settings), grid)
     tracker.reset(np.array(pose), np.diag([1e-8, 1e-8, 1e-10]))
     for k in range(scans):
-        tracker.update(0.1 * k, _legs_scan(grid, pose, legs))
+        tracker.update(0.1 * k, _legs_scan(grid, pose, legs, beams))
     return tracker.published_people().means
 
 
@@ -404,6 +405,22 @@ def test_two_legs_are_published_at_once_one_leg_after_two_detections():
     assert len(_people_seen(0.15, leg, scans=1)) == 0
     assert len(_people_seen(0.15, leg, scans=2)) == 1
     assert len(_people_seen(0.15, pair, scans=2, confirm_pairs=False)) == 1
+
+
+def test_one_leg_beyond_the_one_beam_range_is_published_at_once_nearer_after_two():
+    """At 1-degree beams a leg (0.12 m) returns at most one beam beyond 6.9 m, and the beam
+    spacing misses it in some scans: a new person seen there is published at its first
+    detection (``confirm_far``); a leg alone nearer waits for a second detection; the
+    mixed-pixel filter, on over a laser's first scans, would take the far beam for one."""
+    pose = (0.6, 0.6, 0.0)
+    bearing = math.radians(-180.0 + 225.5)          # the middle of beam 225 of 360
+    seen = partial(_people_seen, 0.15, pose=pose, beams=360, mixed_pixel_filter="never")
+    for distance, at_once in ((9.0, True), (5.0, False)):
+        reach = distance + 0.06                      # the beam ends on the leg's front
+        leg = [(pose[0] + reach * math.cos(bearing), pose[1] + reach * math.sin(bearing))]
+        assert len(seen(leg, scans=1)) == int(at_once), distance
+        assert len(seen(leg, scans=1, confirm_far=False)) == 0
+        assert len(seen(leg, scans=2)) == 1
 
 
 def test_a_270_degree_laser_at_7_5_hz_is_simulated_and_scored_within_its_span():

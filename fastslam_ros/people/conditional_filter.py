@@ -360,11 +360,13 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                 (len(m), s.people_particles, 2), self.rng)
             self.alive[m, slot] = True
             mean[m, slot] = points[m, j]
-            self.logodds[m, slot] = 0.0
-            if s.confirm_pairs and detections.paired is not None:  # two legs: confirmed now
-                self.logodds[m, slot] = np.where(
-                    detections.paired[m, j],
-                    max(0.0, s.logodds_confirm - s.logodds_observed), 0.0)
+            confirm_now = np.zeros(len(m), dtype=bool)   # two legs, or far: confirmed now
+            if s.confirm_pairs and detections.paired is not None:
+                confirm_now |= detections.paired[m, j]
+            if s.confirm_far and detections.sparse is not None:
+                confirm_now |= detections.sparse[m, j]
+            self.logodds[m, slot] = np.where(
+                confirm_now, max(0.0, s.logodds_confirm - s.logodds_observed), 0.0)
             self.keys[m, slot] = key
             self.confirmed[m, slot] = False
             self.last_seen[m, slot] = self.last_stamp

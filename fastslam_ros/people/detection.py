@@ -312,6 +312,10 @@ class Detections:
     paired: np.ndarray | None = None
     """(M, S) the detection is two legs seen apart (strong evidence of a person); None: no
     such distinction (``detect_people``)."""
+    sparse: np.ndarray | None = None
+    """(M, S) the person is farther than one leg returns one beam, so the beam spacing misses
+    it in some scans and a second detection may come scans later; None: not judged (one leg
+    returns ``min_beams`` at any range)."""
 
 
 def detect_people(segments: Segments, far: np.ndarray, min_beams: int, max_width: float,
@@ -447,7 +451,9 @@ def detect_legs(segments: Segments, far: np.ndarray, reference: int, model: LegM
                                  >= needed)
     ranges = np.where(valid, distance, 0.0)
     bearings = np.where(valid, np.arctan2(position[..., 1], position[..., 0]), 0.0)
-    return Detections(valid, ranges, wrap_angle(bearings), valid & both)
+    sparse = None if angle_increment is None else valid & (
+        distance > detectable_range(2.0 * model.leg_radius, 1, angle_increment))
+    return Detections(valid, ranges, wrap_angle(bearings), valid & both, sparse)
 
 
 def _partly_hidden(segments: Segments, starts: np.ndarray, last: np.ndarray,
