@@ -313,9 +313,9 @@ class Detections:
     """(M, S) the detection is two legs seen apart (strong evidence of a person); None: no
     such distinction (``detect_people``)."""
     sparse: np.ndarray | None = None
-    """(M, S) the person is farther than one leg returns one beam, so the beam spacing misses
-    it in some scans and a second detection may come scans later; None: not judged (one leg
-    returns ``min_beams`` at any range)."""
+    """(M, S) the person is farther than the range within which one leg always returns a
+    beam, so the beam spacing misses it in some scans and a second detection may come scans
+    later; None: not judged (one leg returns ``min_beams`` at any range)."""
 
 
 def detect_people(segments: Segments, far: np.ndarray, min_beams: int, max_width: float,

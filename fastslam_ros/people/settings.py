@@ -170,10 +170,10 @@ class TrackerSettings:
         True, "A new person seen as two legs apart is confirmed (published) at its first "
               "detection; one leg alone, or legs seen as one, at logodds_confirm.")
     confirm_far: bool = parameter(
-        True, "A new person farther than one leg returns one beam (2 leg_radius over the "
-              "scan's angle increment: 6.9 m at 1 degree), where the beam spacing misses it in "
-              "some scans, is confirmed (published) at its first detection (not while mixed "
-              "pixels are filtered).")
+        True, "A new person farther than the range within which one leg always returns a "
+              "beam (2 leg_radius over the scan's angle increment: 6.9 m at 1 degree), where "
+              "the beam spacing misses it in some scans, is confirmed (published) at its first "
+              "detection (not while mixed pixels are filtered).")
     mixed_pixel_filter: str = parameter(
         "auto", "A lone return between a nearer and a farther neighbour (each more than "
                 "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
