@@ -248,8 +248,9 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         mixed = mixed_pixels(ranges, s.segment_jump)       # once: counted, then filtered
         self.mixed_pixels.observe(ranges, mixed, segments, far[best], s.segment_jump)
         if self.mixed_pixels.filtering:
-            far = without_mixed_pixels(far, segments, ranges, mixed,
-                                       s.max_leg_spacing, s.leg_radius / abs(scan.angle_increment))
+            single_beam = detectable_range(2.0 * s.leg_radius, 2, scan.angle_increment)
+            far = without_mixed_pixels(far, segments, ranges, mixed, s.max_leg_spacing,
+                                       single_beam)
         if s.person_model == "legs":
             lone_legs = None if self.mixed_pixels.filtering else scan.angle_increment
             detections = detect_legs(segments, far, best, self._leg_model, ranges, lone_legs)
