@@ -90,6 +90,26 @@ def test_a_track_of_a_person_just_out_of_view_is_neither_a_hit_nor_a_false_posit
     assert (result["matches"], result["false_positives"], result["misses"]) == (1, 1, 0)
 
 
+def test_a_track_is_judged_by_the_view_of_its_nearest_person():
+    # a laser at (5, 5) facing +x; a door jamb from x = 6.0 to 6.1 above y = 5.05: person 1 at
+    # (7, 5) is in view, its track 0.15 m to the jamb's side is not (its own ray ends on the jamb
+    # 1 m out); person 2 stands behind the jamb, its track 0.3 m off, behind the jamb too
+    walls = np.zeros((200, 200), bool)
+    walls[[0, -1], :] = walls[:, [0, -1]] = True
+    walls[101:120, 120:122] = True                     # rows: y, columns: x (0.05 m cells)
+    grid = OccupancyMap(walls, ~walls, 0.05)
+    view = LaserView(12.0)
+    pose = np.array([5.0, 5.0, 0.0])
+    truth = Frame(0.0, np.array([1, 2]), np.array([[7.0, 5.0], [7.0, 5.8]]))
+    tracks = Frame(0.0, np.array([10, 20]), np.array([[7.0, 5.15], [7.0, 5.5]]), np.ones(2))
+    assert not people_eval.visible(grid, pose, tracks.positions, view).any()
+    gt, kept = in_view(grid, pose, truth, tracks, view, 0.5)
+    np.testing.assert_array_equal(gt.ids, [1])
+    np.testing.assert_array_equal(kept.ids, [10])
+    result = clear_mot([gt], [kept])
+    assert (result["matches"], result["false_positives"], result["misses"]) == (1, 0, 0)
+
+
 def test_simulate_replay_and_score_a_short_people_run(tmp_path):
     out = tmp_path / "demo"
     metrics = people_eval.run_people_demo(out, seed=1, duration=4.0)

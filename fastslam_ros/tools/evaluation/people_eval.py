@@ -148,16 +148,25 @@ def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
 
 
 def in_view(grid: OccupancyMap, pose: np.ndarray, truth: Frame, estimate: Frame,
-            view: LaserView, min_existence: float) -> tuple[Frame, Frame]:
+            view: LaserView, min_existence: float, radius: float = MATCH_RADIUS
+            ) -> tuple[Frame, Frame]:
     """The truth people in view from ``pose`` and the published tracks (existence at least
-    ``min_existence``) in view, but a track of a truth person out of view: the view is judged
-    at a person's centre, and a track of a person whose centre is just out of it (one leg in
-    the scan's span or past a door jamb) is neither a hit nor a false positive."""
+    ``min_existence``) to score. The view is judged at a person's centre, and a track within
+    ``radius`` of a truth person is judged by its nearest one: scored when that person is in
+    view (even where the track's own line of sight grazes a door jamb or leaves the span), left
+    out when not (one leg in the span, the centre out of it). A track near no one is scored
+    where it is in view."""
+    seen = visible(grid, pose, truth.positions, view)
     keep_est = visible(grid, pose, estimate.positions, view)
+    if len(estimate.ids) and len(truth.ids):
+        distance = np.linalg.norm(estimate.positions[:, None] - truth.positions[None], axis=2)
+        nearest = np.argmin(distance, axis=1)
+        near = distance[np.arange(len(estimate.ids)), nearest] <= radius
+        keep_est = np.where(near, seen[nearest], keep_est)
     if estimate.existence is not None:
         keep_est &= estimate.existence >= min_existence
-    kept = Frame(estimate.stamp, estimate.ids[keep_est], estimate.positions[keep_est])
-    return without_hidden(truth, kept, ~visible(grid, pose, truth.positions, view))
+    return (Frame(truth.stamp, truth.ids[seen], truth.positions[seen]),
+            Frame(estimate.stamp, estimate.ids[keep_est], estimate.positions[keep_est]))
 
 
 def clear_mot(truth: list[Frame], estimates: list[Frame], radius: float = MATCH_RADIUS

@@ -66,6 +66,10 @@ off the walls: the distance of a point's cell centre to the nearest occupied cel
 from the point's distance to the wall's face by up to about two cells."""
 ROBOT_DISTANCE = 0.7
 """People do not step closer than this to the robot (m); they wait for it to pass."""
+STOP_AHEAD = 1.0
+"""The robot stands while a person's centre is within this distance (m) ahead of its centre and
+within STOP_HALF_WIDTH of its heading line, as a real robot's safety field makes it."""
+STOP_HALF_WIDTH = 0.5
 LOOKAHEAD = 1.0
 """People steer by where they and the others will be in this many seconds (s)."""
 COMFORT_DISTANCE = 1.2
@@ -106,8 +110,8 @@ def build_map() -> OccupancyMap:
 @dataclass
 class Person:
     """A walking person: position, the points still to walk, speed, pause left (s), and how
-    long it has been kept from walking on (s), how long it waits before yielding (s), and how
-    long it still yields (s)."""
+    long it has been kept from walking on (s), how long it waits before yielding (s), how
+    long it still yields (s), and the robot's pose it yields to (stepping out of its way)."""
 
     ident: int
     position: np.ndarray
@@ -121,6 +125,13 @@ class Person:
     waited: float = 0.0
     patience: float = 2.0
     yielding: float = 0.0
+    make_way: np.ndarray | None = None
+
+
+def _aside(robot: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """The direction across the robot's heading (pose ``robot``) on ``position``'s side."""
+    normal = np.array([-math.sin(robot[2]), math.cos(robot[2])])
+    return normal if float((position - robot[:2]) @ normal) >= 0.0 else -normal
 
 
 def _graph() -> dict[str, list[str]]:
@@ -258,8 +269,9 @@ class Crowd:
         if person.yielding > 0.0:
             person.yielding -= dt
             relative = YIELD_HEADINGS
-            back = start - person.position
-            reference = math.atan2(back[1], back[0])
+            away = (start - person.position if person.make_way is None
+                    else _aside(person.make_way, person.position))
+            reference = math.atan2(away[1], away[0])
             preference = 0.5 * np.cos(relative)
         else:
             relative = WALK_HEADINGS
@@ -292,6 +304,7 @@ class Crowd:
             person.velocity = np.zeros(2)
         if person.yielding > 0.0:
             return
+        person.make_way = None
         if progress >= 0.25 * step:
             person.waited = 0.0
             return
@@ -316,10 +329,30 @@ class Crowd:
     def _robot_blocks(position: np.ndarray, candidates: np.ndarray,
                       robot: np.ndarray) -> np.ndarray:
         """Whether stepping to each candidate would come within ROBOT_DISTANCE of the robot
-        (a person already that close may step anywhere: the robot drove up to it)."""
-        if np.linalg.norm(position - robot[:2]) < ROBOT_DISTANCE:
-            return np.zeros(len(candidates), dtype=bool)
-        return np.linalg.norm(candidates - robot[:2], axis=1) < ROBOT_DISTANCE
+        (a person already that close, the robot having turned towards it, may step anywhere
+        not nearer to it)."""
+        limit = min(ROBOT_DISTANCE, float(np.linalg.norm(position - robot[:2])))
+        return np.linalg.norm(candidates - robot[:2], axis=1) < limit
+
+    def in_the_way(self, robot: np.ndarray) -> list[Person]:
+        """The people standing in the robot's path (STOP_AHEAD, STOP_HALF_WIDTH)."""
+        heading = np.array([math.cos(robot[2]), math.sin(robot[2])])
+        ahead = []
+        for person in self.people:
+            offset = person.position - robot[:2]
+            along = float(offset @ heading)
+            across = float(offset[0] * heading[1] - offset[1] * heading[0])
+            if 0.0 < along < STOP_AHEAD and abs(across) < STOP_HALF_WIDTH:
+                ahead.append(person)
+        return ahead
+
+    def make_way(self, robot: np.ndarray) -> None:
+        """The people in the robot's path step aside for 1-2 s (a standing one too), as people
+        do for a robot that waits for them."""
+        for person in self.in_the_way(robot):
+            person.pause = 0.0
+            person.yielding = float(self.rng.uniform(1.0, 2.0))
+            person.make_way = robot.copy()
 
     def step(self, t: float, dt: float, robot: np.ndarray) -> None:
         """Walk everyone for ``dt`` s, one after the other (each against the others' newest

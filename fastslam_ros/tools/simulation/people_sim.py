@@ -3,7 +3,8 @@
 """People simulator: rooms and corridors on a grid, a robot with a 2-D laser, people walking.
 
 A 20 m x 20 m floor (five rooms off a corridor open at both ends, furniture) as a 0.05 m
-evidence grid. The robot drives a route through the corridor and into the rooms at 0.5 m/s;
+evidence grid. The robot drives a route through the corridor and into the rooms at 0.5 m/s,
+standing while a person is in its path (who then steps aside);
 its wheel odometry integrates noisy, slightly biased velocities at 50 Hz. A 360-beam laser at
 10 Hz (range noise 0.02 m, no return beyond ``max_range``) is ray cast against the walls and
 against the people, cylinders of radius 0.2 m that occlude each other. Five people walk a graph
@@ -45,6 +46,9 @@ ROUTE = ((2.0, 10.0), (9.0, 10.0), (10.0, 8.8), (10.0, 6.0), (8.5, 5.5), (10.0, 
          (16.6, 9.0), (16.6, 5.0), (16.6, 9.0), (8.0, 10.3), (4.6, 11.0), (4.6, 14.5),
          (6.0, 16.0), (4.6, 12.5), (2.0, 10.0))
 """The robot's route (m), driven in a loop; it starts at the first point facing the second."""
+ROBOT_PATIENCE = 1.0
+"""The robot stands for a person in its path (``Crowd.in_the_way``); after this long (s) the
+people there step aside (``Crowd.make_way``)."""
 
 
 @dataclass(frozen=True)
@@ -210,6 +214,7 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
                      math.atan2(route[1, 1] - route[0, 1], route[1, 0] - route[0, 0])])
     odometry = np.zeros(3)
     target = 1
+    standing = 0.0
     angles = -0.5 * config.field_of_view + (np.arange(config.beams) + 0.5) * (
         config.field_of_view / config.beams)
     stamps, true_poses, odometry_poses = [], [], []
@@ -228,6 +233,13 @@ def simulate_people(config: PeopleSimConfig) -> PeopleRun:
         error = wrap_angle(math.atan2(goal[1] - pose[1], goal[0] - pose[0]) - pose[2])
         turn = float(np.clip(2.0 * error, -config.max_turn_rate, config.max_turn_rate))
         speed = config.speed * max(0.0, math.cos(error)) ** 2
+        if crowd.in_the_way(pose):
+            speed, standing = 0.0, standing + dt
+            if standing >= ROBOT_PATIENCE:
+                crowd.make_way(pose)
+                standing = 0.0
+        else:
+            standing = 0.0
         if step % per_scan == 0:
             positions = (np.array([p.position for p in crowd.people])
                          if crowd.people else np.zeros((0, 2)))
