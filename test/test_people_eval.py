@@ -3,6 +3,9 @@
 """CLEAR MOT and the people pipeline: hand-counted frames, and sim -> replay -> eval."""
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -120,6 +123,17 @@ def test_simulate_replay_and_score_a_short_people_run(tmp_path):
     assert metrics["robot"]["raw"]["rmse"] < 0.1
     assert metrics["people"]["frames"] > 30
     assert (out / "result.png").exists()
+    # docs/people_errors.py breaks the errors down from the same frames: its misses are the
+    # evaluator's, and each false positive it finds falls in one of its three kinds
+    spec = importlib.util.spec_from_file_location(
+        "people_errors", Path(__file__).parents[1] / "docs" / "people_errors.py")
+    people_errors = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(people_errors)
+    found = people_errors.errors(str(out / "replay"))
+    assert found["misses"] == metrics["people_unhidden"]["misses"]
+    assert found["new_in_view"] <= found["misses"] and found["far"] <= found["misses"]
+    assert found["false_positives"] == (found["near_a_person_left_out"] + found["within_0.75"]
+                                        + found["far_from_everyone"])
 
 
 @pytest.mark.parametrize("bias", [0.05, -0.1])

@@ -326,9 +326,23 @@ def is_people_run(topics: dict[str, str] | set[str]) -> bool:
     return PEOPLE_TOPIC in topics or PEOPLE_TRUTH_TOPIC in topics
 
 
-def evaluate_people_bag(out_path: str | Path, ground_truth_path: str | Path | None = None,
-                        min_existence: float = 0.5) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Metrics of a recorded run and the data for a plot."""
+@dataclass
+class RecordedPeopleRun:
+    """A people run as the evaluator reads it: the estimate and the truth, the map, the
+    people per scan, what the laser could see, and the replay's info (empty without it)."""
+
+    estimate: PoseSeries
+    truth: PoseSeries
+    grid: OccupancyMap
+    truth_frames: list[Frame]
+    estimate_frames: list[Frame]
+    view: LaserView
+    info: dict[str, Any]
+
+
+def read_people_run(out_path: str | Path, ground_truth_path: str | Path | None = None
+                    ) -> RecordedPeopleRun:
+    """Read a recorded run (and its ground truth, from ``out_path`` or its own bag)."""
     topics = [POSE_TOPIC, PEOPLE_TOPIC, REPLAY_INFO_TOPIC]
     truth_topics = [GROUND_TRUTH_POSE_TOPIC, PEOPLE_TRUTH_TOPIC, MAP_TOPIC, SCAN_TOPIC]
     if ground_truth_path is None:
@@ -340,32 +354,40 @@ def evaluate_people_bag(out_path: str | Path, ground_truth_path: str | Path | No
                            MAP_TOPIC) if not data[t][1]]
     if missing:
         raise ValueError(f"no message on {', '.join(missing)}")
-    grid = grid_from_message(data[MAP_TOPIC][1][-1])
     scans = data[SCAN_TOPIC][1]
     max_range = float(scans[0].range_max) if scans else 12.0
     info = json.loads(data[REPLAY_INFO_TOPIC][1][-1].data) if data[REPLAY_INFO_TOPIC][1] else {}
     max_range = min(max_range, float(info.get("params", {}).get("max_range", max_range)))
-    estimate = pose_stamped_series(data[POSE_TOPIC][1])
-    truth = pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1])
-    truth_frames = people_frames(*data[PEOPLE_TRUTH_TOPIC])
-    estimate_frames = people_frames(*data[PEOPLE_TOPIC])
     span = None
     if scans:
         first = scans[0]
         span = Scan(np.zeros(len(first.ranges)), float(first.angle_min),
                     float(first.angle_increment))
-    metrics, _ = evaluate_people(estimate, truth, grid, truth_frames, estimate_frames,
-                                 LaserView(max_range, span), min_existence)
+    return RecordedPeopleRun(
+        pose_stamped_series(data[POSE_TOPIC][1]),
+        pose_series_from_messages(data[GROUND_TRUTH_POSE_TOPIC][1]),
+        grid_from_message(data[MAP_TOPIC][1][-1]), people_frames(*data[PEOPLE_TRUTH_TOPIC]),
+        people_frames(*data[PEOPLE_TOPIC]), LaserView(max_range, span), info)
+
+
+def evaluate_people_bag(out_path: str | Path, ground_truth_path: str | Path | None = None,
+                        min_existence: float = 0.5) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Metrics of a recorded run and the data for a plot."""
+    run = read_people_run(out_path, ground_truth_path)
+    metrics, _ = evaluate_people(run.estimate, run.truth, run.grid, run.truth_frames,
+                                 run.estimate_frames, run.view, min_existence)
+    info = run.info
     if info:
         metrics["runtime"] = {key: info[key] for key in
                               ("wall_time", "cpu_time", "bag_duration", "real_time_factor")
                               if key in info}
-        metrics["cpu_per_scan_ms"] = (1000.0 * info["cpu_time"] / max(len(estimate_frames), 1)
+        metrics["cpu_per_scan_ms"] = (1000.0 * info["cpu_time"] / max(len(run.estimate_frames), 1)
                                       if "cpu_time" in info else math.nan)
         metrics["stats"] = info.get("stats", {})
         metrics["params"] = info.get("params", {})
-    plot_data = {"grid": grid, "estimate": estimate, "truth": truth, "truth_frames": truth_frames,
-                 "estimate_frames": estimate_frames, "min_existence": min_existence}
+    plot_data = {"grid": run.grid, "estimate": run.estimate, "truth": run.truth,
+                 "truth_frames": run.truth_frames, "estimate_frames": run.estimate_frames,
+                 "min_existence": min_existence}
     return metrics, plot_data
 
 
