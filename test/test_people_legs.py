@@ -401,9 +401,10 @@ def test_two_legs_are_published_at_once_one_leg_after_two_detections():
     # log-odds: a new person starts at tau+ = 1 < logodds_confirm = 1.5; a pair of legs
     # starts at logodds_confirm - tau+ first, reaching it with its first detection
     assert len(_people_seen(0.15, pair, scans=1)) == 1
-    assert len(_people_seen(0.15, pair, scans=1, confirm_pairs=False)) == 0
-    assert len(_people_seen(0.15, leg, scans=1)) == 0
-    assert len(_people_seen(0.15, leg, scans=2)) == 1
+    assert len(_people_seen(0.15, pair, scans=1, confirm_pairs=False,
+                            confirm_clear=False)) == 0
+    assert len(_people_seen(0.15, leg, scans=1, confirm_clear=False)) == 0
+    assert len(_people_seen(0.15, leg, scans=2, confirm_clear=False)) == 1
     assert len(_people_seen(0.15, pair, scans=2, confirm_pairs=False)) == 1
 
 
@@ -414,13 +415,28 @@ def test_one_leg_beyond_the_one_beam_range_is_published_at_once_nearer_after_two
     mixed-pixel filter, on over a laser's first scans, would take the far beam for one."""
     pose = (0.6, 0.6, 0.0)
     bearing = math.radians(-180.0 + 225.5)          # the middle of beam 225 of 360
-    seen = partial(_people_seen, 0.15, pose=pose, beams=360, mixed_pixel_filter="never")
+    seen = partial(_people_seen, 0.15, pose=pose, beams=360, mixed_pixel_filter="never",
+                   confirm_clear=False)    # the open floor's rule apart
     for distance, at_once in ((9.0, True), (5.0, False)):
         reach = distance + 0.06                      # the beam ends on the leg's front
         leg = [(pose[0] + reach * math.cos(bearing), pose[1] + reach * math.sin(bearing))]
         assert len(seen(leg, scans=1)) == int(at_once), distance
         assert len(seen(leg, scans=1, confirm_far=False)) == 0
         assert len(seen(leg, scans=2)) == 1
+
+
+def test_one_leg_on_open_floor_is_published_at_once_with_confirm_clear_beside_a_wall_not():
+    """``confirm_clear``: a lone leg more than max_leg_spacing (0.5 m) from every mapped
+    obstacle is published at its first detection; one 0.35 m from the wall's face waits for a
+    second detection, as every lone leg does without it. The mixed-pixel filter, on over a
+    laser's first scans, would hold it back (a lone mixed pixel stands in free space)."""
+    seen = partial(_people_seen, 0.15, mixed_pixel_filter="never")
+    open_floor, by_the_wall = [(5.5, 2.4)], [(7.5, 4.0)]
+    assert len(seen(open_floor, scans=1)) == 1
+    assert len(seen(open_floor, scans=1, confirm_clear=False)) == 0
+    assert len(seen(by_the_wall, scans=1)) == 0
+    assert len(seen(by_the_wall, scans=2)) == 1
+    assert len(_people_seen(0.15, open_floor, scans=1, mixed_pixel_filter="always")) == 0
 
 
 def test_a_270_degree_laser_at_7_5_hz_is_simulated_and_scored_within_its_span():

@@ -361,11 +361,13 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
                 (len(m), s.people_particles, 2), self.rng)
             self.alive[m, slot] = True
             mean[m, slot] = points[m, j]
-            confirm_now = np.zeros(len(m), dtype=bool)   # two legs, or far: confirmed now
+            confirm_now = np.zeros(len(m), dtype=bool)   # two legs, far or clear: confirmed now
             if s.confirm_pairs and detections.paired is not None:
                 confirm_now |= detections.paired[m, j]
             if s.confirm_far and detections.sparse is not None:
                 confirm_now |= detections.sparse[m, j]
+            if s.confirm_clear and not self.mixed_pixels.filtering:  # no lone mixed pixel
+                confirm_now |= self.grid.distance_at(points[m, j]) > s.max_leg_spacing
             self.logodds[m, slot] = np.where(
                 confirm_now, max(0.0, s.logodds_confirm - s.logodds_observed), 0.0)
             self.keys[m, slot] = key

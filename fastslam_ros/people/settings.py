@@ -174,6 +174,10 @@ class TrackerSettings:
               "beam (2 leg_radius over the scan's angle increment: 6.9 m at 1 degree), where "
               "the beam spacing misses it in some scans, is confirmed (published) at its first "
               "detection (not while mixed pixels are filtered).")
+    confirm_clear: bool = parameter(
+        True, "A new person detected farther than max_leg_spacing from every mapped obstacle "
+               "(open floor: no wall or furniture leg within a leg's spacing of it) is confirmed "
+               "(published) at its first detection (not while mixed pixels are filtered).")
     mixed_pixel_filter: str = parameter(
         "auto", "A lone return between a nearer and a farther neighbour (each more than "
                 "segment_jump away) is a mixed pixel, not dynamic, unless its nearer neighbour "
