@@ -70,6 +70,7 @@ STOP_AHEAD = 1.0
 """The robot stands while a person's centre is within this distance (m) ahead of its centre and
 within STOP_HALF_WIDTH of its heading line, as a real robot's safety field makes it."""
 STOP_HALF_WIDTH = 0.5
+"""Half the width (m) of the robot's path in which a person makes it stand (STOP_AHEAD)."""
 LOOKAHEAD = 1.0
 """People steer by where they and the others will be in this many seconds (s)."""
 COMFORT_DISTANCE = 1.2
@@ -125,7 +126,7 @@ class Person:
     waited: float = 0.0
     patience: float = 2.0
     yielding: float = 0.0
-    make_way: np.ndarray | None = None
+    yield_to: np.ndarray | None = None
 
 
 def _aside(robot: np.ndarray, position: np.ndarray) -> np.ndarray:
@@ -269,8 +270,8 @@ class Crowd:
         if person.yielding > 0.0:
             person.yielding -= dt
             relative = YIELD_HEADINGS
-            away = (start - person.position if person.make_way is None
-                    else _aside(person.make_way, person.position))
+            away = (start - person.position if person.yield_to is None
+                    else _aside(person.yield_to, person.position))
             reference = math.atan2(away[1], away[0])
             preference = 0.5 * np.cos(relative)
         else:
@@ -304,7 +305,7 @@ class Crowd:
             person.velocity = np.zeros(2)
         if person.yielding > 0.0:
             return
-        person.make_way = None
+        person.yield_to = None
         if progress >= 0.25 * step:
             person.waited = 0.0
             return
@@ -352,7 +353,7 @@ class Crowd:
         for person in self.in_the_way(robot):
             person.pause = 0.0
             person.yielding = float(self.rng.uniform(1.0, 2.0))
-            person.make_way = robot.copy()
+            person.yield_to = robot.copy()
 
     def step(self, t: float, dt: float, robot: np.ndarray) -> None:
         """Walk everyone for ``dt`` s, one after the other (each against the others' newest
