@@ -37,8 +37,7 @@ def errors(path: str) -> dict[str, int]:
         estimate = by_stamp.get(round(frame.stamp / pe.FRAME_TOLERANCE))
         if estimate is None:
             continue
-        pose = run.truth.poses[min(np.searchsorted(run.truth.stamps, frame.stamp),
-                                   len(run.truth.stamps) - 1)]
+        pose = pe.pose_at(run.truth, frame.stamp)
         published = estimate.positions[estimate.existence >= 0.5] \
             if estimate.existence is not None else estimate.positions
         truth, tracks = pe.in_view(run.grid, pose, frame, estimate, run.view, 0.5)
@@ -53,8 +52,7 @@ def errors(path: str) -> dict[str, int]:
             counts["misses"] += 1
             counts["new_in_view"] += int(frame.stamp - came_into_view[ident] <= NEW_IN_VIEW)
             counts["far"] += int(np.linalg.norm(position - pose[:2]) > FAR)
-        counted = pe.visible(run.grid, pose, frame.positions, run.view)
-        counted[counted] &= ~pe.hidden_by_people(pose, frame.positions[counted])
+        counted = pe.benchmark_counted(run.grid, pose, frame.positions, run.view)
         for position in published:
             gaps = np.linalg.norm(frame.positions - position, axis=1)
             if counted.any() and gaps[counted].min() <= pe.BENCHMARK_RADIUS:

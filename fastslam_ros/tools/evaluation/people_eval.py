@@ -129,6 +129,20 @@ def hidden_by_people(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
     return blocks.any(axis=1)
 
 
+def benchmark_counted(grid: OccupancyMap, pose: np.ndarray, points: np.ndarray,
+                      view: LaserView) -> np.ndarray:
+    """Whether the leg tracking benchmark's count scores each person (K, 2) seen from
+    ``pose``: in range, span and line of sight, and not hidden behind another person."""
+    counted = visible(grid, pose, points, view)
+    counted[counted] &= ~hidden_by_people(pose, points[counted])
+    return counted
+
+
+def pose_at(series: PoseSeries, stamp: float) -> np.ndarray:
+    """The pose of ``series`` at its first stamp not before ``stamp`` (its last after it)."""
+    return series.poses[min(np.searchsorted(series.stamps, stamp), len(series.stamps) - 1)]
+
+
 def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
                    radius: float = MATCH_RADIUS) -> tuple[Frame, Frame]:
     """Frames with the truth people ``hidden`` (not scored) left out, and with them every
@@ -239,11 +253,7 @@ def benchmark_mot(ground_truth: PoseSeries, grid: OccupancyMap, truth_frames: li
         elif est.existence is not None:
             keep = est.existence >= min_existence
             est = Frame(est.stamp, est.ids[keep], est.positions[keep])
-        index = min(np.searchsorted(ground_truth.stamps, frame.stamp),
-                    len(ground_truth.stamps) - 1)
-        pose = ground_truth.poses[index]
-        seen = visible(grid, pose, frame.positions, view)
-        seen[seen] &= ~hidden_by_people(pose, frame.positions[seen])
+        seen = benchmark_counted(grid, pose_at(ground_truth, frame.stamp), frame.positions, view)
         truths.append(Frame(frame.stamp, frame.ids[seen], frame.positions[seen]))
         estimates.append(est)
     mot = clear_mot(truths, estimates, BENCHMARK_RADIUS)
@@ -284,8 +294,7 @@ def evaluate_people(estimate: PoseSeries, ground_truth: PoseSeries, grid: Occupa
         est = by_stamp.get(round(frame.stamp / FRAME_TOLERANCE))
         if est is None:
             continue
-        index = min(np.searchsorted(ground_truth.stamps, frame.stamp), len(ground_truth.stamps) - 1)
-        pose = ground_truth.poses[index]
+        pose = pose_at(ground_truth, frame.stamp)
         gt, kept = in_view(grid, pose, frame, est, view, min_existence)
         truths.append(gt)
         estimates.append(kept)
