@@ -13,12 +13,13 @@ other nodes' (``node_base.FilterNode``).
 
 With ``deskew_scans`` (default) or ``static_window`` > 0 the node also reads
 ``nav_msgs/Odometry`` on ``odom``, and a scan waits, like the SLAM node's clouds, for odometry
-covering its stamp. ``deskew_scans``: a scan swept while the robot moved
+covering its stamp (and its sweep). ``deskew_scans``: a scan swept while the robot moved
 (``time_increment`` > 0) has its landmarks brought back to where the laser was at the first
-beam, the stamp's pose (``core.sweep``), at the odometry's motion since the previous scan;
-without that motion (no odometry yet, none covering the stamp in ``max_observation_wait``, the
-previous scan too long ago, a sweep longer than the scan period allows) they are published as
-seen and counted (``scans_not_deskewed``).
+beam, the stamp's pose (``core.sweep``), at the odometry's motion over the sweep (since the
+previous scan when the odometry does not reach the sweep's end in time); without that motion
+(no odometry yet, none covering the stamp in ``max_observation_wait``, the previous scan too
+long ago, a sweep longer than the scan period allows) they are published as seen and counted
+(``scans_not_deskewed``).
 ``static_window``: the landmarks that ``extractor.static_filter`` finds moved (where an
 earlier scan saw free space, or displaced: walking people) are not published; a scan with no
 odometry pose at its stamp is dropped and counted (``dropped_stale``). See docs/extractor.md.
@@ -39,6 +40,7 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io, ros_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
+from fastslam_ros.core.sweep import sweep_end
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
 from fastslam_ros.extractor.static_filter import StaticFilter
@@ -78,8 +80,10 @@ class NodeSettings:
                                              "child_frame_id; '' accepts any.")
     max_observation_wait: float = parameter(
         0.5, "With deskew_scans or static_window: how long (s of node time) a scan waits for "
-             "odometry that covers its stamp; after that it is dropped (dropped_stale) or, "
-             "deskew_scans only, published as seen (scans_not_deskewed).",
+             "odometry that covers its stamp (and its sweep, with deskew_scans); after that it "
+             "is dropped (dropped_stale) or, deskew_scans only, published as seen "
+             "(scans_not_deskewed; at the motion since the previous scan when only the sweep "
+             "is not covered).",
         low=0.0, high=60.0)
     max_speed: float = max_speed_parameter()
     max_yaw_rate: float = max_yaw_rate_parameter()
@@ -103,13 +107,15 @@ def parameter_specs() -> dict:
 
 @dataclass
 class PendingScan:
-    """A scan's extraction waiting for the odometry that covers its stamp."""
+    """A scan's extraction waiting for the odometry that covers its stamp (and its sweep, to
+    be deskewed)."""
 
     stamp: float
     arrival: float
     header: Header
     extraction: Extraction
     scan: RawScan
+    odometry_until: float
 
 
 class LandmarkExtractorNode(FilterNode):
@@ -177,7 +183,9 @@ class LandmarkExtractorNode(FilterNode):
         self._sweeping = scan.time_increment != 0.0
         if self.static_filter is not None or (self._deskews(scan)
                                               and self._odometry.latest_stamp is not None):
-            return self._queue(PendingScan(stamp, now, header, extraction, scan), now)
+            until = sweep_end(stamp, scan.time_increment, len(scan.ranges)) \
+                if self._deskews(scan) else stamp
+            return self._queue(PendingScan(stamp, now, header, extraction, scan, until), now)
         self.stats["scans_not_deskewed"] += self._deskews(scan)   # no odometry yet
         self._last_reading_stamp = stamp
         self._publish_landmarks(stamp, header, extraction)

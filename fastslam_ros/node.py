@@ -159,6 +159,11 @@ class Observation:
     arrival: float
     """Node-clock time (s) at which the cloud arrived, for the max_observation_wait bound."""
 
+    @property
+    def odometry_until(self) -> float:
+        """A cloud waits for the odometry of its own stamp."""
+        return self.stamp
+
 
 class FastSLAMNode(FilterNode):
     """Landmark FastSLAM on ``odom`` + ``landmarks``; publishes pose, map, path and particles."""

@@ -31,7 +31,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
-from fastslam_ros.core.sweep import STILL, Motion, SweepMotion
+from fastslam_ros.core.sweep import STILL, Motion, SweepMotion, sweep_duration
 from fastslam_ros.node_diagnostics import (DIAGNOSTICS_PERIOD, NO_CLOCK_WARNING,
                                            DiagnosticsReporting)
 from fastslam_ros.node_parameters import ParameterError, ParameterHandling
@@ -79,10 +79,12 @@ READING_GATE_COUNTERS = ("resets", "time_jumps", "dropped_wrong_frame", "dropped
 
 
 class Reading(Protocol):
-    """A queued sensor reading: its stamp and its arrival (node time, s)."""
+    """A queued sensor reading: its stamp, its arrival (node time, s) and the stamp up to which
+    it waits for odometry (its own, or its sweep's end: ``sweep.sweep_end``)."""
 
     stamp: float
     arrival: float
+    odometry_until: float
 
 
 class _NothingToDestroy:
@@ -424,14 +426,14 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             reading = self._pending[0]
             waited = now - reading.arrival
             waited_enough = force or waited > self.settings["max_observation_wait"]
-            if not self._odometry.covers(reading.stamp):
+            if not self._odometry.covers(reading.odometry_until):
                 if not waited_enough:
                     return
                 if self._odometry.latest_stamp is None:
                     self._pending.pop(0)
                     self._drop("stale", f"{self._reading_name} dropped: no odometry has arrived")
                     continue
-                self.stats[self._stale_counter] += 1
+                self.stats[self._stale_counter] += not self._odometry.covers(reading.stamp)
             self._pending.pop(0)
             self._update(reading)
 
@@ -447,10 +449,12 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
     def _sweep_motion(self, stamp: float, time_increment: float, beams: int,
                       offset: np.ndarray, enabled: bool) -> Motion:
         """The laser's motion over the sweep of a scan of ``stamp`` (the odometry's anchor
-        there): the odometry's since the previous scan; STILL when not ``enabled`` or when
-        there is none to trust, then counted (``scans_not_deskewed``) and warned."""
+        there): the odometry's over the sweep, or since the previous scan when the odometry
+        does not reach the sweep's end; STILL when not ``enabled`` or when there is none to
+        trust, then counted (``scans_not_deskewed``) and warned."""
+        end = self._odometry.pose_at(stamp + sweep_duration(time_increment, beams))
         motion, problem = self._sweeps.motion(stamp, self._odometry.anchor_pose, time_increment,
-                                              beams, offset)
+                                              beams, offset, end)
         if not enabled:
             return STILL
         if problem:

@@ -33,7 +33,7 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
-from fastslam_ros.core.sweep import STILL
+from fastslam_ros.core.sweep import STILL, sweep_end
 from fastslam_ros.node_base import INPUT_QOS, LATEST_QOS, MAP_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
@@ -91,11 +91,13 @@ class NodeSettings:
     markers_rate: float = parameter(5.0, "Maximum rate of ~/people_markers (Hz; 0: never).",
                                     low=0.0, high=1000.0)
     max_observation_wait: float = parameter(
-        0.5, "How long (s) a scan waits for odometry covering its stamp.", low=0.0, high=60.0)
+        0.5, "How long (s) a scan waits for odometry covering its stamp (and its sweep, with "
+             "deskew_scans).", low=0.0, high=60.0)
     deskew_scans: bool = parameter(
         True, "Correct each scan for the robot's motion while the laser swept it (its "
-              "time_increment, the odometry's turn rate and velocity since the previous "
-              "scan); false for a driver whose time_increment is wrong.")
+              "time_increment, the odometry's turn rate and velocity over the sweep, or since "
+              "the previous scan when it does not cover the sweep in max_observation_wait); "
+              "false for a driver whose time_increment is wrong.")
     publish_tf: bool = parameter(True, "Broadcast map -> odom on /tf (when tf2_ros is "
                                        "installed).")
     max_speed: float = max_speed_parameter()
@@ -125,13 +127,14 @@ def parameter_specs() -> dict:
 
 @dataclass
 class PendingScan:
-    """A scan waiting for odometry that covers its stamp."""
+    """A scan waiting for odometry that covers its stamp (and its sweep, to be deskewed)."""
 
     stamp: float
     scan: Scan
     arrival: float
     exact: tuple[int, int]
     """The scan's header.stamp (sec, nanosec), which every output of the scan carries."""
+    odometry_until: float
 
 
 class PeopleTrackerNode(FilterNode):
@@ -272,7 +275,9 @@ class PeopleTrackerNode(FilterNode):
         if stamp is None:
             return
         exact = (int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
-        self._queue(PendingScan(stamp, scan, now, exact), now)
+        until = sweep_end(stamp, scan.time_increment, len(scan.ranges)) \
+            if self.settings["deskew_scans"] else stamp
+        self._queue(PendingScan(stamp, scan, now, exact, until), now)
 
     # --- filter --------------------------------------------------------------------------------
 
@@ -309,8 +314,8 @@ class PeopleTrackerNode(FilterNode):
 
     def _deskewed(self, pending: PendingScan) -> Scan:
         """The scan as taken all at once at its stamp (``detection.deskewed``), at the
-        odometry's turn rate and velocity since the previous scan (the motion just before
-        this sweep, ``FilterNode._sweep_motion``); else as it is."""
+        odometry's turn rate and velocity over its sweep (``FilterNode._sweep_motion``); else
+        as it is."""
         scan = pending.scan
         motion = self._sweep_motion(pending.stamp, scan.time_increment, len(scan.ranges),
                                     self.tracker.offset, self.settings["deskew_scans"])

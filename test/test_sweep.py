@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from fastslam_ros.core.geometry import compose, relative_pose
-from fastslam_ros.core.sweep import SWEEP_SLACK, at_first_beam, sweep_motion, sweep_problem
+from fastslam_ros.core.sweep import (STILL, SWEEP_SLACK, SweepMotion, at_first_beam, sweep_end,
+                                     sweep_motion, sweep_problem)
 from fastslam_ros.tools.simulation.people_sim import sweep_poses
 
 
@@ -87,3 +88,30 @@ def test_a_sweep_fits_its_scan_period_and_the_motion_window():
     assert sweep_problem(0.1 * SWEEP_SLACK / 1080 * 1.001, 1081, 0.1, 0.5) != ""
     assert "over 0.5 s" in sweep_problem(increment, 1081, 0.6, 0.5)
     assert sweep_problem(increment, 1081, 0.0, 0.5) != ""
+
+
+def test_a_sweep_the_odometry_covers_is_deskewed_at_its_own_motion_not_the_previous_scans():
+    """A robot turning at 0.4 rad/s up to a scan's stamp and at 0.8 rad/s over its 0.1 s
+    sweep: with the odometry pose at the sweep's last beam the motion is the sweep's 0.8 rad/s
+    (also for the first scan, which has none before it); without it, the 0.4 rad/s since the
+    previous scan. A sweep longer than the scan period is still not deskewed."""
+    offset = np.zeros(3)
+    beams, increment = 541, 0.1 / 540
+    motions = SweepMotion()
+    first, problem = motions.motion(0.0, np.zeros(3), increment, beams, offset,
+                                    np.array([0.0, 0.0, 0.08]))
+    assert problem == "" and first[0] == pytest.approx(0.8)
+    at_stamp = np.array([0.0, 0.0, 0.04])       # 0.1 s at 0.4 rad/s since the previous scan
+    covered, problem = motions.motion(0.1, at_stamp, increment, beams, offset,
+                                      at_stamp + [0.0, 0.0, 0.08])
+    assert problem == "" and covered[0] == pytest.approx(0.8)
+    motions.clear()
+    motions.motion(0.0, np.zeros(3), increment, beams, offset)
+    uncovered, problem = motions.motion(0.1, at_stamp, increment, beams, offset)
+    assert problem == "" and uncovered[0] == pytest.approx(0.4)
+    assert sweep_end(0.1, increment, beams) == pytest.approx(0.2)
+    long_sweep = 1000.0 * increment                  # a time_increment in milliseconds
+    assert sweep_end(0.1, long_sweep, beams) == 0.1  # waits for no odometry
+    motions.motion(0.2, at_stamp, long_sweep, beams, offset)
+    still, problem = motions.motion(0.3, at_stamp, long_sweep, beams, offset, at_stamp)
+    assert still == STILL and "longer than" in problem

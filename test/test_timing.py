@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from fastslam_ros.node_support.timing import (ODOMETRY_CONFIRMATIONS, STAMP_CONFIRMATIONS,
                                       TIME_JUMP_BACK, TIME_JUMP_FORWARD, Confirmation,
-                                      OdometryGate, StampGate, seconds_to_nanoseconds)
+                                      OdometryGate, OdometryHistory, StampGate,
+                                      interpolate_pose, seconds_to_nanoseconds)
 
 USABLE, OUTLIER, BACKWARDS, FORWARD = (StampGate.USABLE, StampGate.OUTLIER, StampGate.BACKWARDS,
                                        StampGate.FORWARD)
@@ -182,3 +183,20 @@ def test_odometry_gate_clear_returns_to_the_raw_frame():
     assert not gate.correction.any()
     np.testing.assert_allclose(gate.corrected(np.array([3.0, 4.0, 2 * math.pi + 0.5])),
                                [3.0, 4.0, 0.5], atol=1e-12)
+
+
+def test_odometry_history_pose_at_interpolates_what_it_holds_without_moving_the_anchor():
+    """Between held poses the pose is interpolated as ``advance`` would; at the anchor and the
+    newest pose it is theirs; before the anchor or after the newest odometry it is unknown."""
+    history = OdometryHistory()
+    poses = [np.array([0.1 * k, 0.0, 0.3 * k]) for k in range(4)]
+    for k, pose in enumerate(poses):
+        history.append(0.1 * k, pose)
+    history.advance(0.05)
+    anchor = history.anchor_pose.copy()
+    np.testing.assert_allclose(history.pose_at(0.05), anchor)
+    np.testing.assert_allclose(history.pose_at(0.25),
+                               interpolate_pose(0.2, poses[2], 0.3, poses[3], 0.25))
+    np.testing.assert_allclose(history.pose_at(0.3), poses[3])
+    assert history.pose_at(0.31) is None and history.pose_at(0.04) is None
+    assert history.anchor_stamp == 0.05 and np.array_equal(history.anchor_pose, anchor)

@@ -17,12 +17,19 @@ Motion = tuple[float, tuple[float, float]]
 """(yaw rate (rad/s), velocity (m/s) in the laser's frame) of a laser over its sweep."""
 STILL: Motion = (0.0, (0.0, 0.0))
 MOTION_WINDOW = 0.5
-"""A scan is deskewed at the odometry's motion since the previous scan when that came at most
-this long (s) before it; after a longer gap that motion need not be the sweep's."""
+"""The longest sweep (s) deskewed at the odometry's motion over it (a scan waits that long for
+the odometry); without that, a scan is deskewed at the odometry's motion since the previous
+scan when that came at most this long before it (after a longer gap that motion need not be
+the sweep's)."""
 SWEEP_SLACK = 1.25
 """A sweep (``time_increment`` x the beams) lasts at most this many times the time since the
 previous scan: a laser sweeps within its scan period (the slack is for jittered stamps), so a
 longer one is a ``time_increment`` in the wrong unit."""
+
+
+def sweep_duration(time_increment: float, beams: int) -> float:
+    """How long (s) a laser takes to sweep ``beams`` beams ``time_increment`` s apart."""
+    return abs(time_increment) * (beams - 1)
 
 
 def sweep_problem(time_increment: float, beams: int, elapsed: float, window: float) -> str:
@@ -32,7 +39,7 @@ def sweep_problem(time_increment: float, beams: int, elapsed: float, window: flo
     than the scan period allows (SWEEP_SLACK)."""
     if not 0.0 < elapsed <= window:
         return f"{elapsed:.3g} s since the previous scan (over {window:g} s)"
-    sweep = abs(time_increment) * (beams - 1)
+    sweep = sweep_duration(time_increment, beams)
     if sweep > SWEEP_SLACK * elapsed:
         return (f"time_increment {time_increment:.3g} s x {beams} beams sweeps {sweep:.3g} s, "
                 f"longer than the {elapsed:.3g} s since the previous scan")
@@ -83,8 +90,9 @@ def at_beam_time(x: np.ndarray, y: np.ndarray, elapsed: np.ndarray, yaw_rate: fl
 
 
 class SweepMotion:
-    """The laser's motion over each scan's sweep, from the odometry poses at consecutive scan
-    stamps (``sweep_motion``), when it fits (``sweep_problem``)."""
+    """The laser's motion over each scan's sweep: from the odometry poses at the sweep's
+    first and last beam when the odometry covers it, else from those at the previous and this
+    scan's stamps (``sweep_motion``), when that fits (``sweep_problem``)."""
 
     def __init__(self) -> None:
         self._previous: tuple[float, np.ndarray] | None = None
@@ -94,16 +102,29 @@ class SweepMotion:
         self._previous = None
 
     def motion(self, stamp: float, pose: np.ndarray | None, time_increment: float, beams: int,
-               offset: np.ndarray) -> tuple[Motion, str]:
+               offset: np.ndarray, end_pose: np.ndarray | None = None) -> tuple[Motion, str]:
         """(the motion of the scan of ``stamp``, whose first beam the laser took at odometry
-        pose ``pose`` (None: unknown), or STILL; why it is STILL for a swept scan after
-        another, '' otherwise)."""
+        pose ``pose`` and whose last at ``end_pose`` (None: unknown), or STILL; why it is
+        STILL for a swept scan, '' otherwise)."""
         previous = self._previous
         self._previous = None if pose is None else (stamp, np.array(pose, float))
-        if previous is None or pose is None or time_increment == 0.0:
+        if pose is None or time_increment == 0.0:
+            return STILL, ""
+        sweep = sweep_duration(time_increment, beams)
+        if end_pose is not None and 0.0 < sweep <= MOTION_WINDOW and (
+                previous is None or sweep <= SWEEP_SLACK * (stamp - previous[0])):
+            return sweep_motion(pose, end_pose, sweep, offset), ""
+        if previous is None:
             return STILL, ""
         elapsed = stamp - previous[0]
         problem = sweep_problem(time_increment, beams, elapsed, MOTION_WINDOW)
         if problem:
             return STILL, problem
         return sweep_motion(previous[1], pose, elapsed, offset), ""
+
+
+def sweep_end(stamp: float, time_increment: float, beams: int) -> float:
+    """The stamp up to which a scan of ``stamp`` waits for odometry to be deskewed at its own
+    motion: its last beam's, or its own for a sweep longer than MOTION_WINDOW (no laser's)."""
+    sweep = sweep_duration(time_increment, beams)
+    return stamp + sweep if sweep <= MOTION_WINDOW else stamp

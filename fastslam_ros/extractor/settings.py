@@ -80,9 +80,10 @@ class ExtractorSettings:
         low=0.0, high=1.0)
     deskew_scans: bool = parameter(
         True, "Correct each landmark for the robot's motion while the laser swept the scan (its "
-              "time_increment; the odometry's turn rate and velocity since the previous scan, "
-              "read on odom; a scan with time_increment 0 is taken at once). False for a "
-              "driver whose time_increment is wrong.")
+              "time_increment; the odometry's turn rate and velocity over the sweep, or since "
+              "the previous scan when it does not cover the sweep, read on odom; a scan with "
+              "time_increment 0 is taken at once). False for a driver whose time_increment is "
+              "wrong.")
     sensor_x: float = parameter(0.0, "Sensor position on the robot, forward (m) (static_window "
                                      "puts landmarks in the odometry frame; deskew_scans moves "
                                      "them with the laser).",

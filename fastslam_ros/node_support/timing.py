@@ -78,6 +78,18 @@ class OdometryHistory:
         """Whether odometry up to ``stamp`` has arrived."""
         return self.latest_stamp is not None and self.latest_stamp >= stamp
 
+    def pose_at(self, stamp: float) -> np.ndarray | None:
+        """The odometry pose at ``stamp`` (interpolated), None when it is not held (before the
+        anchor or after the newest odometry)."""
+        if self.anchor_stamp is None or stamp < self.anchor_stamp:
+            return None
+        before_stamp, before_pose = self.anchor_stamp, self.anchor_pose
+        for after_stamp, after_pose in zip(self._stamps, self._poses):
+            if after_stamp >= stamp:
+                return interpolate_pose(before_stamp, before_pose, after_stamp, after_pose, stamp)
+            before_stamp, before_pose = after_stamp, after_pose
+        return before_pose if stamp == before_stamp else None
+
     def advance(self, stamp: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """Pose pairs from the anchor to ``stamp`` (to the newest odometry if it ends earlier)."""
         steps = []
