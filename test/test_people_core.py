@@ -638,6 +638,19 @@ def test_a_published_person_keeps_its_id_when_its_key_changes():
         == published[0]
 
 
+def test_an_id_is_not_published_where_its_person_could_not_have_walked():
+    """Fault injection: the key of a person published at (6, 5) turns up, in every robot
+    particle, on a track 3 m away (as another robot particle's person under the same key,
+    once that particle becomes the best) while no one is published near (6, 5). A person
+    walks at most max_person_speed: that track is published under a fresh id."""
+    grid, pose, tracker, t, published = one_published_person()
+    tracker.people[tracker.alive] += (0.0, 3.0)
+    run(tracker, grid, pose, [(6.0, 8.0)], 1, t)
+    assert tracker.people_of().keys.tolist() == published        # the same key
+    (moved,) = tracker.published_people().keys.tolist()
+    assert moved != published[0]
+
+
 def test_two_tracks_on_one_person_are_published_as_one_that_keeps_its_id():
     """Fault injection: a second confirmed track 0.3 m from a published person (within
     DUPLICATE_GATE) in every robot particle. One person is published, under the id published

@@ -119,6 +119,9 @@ class PeopleTracker(GlobalLocalization, PeopleIdentities):
         self._published: tuple[int, PeopleEstimate] | None = None
         self._id_of_key: dict[int, int] = {}
         self._first_published: dict[int, float] = {}
+        self._last_place: dict[int, tuple[float, np.ndarray]] = {}
+        """Published id -> (stamp, position) of the last detection of the person it was last
+        published for."""
         self._last_published = (np.zeros(0, np.int64), np.zeros((0, 2)))
         self.last_stamp: float | None = None
         self.mixed_pixels = MixedPixelMonitor(settings.mixed_pixel_filter)  # kept over resets

@@ -125,8 +125,15 @@ class PeopleIdentities:
             kept[rows[near]] = True
             ids[rows[near]] = previous_ids[cols[near]]
         used = set(ids[kept].tolist())
-        for i in np.flatnonzero(~kept):  # an id continuity gave another: a fresh one
-            if ids[i] in used:
+        reach = self.settings.max_person_speed
+        for i in np.flatnonzero(~kept):
+            # An id continuity gave another, or last published for a person last detected
+            # where this one could not have walked from since (another robot particle's
+            # person under the same key): a fresh one.
+            stamp, place = self._last_place.get(int(ids[i]), (self.last_stamp, means[i]))
+            walked = np.linalg.norm(means[i] - place) <= reach * (self.last_stamp - stamp) \
+                + REID_MARGIN
+            if ids[i] in used or not walked:
                 ids[i] = self.next_key
                 self.next_key += 1
             used.add(int(ids[i]))
@@ -138,6 +145,7 @@ class PeopleIdentities:
         self._id_of_key = {k: i for k, i in self._id_of_key.items() if k in live}
         in_use = set(self._id_of_key.values())
         self._first_published = {i: s for i, s in self._first_published.items() if i in in_use}
+        self._last_place = {i: p for i, p in self._last_place.items() if i in in_use}
         return ids, kept
 
     def published_people(self) -> PeopleEstimate:
@@ -177,6 +185,10 @@ class PeopleIdentities:
         shown.sort(key=lambda i: ids[i])
         rows = keep[shown]
         self._last_published = (ids[shown], people.means[rows])
+        slots = self._best_slots(people.keys[rows])
+        best = self.best_index
+        self._last_place.update(zip(ids[shown].tolist(), zip(
+            self.last_seen[best, slots].tolist(), self.seen_mean[best, slots])))
         estimate = PeopleEstimate(ids[shown], people.means[rows], people.covariances[rows],
                                   people.existence[rows])
         self._published = (self._updates, estimate)
@@ -186,16 +198,19 @@ class PeopleIdentities:
         """Which of the best robot particle's people ``keys`` at ``means`` (K, 2) the last
         scan, taken from ``sensor`` (x, y, yaw), did not detect and whose beam ended more than
         ``person_radius`` short of them (something nearer hides them)."""
-        best = self.best_index
         scan = self._span
         offset = means - sensor[:2]
         bearing = np.arctan2(offset[:, 1], offset[:, 0]) - sensor[2]
         measured = scan.range_toward(bearing, self.settings.min_range)  # NaN: not hidden
-        slot = np.argmax((self.keys[best][None] == keys[:, None]) & self.alive[best][None],
-                         axis=1)
-        detected = self.last_seen[best, slot] >= self.last_stamp
+        detected = self.last_seen[self.best_index, self._best_slots(keys)] >= self.last_stamp
         return ~detected & (measured < np.hypot(offset[:, 0], offset[:, 1])
                             - self.settings.person_radius)
+
+    def _best_slots(self, keys: np.ndarray) -> np.ndarray:
+        """The best robot particle's slots of its live people ``keys`` (K,)."""
+        best = self.best_index
+        return np.argmax((self.keys[best][None] == keys[:, None]) & self.alive[best][None],
+                         axis=1)
 
     def people_of(self, particle: int | None = None) -> PeopleEstimate:
         """The confirmed people of one robot particle (the best by default); tentative ones
