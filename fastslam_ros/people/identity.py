@@ -208,6 +208,8 @@ class PeopleIdentities:
 
     def _best_slots(self, keys: np.ndarray) -> np.ndarray:
         """The best robot particle's slots of its live people ``keys`` (K,)."""
+        if len(keys) == 0:     # also while localizing globally, with no slots at all
+            return np.zeros(0, dtype=np.intp)
         best = self.best_index
         return np.argmax((self.keys[best][None] == keys[:, None]) & self.alive[best][None],
                          axis=1)
