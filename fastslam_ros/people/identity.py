@@ -126,13 +126,13 @@ class PeopleIdentities:
             ids[rows[near]] = previous_ids[cols[near]]
         used = set(ids[kept].tolist())
         reach = self.settings.max_person_speed
+        now = self.last_stamp if self.last_stamp is not None else 0.0
         for i in np.flatnonzero(~kept):
             # An id continuity gave another, or last published for a person last detected
             # where this one could not have walked from since (another robot particle's
             # person under the same key): a fresh one.
-            stamp, place = self._last_place.get(int(ids[i]), (self.last_stamp, means[i]))
-            walked = np.linalg.norm(means[i] - place) <= reach * (self.last_stamp - stamp) \
-                + REID_MARGIN
+            stamp, place = self._last_place.get(int(ids[i]), (now, means[i]))
+            walked = np.linalg.norm(means[i] - place) <= reach * (now - stamp) + REID_MARGIN
             if ids[i] in used or not walked:
                 ids[i] = self.next_key
                 self.next_key += 1
