@@ -38,8 +38,7 @@ def errors(path: str) -> dict[str, int]:
         if estimate is None:
             continue
         pose = pe.pose_at(run.truth, frame.stamp)
-        published = estimate.positions[estimate.existence >= 0.5] \
-            if estimate.existence is not None else estimate.positions
+        published = estimate.positions[pe.published(estimate, 0.5)]
         truth, tracks = pe.in_view(run.grid, pose, frame, estimate, run.view, 0.5)
         truth, tracks = pe.without_hidden(truth, tracks, pe.hidden_by_people(pose, truth.positions))
         for ident, position in zip(truth.ids.tolist(), truth.positions):

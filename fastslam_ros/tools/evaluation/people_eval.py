@@ -161,6 +161,14 @@ def without_hidden(gt: Frame, est: Frame, hidden: np.ndarray,
             Frame(est.stamp, est.ids[keep_est], est.positions[keep_est]))
 
 
+def published(frame: Frame, min_existence: float) -> np.ndarray:
+    """Which tracks of ``frame`` count as published: existence at least ``min_existence``
+    (every one when the output carries no existence)."""
+    if frame.existence is None:
+        return np.ones(len(frame.ids), dtype=bool)
+    return frame.existence >= min_existence
+
+
 def in_view(grid: OccupancyMap, pose: np.ndarray, truth: Frame, estimate: Frame,
             view: LaserView, min_existence: float, radius: float = MATCH_RADIUS
             ) -> tuple[Frame, Frame]:
@@ -177,8 +185,7 @@ def in_view(grid: OccupancyMap, pose: np.ndarray, truth: Frame, estimate: Frame,
         nearest = np.argmin(distance, axis=1)
         near = distance[np.arange(len(estimate.ids)), nearest] <= radius
         keep_est = np.where(near, seen[nearest], keep_est)
-    if estimate.existence is not None:
-        keep_est &= estimate.existence >= min_existence
+    keep_est &= published(estimate, min_existence)
     return (Frame(truth.stamp, truth.ids[seen], truth.positions[seen]),
             Frame(estimate.stamp, estimate.ids[keep_est], estimate.positions[keep_est]))
 
@@ -250,8 +257,8 @@ def benchmark_mot(ground_truth: PoseSeries, grid: OccupancyMap, truth_frames: li
         est = by_stamp.get(round(frame.stamp / FRAME_TOLERANCE))
         if est is None:
             est = Frame(frame.stamp, np.zeros(0, np.int32), np.zeros((0, 2)))
-        elif est.existence is not None:
-            keep = est.existence >= min_existence
+        else:
+            keep = published(est, min_existence)
             est = Frame(est.stamp, est.ids[keep], est.positions[keep])
         seen = benchmark_counted(grid, pose_at(ground_truth, frame.stamp), frame.positions, view)
         truths.append(Frame(frame.stamp, frame.ids[seen], frame.positions[seen]))
