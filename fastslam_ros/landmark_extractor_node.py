@@ -40,7 +40,6 @@ from visualization_msgs.msg import MarkerArray
 from fastslam_ros import extractor_io, ros_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
-from fastslam_ros.core.sweep import sweep_end
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
 from fastslam_ros.extractor.extract import REJECTIONS
 from fastslam_ros.extractor.static_filter import StaticFilter
@@ -183,8 +182,8 @@ class LandmarkExtractorNode(FilterNode):
         self._sweeping = scan.time_increment != 0.0
         if self.static_filter is not None or (self._deskews(scan)
                                               and self._odometry.latest_stamp is not None):
-            until = sweep_end(stamp, scan.time_increment, len(scan.ranges)) \
-                if self._deskews(scan) else stamp
+            until = self._odometry_until(stamp, scan.time_increment, len(scan.ranges),
+                                         self._deskews(scan))
             return self._queue(PendingScan(stamp, now, header, extraction, scan, until), now)
         self.stats["scans_not_deskewed"] += self._deskews(scan)   # no odometry yet
         self._last_reading_stamp = stamp

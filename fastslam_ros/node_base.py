@@ -31,7 +31,7 @@ from std_msgs.msg import Header
 
 from fastslam_ros import ros_io
 from fastslam_ros.core.geometry import compose, relative_pose, wrap_scalar
-from fastslam_ros.core.sweep import STILL, Motion, SweepMotion, sweep_duration
+from fastslam_ros.core.sweep import STILL, Motion, SweepMotion, sweep_duration, sweep_end
 from fastslam_ros.node_diagnostics import (DIAGNOSTICS_PERIOD, NO_CLOCK_WARNING,
                                            DiagnosticsReporting)
 from fastslam_ros.node_parameters import ParameterError, ParameterHandling
@@ -445,6 +445,13 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
             horizon = latest - self.settings["max_observation_wait"]
             for pose_from, pose_to in self._odometry.advance(horizon):
                 self._predict(pose_from, pose_to)
+
+    @staticmethod
+    def _odometry_until(stamp: float, time_increment: float, beams: int, deskew: bool
+                        ) -> float:
+        """The stamp up to which a scan of ``stamp`` waits for odometry: its sweep's end when
+        it is to be ``deskew``-ed (``sweep.sweep_end``), else its own."""
+        return sweep_end(stamp, time_increment, beams) if deskew else stamp
 
     def _sweep_motion(self, stamp: float, time_increment: float, beams: int,
                       offset: np.ndarray, enabled: bool) -> Motion:

@@ -33,7 +33,7 @@ from visualization_msgs.msg import MarkerArray
 
 from fastslam_ros import people_io, ros_io
 from fastslam_ros.core.params import ParameterValueError, check_fields, parameter, specs
-from fastslam_ros.core.sweep import STILL, sweep_end
+from fastslam_ros.core.sweep import STILL
 from fastslam_ros.node_base import INPUT_QOS, LATEST_QOS, MAP_QOS, STREAM_QOS, FilterNode
 from fastslam_ros.node_console import run_node
 from fastslam_ros.node_diagnostics import DIAGNOSTICS_PERIOD
@@ -275,8 +275,8 @@ class PeopleTrackerNode(FilterNode):
         if stamp is None:
             return
         exact = (int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
-        until = sweep_end(stamp, scan.time_increment, len(scan.ranges)) \
-            if self.settings["deskew_scans"] else stamp
+        until = self._odometry_until(stamp, scan.time_increment, len(scan.ranges),
+                                     self.settings["deskew_scans"])
         self._queue(PendingScan(stamp, scan, now, exact, until), now)
 
     # --- filter --------------------------------------------------------------------------------
