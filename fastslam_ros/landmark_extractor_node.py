@@ -37,7 +37,7 @@ from sensor_msgs.msg import LaserScan, PointCloud2
 from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
-from fastslam_ros import extractor_io, ros_io
+from fastslam_ros import extractor_io
 from fastslam_ros.core.geometry import compose
 from fastslam_ros.core.params import check_fields, parameter, specs
 from fastslam_ros.extractor import Extraction, ExtractorSettings, RawScan, extract_landmarks
@@ -161,18 +161,10 @@ class LandmarkExtractorNode(FilterNode):
         self._run_callback("scan", self._handle_scan, msg)
 
     def _handle_scan(self, msg: LaserScan) -> None:
-        if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
+        read = self._read_scan(msg, extractor_io.read_scan, self.settings["max_beams_per_scan"])
+        if read is None:
             return
-        try:
-            scan = extractor_io.read_scan(msg, self.settings["max_beams_per_scan"])
-        except ros_io.OversizedError as error:
-            return self._drop("oversized_scan", f"scan dropped: {error}")
-        except ros_io.MalformedScanError as error:
-            return self._drop("malformed_scan", f"scan dropped: {error}")
-        now = self._now()
-        stamp = self._reading_stamp(msg.header.stamp, "scan", now)
-        if stamp is None:
-            return
+        scan, stamp, now = read
         extraction = extract_landmarks(scan, self.extractor_settings)
         self._no_intensities = len(scan.intensities) == 0
         self.stats["used_scan"] += 1

@@ -453,6 +453,25 @@ class FilterNode(ParameterHandling, DiagnosticsReporting, Node):
         it is to be ``deskew``-ed (``sweep.sweep_end``), else its own."""
         return sweep_end(stamp, time_increment, beams) if deskew else stamp
 
+    def _read_scan(self, msg, read: Callable[[Any, int], Any], max_beams: int
+                   ) -> tuple[Any, float, float] | None:
+        """A ``sensor_msgs/LaserScan`` in the expected ``scan_frame``, converted by ``read``
+        (``ros_io.scan_geometry``'s checks, at most ``max_beams``), with its stamp (s) and the
+        time of arrival; None for one dropped (counted and warned)."""
+        if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
+            return None
+        try:
+            scan = read(msg, max_beams)
+        except ros_io.OversizedError as error:
+            self._drop("oversized_scan", f"scan dropped: {error}")
+            return None
+        except ros_io.MalformedScanError as error:
+            self._drop("malformed_scan", f"scan dropped: {error}")
+            return None
+        now = self._now()
+        stamp = self._reading_stamp(msg.header.stamp, "scan", now)
+        return None if stamp is None else (scan, stamp, now)
+
     def _sweep_motion(self, stamp: float, time_increment: float, beams: int,
                       offset: np.ndarray, enabled: bool) -> Motion:
         """The laser's motion over the sweep of a scan of ``stamp`` (the odometry's anchor

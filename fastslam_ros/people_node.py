@@ -262,18 +262,11 @@ class PeopleTrackerNode(FilterNode):
             self.tracker.reset(*self._initial)
 
     def _handle_scan(self, msg: LaserScan) -> None:
-        if not self._sensor_frame_ok("scan_frame", msg.header.frame_id, "scan"):
+        read = self._read_scan(msg, people_io.read_scan,
+                               self.tracker_settings.max_beams_per_scan)
+        if read is None:
             return
-        try:
-            scan = people_io.read_scan(msg, self.tracker_settings.max_beams_per_scan)
-        except ros_io.OversizedError as error:
-            return self._drop("oversized_scan", f"scan dropped: {error}")
-        except ros_io.MalformedScanError as error:
-            return self._drop("malformed_scan", f"scan dropped: {error}")
-        now = self._now()
-        stamp = self._reading_stamp(msg.header.stamp, "scan", now)
-        if stamp is None:
-            return
+        scan, stamp, now = read
         exact = (int(msg.header.stamp.sec), int(msg.header.stamp.nanosec))
         until = self._odometry_until(stamp, scan.time_increment, len(scan.ranges),
                                      self.settings["deskew_scans"])
